@@ -1,0 +1,71 @@
+"""magsoft_env: design and simulate centimetre-scale hard-magnetic soft robots.
+
+Analytical equilibria (``solve_equilibrium``, ``solve_path``), inverse design
+(``design_profile``), MuJoCo rods (``mujoco_equilibrium``) and Gymnasium environments
+(registered on import). Heavy layers load lazily: importing this package does not import
+mujoco, torch, stable-baselines3 or a GL backend.
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+
+from .spec import (
+    MU0,
+    Beam,
+    Constant,
+    Field,
+    Function,
+    Material,
+    PiecewiseConstant,
+    PiecewiseLinear,
+    Profile,
+    alternating_cells,
+    jig_curve,
+    jig_from_function,
+    jig_from_points,
+    jig_from_polyline,
+    ramp,
+)
+
+__version__ = "0.1.0"
+
+# public name -> module that defines it (imported on first use)
+_LAZY = {
+    "solve_equilibrium": "magsoft_env.theory",
+    "solve_path": "magsoft_env.theory",
+    "EquilibriumResult": "magsoft_env.theory",
+    "mujoco_equilibrium": "magsoft_env.sim",
+    "design_profile": "magsoft_env.design",
+    "load_preset": "magsoft_env.presets",
+}
+
+
+def __getattr__(name):
+    mod = _LAZY.get(name)
+    if mod is None:
+        raise AttributeError(f"module 'magsoft_env' has no attribute {name!r}")
+    value = getattr(importlib.import_module(mod), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))
+
+
+def _register_envs():
+    # gymnasium ids are registered lazily (entry_point strings): no mujoco import here
+    if importlib.util.find_spec("magsoft_env.envs") is not None:
+        importlib.import_module("magsoft_env.envs").register_all()
+
+
+_register_envs()
+
+__all__ = [
+    "MU0", "Beam", "Constant", "EquilibriumResult", "Field", "Function", "Material", "PiecewiseConstant",
+    "PiecewiseLinear", "Profile", "alternating_cells", "design_profile", "jig_curve", "jig_from_function",
+    "jig_from_points", "jig_from_polyline", "load_preset", "mujoco_equilibrium", "ramp", "solve_equilibrium",
+    "solve_path",
+]

@@ -1,0 +1,68 @@
+"""Input checks shared by the specification layer: one place, one message style."""
+
+from __future__ import annotations
+
+import difflib
+import math
+from collections.abc import Iterable
+
+import numpy as np
+
+
+def finite_number(name: str, value, *, unit: str = "") -> float:
+    """Return ``value`` as a float or raise a ValueError naming ``name``."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a finite number{_u(unit)}, got {value!r}.") from None
+    if not math.isfinite(x):
+        raise ValueError(f"{name} must be a finite number{_u(unit)}, got {value!r}.")
+    return x
+
+
+def positive(name: str, value, *, unit: str = "") -> float:
+    x = finite_number(name, value, unit=unit)
+    if x <= 0.0:
+        raise ValueError(f"{name} must be > 0{_u(unit)}, got {value!r}.")
+    return x
+
+
+def nonnegative(name: str, value, *, unit: str = "") -> float:
+    x = finite_number(name, value, unit=unit)
+    if x < 0.0:
+        raise ValueError(f"{name} must be >= 0{_u(unit)}, got {value!r}.")
+    return x
+
+
+def in_range(name: str, value, lo: float, hi: float, *, unit: str = "") -> float:
+    x = finite_number(name, value, unit=unit)
+    if not lo <= x <= hi:
+        raise ValueError(f"{name} must lie in [{lo:g}, {hi:g}]{_u(unit)}, got {value!r}.")
+    return x
+
+
+def finite_array(name: str, value, *, ndim: int | None = None, min_len: int = 0) -> np.ndarray:
+    try:
+        a = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be an array of finite numbers, got {value!r}.") from None
+    if ndim is not None and a.ndim != ndim:
+        raise ValueError(f"{name} must be a {ndim}-D array, got shape {a.shape}.")
+    if a.ndim >= 1 and a.shape[0] < min_len:
+        raise ValueError(f"{name} needs at least {min_len} entries, got {a.shape[0]}.")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} must contain only finite numbers, got {a!r}.")
+    return a
+
+
+def choice(name: str, value, options: Iterable[str]) -> str:
+    options = list(options)
+    if value in options:
+        return value
+    hint = difflib.get_close_matches(str(value), options, n=1)
+    extra = f" Did you mean {hint[0]!r}?" if hint else ""
+    raise ValueError(f"{name} must be one of {options}, got {value!r}.{extra}")
+
+
+def _u(unit: str) -> str:
+    return f" ({unit})" if unit else ""

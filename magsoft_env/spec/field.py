@@ -1,0 +1,100 @@
+"""Uniform applied fields B_a = (B_x, B_z) in tesla, and sequences of them for loading paths."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._validate import finite_number
+
+#: Largest field magnitude accepted (T). Coil systems for these robots give tens of mT;
+#: anything near a tesla is almost surely a unit mistake (mT given as T).
+MAX_FIELD = 1.0
+
+
+@dataclass(frozen=True)
+class Field:
+    """A uniform applied field (T). ``alpha = atan2(B_z, B_x)`` is its angle from +x.
+
+    Examples
+    --------
+    >>> Field.from_mT(0, 13).Bz
+    0.013
+    """
+
+    Bx: float = 0.0
+    Bz: float = 0.0
+
+    def __post_init__(self):
+        for name in ("Bx", "Bz"):
+            v = finite_number(f"field {name}", getattr(self, name), unit="T")
+            if abs(v) > MAX_FIELD:
+                raise ValueError(
+                    f"field {name} must lie in [-{MAX_FIELD:g}, {MAX_FIELD:g}] T, got {v!r} "
+                    "(fields are in tesla: 13 mT is 0.013)."
+                )
+            object.__setattr__(self, name, v)
+
+    @classmethod
+    def from_mT(cls, Bx_mT: float = 0.0, Bz_mT: float = 0.0) -> Field:
+        return cls(finite_number("Bx_mT", Bx_mT) * 1e-3, finite_number("Bz_mT", Bz_mT) * 1e-3)
+
+    @classmethod
+    def polar(cls, magnitude: float, angle: float) -> Field:
+        """Field of ``magnitude`` (T) at ``angle`` (rad) from +x toward +z."""
+        return cls(magnitude * math.cos(angle), magnitude * math.sin(angle))
+
+    @property
+    def magnitude(self) -> float:
+        return math.hypot(self.Bx, self.Bz)
+
+    @property
+    def angle(self) -> float:
+        return math.atan2(self.Bz, self.Bx)
+
+    def as_array(self) -> np.ndarray:
+        return np.array([self.Bx, self.Bz])
+
+    def __iter__(self):
+        yield self.Bx
+        yield self.Bz
+
+
+def as_field(value, name: str = "field") -> Field:
+    """Accept a :class:`Field` or a pair ``(B_x, B_z)`` in tesla."""
+    if isinstance(value, Field):
+        return value
+    try:
+        bx, bz = value
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a Field or a pair (B_x, B_z) in tesla, got {value!r}.") from None
+    return Field(bx, bz)
+
+
+def as_fields(values: Iterable, name: str = "fields") -> list[Field]:
+    """A non-empty sequence of fields; a single (B_x, B_z) pair is not accepted here."""
+    if isinstance(values, Field):
+        raise ValueError(f"{name} must be a sequence of fields, got a single Field; wrap it in a list.")
+    arr = values
+    if isinstance(values, np.ndarray):
+        if values.ndim != 2 or values.shape[1] != 2:
+            raise ValueError(f"{name} as an array must have shape (n, 2), got {values.shape}.")
+        arr = values.tolist()
+    out = [as_field(v, f"{name}[{i}]") for i, v in enumerate(arr)]
+    if not out:
+        raise ValueError(f"{name} must contain at least one field, got none.")
+    return out
+
+
+def ramp(start, end, n: int = 21, *, include_start: bool = True) -> list[Field]:
+    """``n`` fields evenly spaced from ``start`` to ``end`` (pairs in T)."""
+    if not isinstance(n, (int, np.integer)) or n < 1:
+        raise ValueError(f"ramp n must be a positive integer, got {n!r}.")
+    a, b = as_field(start, "start").as_array(), as_field(end, "end").as_array()
+    t = np.linspace(0.0, 1.0, n + (0 if include_start else 1))
+    if not include_start:
+        t = t[1:]
+    return [Field(*(a + (b - a) * ti)) for ti in t]
