@@ -1,0 +1,309 @@
+"""``magsoft solve``: equilibrium shapes along a loading path, from a preset or from parameters in mm and mT.
+
+Also holds the small output helpers the other subcommands share (metrics rows, atomic
+JSON/CSV writers, output-folder checks, solver flags).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import json
+import math
+import os
+import tempfile
+import textwrap
+from pathlib import Path
+
+DEFAULT_OUT = "magsoft_out"
+MM = 1e-3
+MT = 1e-3
+
+
+# ---------------------------------------------------------------------------------------------
+# shared helpers
+
+
+def add_solver_flags(p, *, preset_defaults: bool) -> None:
+    """Flags that override solver options; ``None`` means "the preset's (or the default) value"."""
+    p.add_argument("--gravity", type=float, default=None, metavar="G",
+                   help="gravitational acceleration in m/s^2 along -z; 0 switches gravity off"
+                   + (" (default: the preset's)" if preset_defaults else " (default 9.81)"))
+    p.add_argument("--coupling", choices=("rotated", "paper"), default=None,
+                   help="magnetic coupling: 'rotated' (magnetization turns with the section, default) or "
+                   "'paper' (eq. 10 verbatim)")
+    p.add_argument("--extensible", action=argparse.BooleanOptionalAction, default=None,
+                   help="include axial strain (paper eq. 14); --no-extensible for the inextensible beam")
+    p.add_argument("--support", choices=("cantilever", "free"), default=None,
+                   help="cantilever (clamped at s = 0) or free-free (needs --gravity 0)")
+
+
+def check_out_dir(out) -> Path:
+    """The output folder as a Path; raises ValueError (before any work) if it cannot be one."""
+    path = Path(out)
+    if path.exists() and not path.is_dir():
+        raise ValueError(f"--out must be a folder, got {str(path)!r}, which is an existing file.")
+    probe = path
+    while not probe.exists():
+        probe = probe.parent
+    if not os.access(probe, os.W_OK):
+        raise ValueError(f"--out {str(path)!r} is not writable (checked {str(probe)!r}).")
+    return path
+
+
+def write_text_atomic(path, text: str) -> Path:
+    """Write ``text`` to ``path`` via a temporary file in the same folder, so it is complete or absent."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=path.suffix, dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def write_json(path, data) -> Path:
+    return write_text_atomic(path, json.dumps(_jsonable(data), indent=2, allow_nan=True) + "\n")
+
+
+def write_csv(path, rows: list[dict]) -> Path:
+    buf = io.StringIO()
+    keys = list(rows[0]) if rows else []
+    w = csv.DictWriter(buf, fieldnames=keys, lineterminator="\n")
+    w.writeheader()
+    for r in rows:
+        w.writerow({k: _csv_value(r[k]) for k in keys})
+    return write_text_atomic(path, buf.getvalue())
+
+
+def _csv_value(v):
+    if isinstance(v, float):
+        return f"{v:.10g}"
+    return v
+
+
+def _jsonable(obj):
+    import numpy as np
+
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _jsonable(obj.tolist())
+    if isinstance(obj, (np.bool_,)):
+        return bool(obj)
+    if isinstance(obj, np.integer):
+        return int(obj)
+    if isinstance(obj, np.floating):
+        return float(obj)
+    return obj
+
+
+def load_parameter(beam, field, axis: str = "magnitude") -> float:
+    """The normalized field P = A M B L^2 / (E I) of one field component (``Bx``, ``Bz``) or of |B|."""
+    from magsoft_env.spec import Field
+
+    if axis == "Bx":
+        f = Field(abs(field.Bx), 0.0)
+    elif axis == "Bz":
+        f = Field(0.0, abs(field.Bz))
+    else:
+        f = field
+    return float(beam.nondimensional_groups(f, gravity=0.0)["Lambda"])
+
+
+def metrics_row(result, beam, *, axis: str = "magnitude") -> dict:
+    """The reported metrics of one equilibrium (SI converted to mm, mT, deg for people)."""
+    f = result.field
+    L = beam.length
+    return {
+        "Bx_mT": f.Bx / MT,
+        "Bz_mT": f.Bz / MT,
+        "P": load_parameter(beam, f, axis),
+        "Lambda": float(beam.nondimensional_groups(f, gravity=0.0)["Lambda"]),
+        "v_over_L": float(result.tip_deflection) / L,
+        "tip_x_mm": float(result.x[-1]) / MM,
+        "tip_z_mm": float(result.z[-1]) / MM,
+        "tip_angle_deg": math.degrees(float(result.tip_angle)),
+        "rotation_angle_deg": math.degrees(float(result.rotation_angle)),
+        "max_curvature_per_mm": float(result.max_curvature) * MM,
+        "stable": bool(result.stable),
+        "snap_through": bool(result.snap_through),
+        "success": bool(result.success),
+        "status": int(result.status),
+        "message": str(result.message),
+    }
+
+
+def format_table(rows: list[dict], columns: list[tuple[str, str, str]]) -> str:
+    """Plain-text table; ``columns`` are (key, header, format)."""
+    head = [h for _, h, _ in columns]
+    body = [[format(r[k], f) if f else str(r[k]) for k, _, f in columns] for r in rows]
+    widths = [max(len(h), *(len(b[i]) for b in body)) if body else len(h) for i, h in enumerate(head)]
+    lines = ["  ".join(h.rjust(w) for h, w in zip(head, widths, strict=True))]
+    lines += ["  ".join(c.rjust(w) for c, w in zip(b, widths, strict=True)) for b in body]
+    return "\n".join(lines)
+
+
+METRIC_COLUMNS = [
+    ("Bx_mT", "Bx mT", ".3g"),
+    ("Bz_mT", "Bz mT", ".4g"),
+    ("P", "P", ".3g"),
+    ("v_over_L", "v/L", ".4f"),
+    ("tip_angle_deg", "tip deg", ".2f"),
+    ("rotation_angle_deg", "rot deg", ".2f"),
+    ("stable", "stable", ""),
+    ("success", "success", ""),
+]
+
+
+def apply_overrides(preset, args):
+    """The preset with the solver flags of ``args`` applied (``None``: keep); checked again by Preset."""
+    changed = {k: getattr(args, k) for k in ("gravity", "coupling", "extensible", "support")}
+    changed = {k: v for k, v in changed.items() if v is not None}
+    if changed.get("gravity") is not None:
+        _check_flag("--gravity", changed["gravity"], lo=0.0, hi=1000.0)
+    return preset.replace(**changed) if changed else preset
+
+
+# ---------------------------------------------------------------------------------------------
+# the subcommand
+
+
+def add_parser(subparsers) -> None:
+    p = subparsers.add_parser(
+        "solve",
+        help="equilibrium shape(s) of a preset or a uniform beam; prints metrics, writes JSON and PNG",
+        description="Solve the equilibrium along a loading path (gravity first, then the field ramped from zero). "
+        "Give --preset NAME (see --list) or the beam's parameters. Metrics: v/L (tip z over length), tip angle, "
+        "rotation angle (chord angle atan2(Z_tip, X_tip)).",
+    )
+    src = p.add_argument_group("case")
+    src.add_argument("--preset", metavar="NAME", help="a shipped preset (or a path to a preset .json file)")
+    src.add_argument("--list", action="store_true", help="list the presets and exit")
+    src.add_argument("--length-mm", type=float, default=25.0, help="beam length L in mm (default 25)")
+    src.add_argument("--width-mm", type=float, default=5.0, help="width w in mm (default 5)")
+    src.add_argument("--thickness-mm", type=float, default=1.13, help="thickness h in mm (default 1.13)")
+    src.add_argument("--phi", type=float, default=0.2, help="particle volume fraction in [0, 0.5] (default 0.2)")
+    src.add_argument("--beta-deg", type=float, default=0.0, help="uniform magnetization angle in deg (default 0)")
+    src.add_argument("--density", type=float, default=1940.0, help="composite density kg/m^3 (default 1940)")
+    src.add_argument("--field-mT", type=float, nargs=2, metavar=("BX", "BZ"), default=None,
+                     help="final applied field in mT (default 0 13); with --preset, replaces its path")
+    src.add_argument("--steps", type=int, default=None,
+                     help="states along each ramp of the path (default: the preset's; 14 for parameters)")
+    add_solver_flags(p, preset_defaults=True)
+    p.add_argument("--out", default=DEFAULT_OUT, help=f"output folder (default {DEFAULT_OUT}/)")
+    p.add_argument("--no-plot", action="store_true", help="skip the PNG")
+    p.set_defaults(run=run)
+
+
+def build_case(args):
+    """(preset, overrides) from parsed arguments; every check happens here, before any solving."""
+    from magsoft_env.presets import PathSegment, Preset, load_preset
+    from magsoft_env.spec import Beam, Field, Material
+
+    _check_flag("--steps", args.steps, lo=2, hi=10_000, integer=True)
+    field = None
+    if args.field_mT is not None:
+        bx, bz = args.field_mT
+        _check_flag("--field-mT BX", bx, lo=-1000.0, hi=1000.0)
+        _check_flag("--field-mT BZ", bz, lo=-1000.0, hi=1000.0)
+        field = Field.from_mT(bx, bz)
+    if args.preset:
+        preset = load_preset(args.preset)
+        if field is not None:
+            preset = preset.replace(path=(PathSegment(Field(), field, args.steps or 14),))
+    else:
+        _check_flag("--length-mm", args.length_mm, lo=0.0, hi=1000.0, open_lo=True)
+        _check_flag("--width-mm", args.width_mm, lo=0.0, hi=1000.0, open_lo=True)
+        _check_flag("--thickness-mm", args.thickness_mm, lo=0.0, hi=1000.0, open_lo=True)
+        _check_flag("--phi", args.phi, lo=0.0, hi=0.5)
+        _check_flag("--beta-deg", args.beta_deg, lo=-360.0, hi=360.0)
+        _check_flag("--density", args.density, lo=0.0, hi=1e5, open_lo=True)
+        beam = Beam(
+            length=args.length_mm * MM,
+            width=args.width_mm * MM,
+            thickness=args.thickness_mm * MM,
+            material=Material(density=args.density),
+            volume_fraction=args.phi,
+            magnetization=math.radians(args.beta_deg),
+        )
+        field = field if field is not None else Field.from_mT(0.0, 13.0)
+        preset = Preset(
+            name="custom",
+            description=(f"uniform beam L = {args.length_mm:g} mm, w = {args.width_mm:g} mm, "
+                         f"h = {args.thickness_mm:g} mm, phi = {args.phi:g}, beta = {args.beta_deg:g} deg"),
+            beam=beam,
+            path=(PathSegment(Field(), field, args.steps or 14),),
+            config={"length_mm": args.length_mm, "width_mm": args.width_mm, "thickness_mm": args.thickness_mm,
+                    "phi": args.phi, "beta_deg": args.beta_deg, "density_kg_per_m3": args.density,
+                    "field_mT": [field.Bx / MT, field.Bz / MT]},
+        )
+    if args.steps is not None and field is None:
+        preset = preset.with_steps(args.steps)
+    return apply_overrides(preset, args)
+
+
+def _check_flag(flag, value, *, lo, hi, open_lo=False, integer=False):
+    if value is None:
+        return
+    if integer and (not isinstance(value, int) or isinstance(value, bool)):
+        raise ValueError(f"{flag} must be an integer in [{lo}, {hi}], got {value!r}.")
+    if not math.isfinite(value) or value > hi or value < lo or (open_lo and value == lo):
+        rng = f"({lo:g}, {hi:g}]" if open_lo else f"[{lo:g}, {hi:g}]"
+        raise ValueError(f"{flag} must lie in {rng}, got {value!r}.")
+
+
+def run(args) -> int:
+    from magsoft_env.presets import list_presets, load_preset
+
+    if args.list:
+        for name in list_presets():
+            print(f"{name:20s} {load_preset(name).source}")
+        return 0
+    out = check_out_dir(args.out)
+    preset = build_case(args)
+    results = preset.solve()
+    rows = [metrics_row(r, preset.beam, axis=preset.sweep_axis) for r in results]
+
+    print(textwrap.fill(f"{preset.name}: {preset.description}", width=110))
+    print(f"L = {preset.beam.length / MM:.4g} mm, support {preset.support}, gravity {preset.gravity:g} m/s^2, "
+          f"coupling {preset.coupling}, extensible {preset.extensible}")
+    print(format_table(rows, METRIC_COLUMNS))
+
+    stem = f"solve_{preset.name}"
+    files = []
+    if not args.no_plot:
+        from magsoft_env.plotting import path_figure
+
+        files.append(path_figure([(f"{preset.name} ({preset.source or 'custom'})", results, preset.beam.length)],
+                                 out / f"{stem}.png"))
+    payload = {
+        "preset": preset.name,
+        "description": preset.description,
+        "source": preset.source,
+        "config": preset.config,
+        "solver_options": preset.solver_options(),
+        "length_m": preset.beam.length,
+        "results": rows,
+        "final": {**rows[-1], "shape": _shape(results[-1])},
+    }
+    files.append(write_json(out / f"{stem}.json", payload))
+    for f in files:
+        print(f"wrote {f}")
+    failed = sum(not r["success"] for r in rows)
+    if failed:
+        print(f"warning: {failed} of {len(rows)} equilibria did not converge (see 'status' and 'message').")
+        return 1
+    return 0
+
+
+def _shape(result, n: int = 101) -> dict:
+    s, x, z, theta = result.sample(n)
+    return {"s_m": s, "x_m": x, "z_m": z, "theta_rad": theta}

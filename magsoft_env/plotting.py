@@ -1,0 +1,182 @@
+"""Figures of equilibrium shapes and load curves (matplotlib, Agg; imported only when a plot is made).
+
+Shapes are drawn in millimetres with equal aspect. Figures are built on
+``matplotlib.figure.Figure`` directly (no pyplot, no global backend switch) and saved
+atomically: a figure file is either complete or absent.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+MM = 1e3  # mm per m
+_SHAPE_SAMPLES = 201
+
+
+def _figure(nrows: int = 1, ncols: int = 1, *, size=(6.4, 4.8)):
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=size, layout="constrained")
+    axes = fig.subplots(nrows, ncols, squeeze=False)
+    return fig, axes
+
+
+def save_figure(fig, path) -> Path:
+    """Write ``fig`` to ``path`` (format from the suffix) through a temporary file; returns the path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=path.suffix, dir=path.parent)
+    os.close(fd)
+    try:
+        fig.savefig(tmp, dpi=150)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def shape_mm(result, n: int = _SHAPE_SAMPLES) -> tuple[np.ndarray, np.ndarray]:
+    """Centerline (x, z) of an equilibrium in mm, ``n`` evenly spaced points base to tip."""
+    _, x, z, _ = result.sample(n)
+    return np.asarray(x) * MM, np.asarray(z) * MM
+
+
+def _field_label(field) -> str:
+    return f"B = ({field.Bx * 1e3:.3g}, {field.Bz * 1e3:.3g}) mT"
+
+
+def _pick(n_total: int, n_max: int) -> list[int]:
+    """Up to ``n_max`` indices spread over ``range(n_total)``, always including the last."""
+    if n_total <= n_max:
+        return list(range(n_total))
+    return sorted({int(round(i)) for i in np.linspace(0, n_total - 1, n_max)})
+
+
+def draw_path_shapes(ax, results: Sequence, *, length: float, max_shapes: int = 8, cmap: str = "viridis",
+                     reference: tuple | None = None) -> None:
+    """Draw shapes along a loading path on ``ax``, coloured by the step, with the undeformed beam.
+
+    ``reference`` is the undeformed centerline (x, z) in m; a straight beam on the x axis if omitted.
+    """
+    import matplotlib
+
+    colours = matplotlib.colormaps[cmap]
+    if reference is None:
+        ax.plot([0.0, length * MM], [0.0, 0.0], color="0.6", ls="--", lw=1.0, label="undeformed")
+    else:
+        ax.plot(np.asarray(reference[0]) * MM, np.asarray(reference[1]) * MM, color="0.6", ls="--", lw=1.0,
+                label="undeformed")
+    idx = _pick(len(results), max_shapes)
+    for k, i in enumerate(idx):
+        r = results[i]
+        x, z = shape_mm(r)
+        c = colours(k / max(len(idx) - 1, 1))
+        ls = "-" if (r.success and r.stable) else ":"
+        ax.plot(x, z, color=c, ls=ls, lw=1.6, label=_field_label(r.field) + ("" if r.success else " (failed)"))
+    _shape_axes(ax)
+
+
+def _shape_axes(ax) -> None:
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("z (mm)")
+    ax.grid(True, lw=0.4, alpha=0.5)
+
+
+def path_figure(cases: Sequence[tuple], path, *, max_shapes: int = 8) -> Path:
+    """One panel per case ``(title, results, length_m)``: shapes along each loading path; saved to ``path``."""
+    n = len(cases)
+    ncols = min(n, 3)
+    nrows = math.ceil(n / ncols)
+    fig, axes = _figure(nrows, ncols, size=(5.2 * ncols, 4.4 * nrows))
+    for ax, (title, results, length) in zip(axes.flat, cases, strict=False):
+        draw_path_shapes(ax, results, length=length, max_shapes=max_shapes)
+        ax.set_title(title, fontsize=10)
+        ax.legend(fontsize=6, loc="best")
+    for ax in list(axes.flat)[n:]:
+        ax.set_visible(False)
+    return save_figure(fig, path)
+
+
+SWEEP_METRICS = (
+    ("v_over_L", "v / L", 1.0),
+    ("tip_angle_deg", "tip angle $\\theta^l$ (deg)", 1.0),
+    ("rotation_angle_deg", "rotation angle $\\gamma$ (deg)", 1.0),
+)
+
+
+def sweep_figure(rows: Sequence[dict], path) -> Path:
+    """Fig. 3-style curves: one row of panels per loading path (v/L, tip angle, rotation angle against P).
+
+    ``rows`` are dicts with keys ``path``, ``length_mm``, ``l_over_h``, ``gravity_m_per_s2``, ``P`` and the
+    metrics in :data:`SWEEP_METRICS`. Solid lines with gravity, dashed without; one colour per beam.
+    """
+    import matplotlib
+
+    paths = sorted({r["path"] for r in rows})
+    beams = sorted({r["length_mm"] for r in rows})
+    colours = matplotlib.colormaps["tab10"]
+    fig, axes = _figure(len(paths), len(SWEEP_METRICS), size=(14, 4.0 * len(paths)))
+    for i, p in enumerate(paths):
+        for j, (key, label, _) in enumerate(SWEEP_METRICS):
+            ax = axes[i, j]
+            for b, L in enumerate(beams):
+                for g_on in (True, False):
+                    sel = [r for r in rows if r["path"] == p and r["length_mm"] == L and (r["gravity_m_per_s2"] > 0)
+                           == g_on]
+                    if not sel:
+                        continue
+                    P = [r["P"] for r in sel]
+                    y = [r[key] for r in sel]
+                    lh = sel[0]["l_over_h"]
+                    ax.plot(P, y, color=colours(b), ls="-" if g_on else "--", marker="o" if g_on else None, ms=2.5,
+                            label=f"l/h = {lh:.1f}" + ("" if g_on else ", no gravity"))
+                    bad = [(pp, yy) for pp, yy, r in zip(P, y, sel, strict=True) if not (r["success"] and r["stable"])]
+                    if bad:
+                        ax.plot(*zip(*bad, strict=True), ls="none", marker="x", color="red", ms=5)
+            ax.set_xlabel(sel_axis_label(p))
+            ax.set_ylabel(label)
+            ax.grid(True, lw=0.4, alpha=0.5)
+            ax.set_title(f"path {p}", fontsize=10)
+            if j == 0:
+                ax.legend(fontsize=7)
+    return save_figure(fig, path)
+
+
+def sel_axis_label(path_name: str) -> str:
+    """x-axis label for a sweep path: P of the component being ramped."""
+    if path_name == "b":
+        return "P of $|B_x|$ ($B_z$ held)"
+    return "P of $B_z$"
+
+
+def couplings_figure(cases: Sequence[dict], path) -> Path:
+    """Overlay of the two couplings. Each case: ``title``, ``length`` (m), ``reference`` (x, z) m,
+    ``rotated`` and ``paper`` (lists of results at the same fields)."""
+    n = len(cases)
+    fig, axes = _figure(1, n, size=(5.2 * n, 4.6))
+    import matplotlib
+
+    colours = matplotlib.colormaps["viridis"]
+    for ax, case in zip(axes.flat, cases, strict=True):
+        ref = case["reference"]
+        ax.plot(np.asarray(ref[0]) * MM, np.asarray(ref[1]) * MM, color="0.6", ls="--", lw=1.0, label="undeformed")
+        m = len(case["rotated"])
+        for k, (rr, rp) in enumerate(zip(case["rotated"], case["paper"], strict=True)):
+            c = colours(k / max(m - 1, 1))
+            xr, zr = shape_mm(rr)
+            xp, zp = shape_mm(rp)
+            lab = _field_label(rr.field)
+            ax.plot(xr, zr, color=c, ls="-", lw=1.8, label=f"rotated, {lab}")
+            ax.plot(xp, zp, color=c, ls=(0, (4, 2)), lw=1.4, label=f"paper eq. 10, {lab}")
+        _shape_axes(ax)
+        ax.set_title(case["title"], fontsize=10)
+        ax.legend(fontsize=6, loc="best")
+    return save_figure(fig, path)
