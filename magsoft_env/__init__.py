@@ -64,8 +64,25 @@ def _register_envs():
 _register_envs()
 
 __all__ = [
-    "MU0", "Beam", "Constant", "EquilibriumResult", "Field", "Function", "Material", "PiecewiseConstant",
-    "PiecewiseLinear", "Profile", "alternating_cells", "design_profile", "jig_curve", "jig_from_function",
-    "jig_from_points", "jig_from_polyline", "load_preset", "mujoco_equilibrium", "ramp", "solve_equilibrium",
+    "MU0",
+    "Beam",
+    "Constant",
+    "EquilibriumResult",
+    "Field",
+    "Function",
+    "Material",
+    "PiecewiseConstant",
+    "PiecewiseLinear",
+    "Profile",
+    "alternating_cells",
+    "design_profile",
+    "jig_curve",
+    "jig_from_function",
+    "jig_from_points",
+    "jig_from_polyline",
+    "load_preset",
+    "mujoco_equilibrium",
+    "ramp",
+    "solve_equilibrium",
     "solve_path",
 ]

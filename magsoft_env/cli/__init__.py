@@ -26,7 +26,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Design and simulate centimetre-scale hard-magnetic soft robots.",
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for name, modname in COMMANDS.items():
+    for modname in COMMANDS.values():
         if importlib.util.find_spec(modname) is None:
             continue
         importlib.import_module(modname).add_parser(sub)

@@ -19,8 +19,25 @@ from .profiles import (
 )
 
 __all__ = [
-    "MAX_FIELD", "MAX_VOLUME_FRACTION", "MU0", "Beam", "Constant", "Field", "Function", "JigProfile",
-    "Material", "PiecewiseConstant", "PiecewiseLinear", "Profile", "alternating_cells", "as_field",
-    "as_fields", "as_profile", "jig_curve", "jig_from_function", "jig_from_points", "jig_from_polyline",
+    "MAX_FIELD",
+    "MAX_VOLUME_FRACTION",
+    "MU0",
+    "Beam",
+    "Constant",
+    "Field",
+    "Function",
+    "JigProfile",
+    "Material",
+    "PiecewiseConstant",
+    "PiecewiseLinear",
+    "Profile",
+    "alternating_cells",
+    "as_field",
+    "as_fields",
+    "as_profile",
+    "jig_curve",
+    "jig_from_function",
+    "jig_from_points",
+    "jig_from_polyline",
     "ramp",
 ]

@@ -100,8 +100,9 @@ class Beam:
             set(self.volume_fraction.breakpoints(self.length)) | set(self.magnetization.breakpoints(self.length))
         )
         merged: list[float] = []
+        tol = 1e-9 * self.length
         for p in pts:
-            if 1e-9 * self.length < p < self.length * (1 - 1e-9) and (not merged or p - merged[-1] > 1e-9 * self.length):
+            if tol < p < self.length - tol and (not merged or p - merged[-1] > tol):
                 merged.append(float(p))
         return tuple(merged)
 

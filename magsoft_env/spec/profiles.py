@@ -51,9 +51,7 @@ class Profile(ABC):
     def __call__(self, s, length: float | None = None) -> np.ndarray:
         if length is None:
             if self.length is None:
-                raise ValueError(
-                    f"{type(self).__name__} is relative to the beam length: pass length=... (m)."
-                )
+                raise ValueError(f"{type(self).__name__} is relative to the beam length: pass length=... (m).")
             length = self.length
         return self.values(s, length)
 
@@ -92,9 +90,7 @@ class PiecewiseConstant(Profile):
         else:
             f = finite_array("PiecewiseConstant fractions", self.fractions, ndim=1, min_len=1)
             if len(f) != len(v):
-                raise ValueError(
-                    f"PiecewiseConstant fractions must have one entry per value ({len(v)}), got {len(f)}."
-                )
+                raise ValueError(f"PiecewiseConstant fractions must have one entry per value ({len(v)}), got {len(f)}.")
             if np.any(f <= 0):
                 raise ValueError(f"PiecewiseConstant fractions must all be > 0, got {f.tolist()}.")
             f = f / f.sum()
@@ -327,9 +323,7 @@ def jig_from_function(
         b_all.append(ang if not b_all else ang[1:])
         s0 += arc[-1]
         breaks.append(s0)
-    return JigProfile(
-        tuple(np.concatenate(s_all).tolist()), tuple(np.concatenate(b_all).tolist()), tuple(breaks[:-1])
-    )
+    return JigProfile(tuple(np.concatenate(s_all).tolist()), tuple(np.concatenate(b_all).tolist()), tuple(breaks[:-1]))
 
 
 def jig_curve(profile, length: float, *, n: int = 201) -> tuple[np.ndarray, np.ndarray]:

@@ -1,0 +1,157 @@
+"""The beam sampled on a collocation grid: energy density, residual, Jacobian, Hessian.
+
+Total potential energy of a beam with reference arc length s in [0, L]::
+
+    U[theta] = int_0^L  EI/2 theta'^2 + phi(theta, s) ds
+
+with the energy density (``kappa = 1`` for the rotated coupling, 0 for the paper's eq. 10)::
+
+    a(theta)   = m cos(beta) (B_x cos theta + B_z sin theta) - W(s) sin theta    (axial force)
+    phi        = -a - kappa m sin(beta) (B_z cos theta - B_x sin theta)  [- a^2 / (2 EA) if extensible]
+
+where m = A B_r / mu0 (A m) and W(s) = g int_s^L rho A is the weight beyond s (N).
+The extensible form minimizes EA/2 eps^2 - (1 + eps) a over eps: eps = a / EA (paper eq. 14).
+The Euler-Lagrange equation ``(EI theta')' = phi_theta`` with ``theta(0) = theta_0`` and
+``theta'(L) = 0`` is solved in integral form, which is well conditioned::
+
+    theta(s) = theta_0 - int_0^s (1/EI) int_t^L phi_theta(theta(u), u) du dt
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .collocation import Grid
+
+
+@dataclass(frozen=True)
+class Load:
+    """One load state: field (T) and gravity (m/s^2)."""
+
+    Bx: float
+    Bz: float
+    g: float
+
+    def lerp(self, other: Load, t: float) -> Load:
+        return Load(
+            self.Bx + t * (other.Bx - self.Bx), self.Bz + t * (other.Bz - self.Bz), self.g + t * (other.g - self.g)
+        )
+
+
+class BeamModel:
+    """Coefficients of one beam on one grid, and the discrete operators built from them."""
+
+    def __init__(self, beam, grid: Grid, *, coupling: str, extensible: bool):
+        self.beam = beam
+        self.grid = grid
+        self.extensible = extensible
+        s = grid.s_eval
+        self.EI = beam.bending_stiffness(s)
+        self.EA = beam.axial_stiffness(s)
+        m = beam.moment_per_length(s)
+        beta = beam.beta(s)
+        self.mc = m * np.cos(beta)
+        self.ms = m * np.sin(beta) if coupling == "rotated" else np.zeros_like(m)
+        self.W1 = grid.QL @ beam.mass_per_length(s)  # weight beyond s per unit g (kg)
+        # theta = theta0 + P @ (-phi_theta):  P = Q0 diag(1/EI) QL
+        self.P = grid.Q0 @ (grid.QL / self.EI[:, None])
+        self._eye = np.eye(grid.M)
+        self._zeros = np.zeros(grid.M)
+        self._load = None
+        self._pq = None
+        self.EI_ref = float(grid.w @ self.EI) / beam.length
+        # energy operators on distinct nodes (for stability and energy descent)
+        self.uniq = grid.unique()
+        self.expand = np.searchsorted(self.uniq, np.arange(grid.M), side="right") - 1  # full <- unique
+        n = grid.n
+        Dblk = np.zeros((grid.M, grid.M))
+        for k in range(len(grid.edges) - 1):
+            sl = slice(k * (n + 1), (k + 1) * (n + 1))
+            Dblk[sl, sl] = _local_D(n) / (0.5 * (grid.edges[k + 1] - grid.edges[k]))
+        E = np.zeros((grid.M, self.uniq.size))
+        E[np.arange(grid.M), self.expand] = 1.0
+        self.E = E
+        DE = Dblk @ E
+        self.K = DE.T @ ((grid.w * self.EI)[:, None] * DE)
+        self.mass = E.T @ grid.w  # lumped quadrature weights on distinct nodes
+
+    # energy density and its derivatives --------------------------------------------------
+    def _coeffs(self, load: Load):
+        if load != self._load:
+            W = load.g * self.W1
+            p1, p2 = self.mc * load.Bx, self.mc * load.Bz - W
+            q1, q2 = self.ms * load.Bz, self.ms * load.Bx
+            self._pq = (p1, p2, q1, q2, q2 - p2, q1 + p1)
+            self._load = load
+        return self._pq
+
+    def density(self, theta, load: Load):
+        """phi, phi_theta, phi_theta_theta and strain eps at all nodes."""
+        c, sn = np.cos(theta), np.sin(theta)
+        p1, p2, q1, q2, r1, r2 = self._coeffs(load)
+        if not self.extensible:
+            # phi = -a - t0, f = -a1 + t1, f_theta = a + t0 (see module docstring)
+            f = r1 * c + r2 * sn
+            fth = r2 * c - r1 * sn
+            return -fth, f, fth, self._zeros
+        a = p1 * c + p2 * sn
+        a1 = p2 * c - p1 * sn
+        t0 = q1 * c - q2 * sn
+        t1 = q1 * sn + q2 * c
+        eps = a / self.EA
+        phi = -a - 0.5 * a * eps - t0
+        f = -a1 * (1.0 + eps) + t1
+        fth = a * (1.0 + eps) - a1 * a1 / self.EA + t0
+        return phi, f, fth, eps
+
+    # collocation residual (integral form) -------------------------------------------------
+    def residual(self, theta, theta0: float, load: Load):
+        _, f, fth, _ = self.density(theta, load)
+        return theta - theta0 + self.P @ f, fth
+
+    def jacobian(self, fth):
+        return self._eye + self.P * fth[None, :]
+
+    # energy on distinct nodes ---------------------------------------------------------------
+    def energy(self, u, load: Load) -> float:
+        theta = u[self.expand]
+        phi, _, _, _ = self.density(theta, load)
+        return 0.5 * u @ (self.K @ u) + self.grid.w @ phi
+
+    def energy_grad_hess(self, u, load: Load):
+        theta = u[self.expand]
+        phi, f, fth, _ = self.density(theta, load)
+        wf = self.grid.w * f
+        wfth = self.grid.w * fth
+        g = self.K @ u + np.bincount(self.expand, weights=wf, minlength=u.size)
+        H = self.K + np.diag(np.bincount(self.expand, weights=wfth, minlength=u.size))
+        return 0.5 * u @ (self.K @ u) + self.grid.w @ phi, g, H
+
+    def min_eigen(self, theta, load: Load, *, clamped: bool, vector: bool = True):
+        """Smallest eigenvalue of the second variation, made dimensionless by EI/L^2, and its mode."""
+        u = theta[self.uniq]
+        _, _, H = self.energy_grad_hess(u, load)
+        Mm = self.mass
+        if clamped:
+            H, Mm = H[1:, 1:], Mm[1:]
+        r = 1.0 / np.sqrt(Mm)
+        Hs = H * r[:, None] * r[None, :]
+        scale = self.beam.length**2 / self.EI_ref
+        if not vector:
+            return float(np.linalg.eigvalsh(Hs)[0]) * scale, None
+        vals, vecs = np.linalg.eigh(Hs)
+        v = vecs[:, 0] * r
+        if clamped:
+            v = np.concatenate([[0.0], v])
+        v = v / np.max(np.abs(v))
+        if v[-1] < 0:
+            v = -v
+        return float(vals[0]) * scale, v[self.expand]
+
+
+def _local_D(n):
+    from .collocation import _cheb_local
+
+    return _cheb_local(n)[3]

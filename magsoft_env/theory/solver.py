@@ -1,0 +1,658 @@
+"""Equilibrium shapes along a loading path: spectral collocation, damped Newton, continuation."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from dataclasses import field as dc_field
+from functools import lru_cache
+
+import numpy as np
+import scipy.linalg
+import scipy.optimize
+
+from ..spec import Beam, Field, as_field, as_fields
+from ..spec._validate import choice, finite_number, positive
+from .collocation import Grid, make_grid
+from .model import BeamModel, Load
+
+TERMINATION_MESSAGES = {
+    0: "Converged: equilibrium found along the loading path.",
+    1: "Continuation stalled: Newton did not converge even for the smallest load step.",
+    2: "Converged, but the solution is not resolved to the requested tolerance on the finest grid "
+    "allowed; give breakpoints for non-smooth profiles or raise max_nodes.",
+    3: "Direct Newton solve (start='straight') did not converge.",
+}
+
+_MAX_NEWTON = 10
+_MAX_STEP_RAD = 0.6  # Newton steps larger than this (rad, max norm) are damped
+_JUMP_RAD = 0.2  # a converged step this far from its prediction counts as a branch jump
+_STEP_RAD = 1.0  # largest predicted change of theta in one continuation step (rad)
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """Numerical settings of the equilibrium solver.
+
+    Attributes
+    ----------
+    nodes : int or None
+        Chebyshev degree per subdomain; None chooses it and refines automatically.
+    max_nodes : int
+        Largest degree per subdomain automatic refinement may reach.
+    tol : float
+        Newton tolerance on the angle update (rad).
+    resolution_tol : float
+        Accepted size of the trailing Chebyshev coefficients of theta (rad).
+    max_domain : float
+        Longest subdomain as a fraction of L (long smooth beams get split).
+    min_step : float
+        Smallest continuation step (fraction of a load segment) before a fold is declared.
+    """
+
+    nodes: int | None = None
+    max_nodes: int = 160
+    tol: float = 1e-12
+    resolution_tol: float = 1e-11
+    max_domain: float = 1.0
+    min_step: float = 1e-5
+
+
+@dataclass
+class EquilibriumResult:
+    """Equilibrium of a beam under one field, in the style of scipy's ``BVPResult``.
+
+    Attributes
+    ----------
+    success : bool
+        True when an equilibrium was found (``status`` 0 or 2).
+    status : int
+        0 converged; 1 continuation stalled; 2 converged but under-resolved; 3 direct solve failed.
+    message : str
+        Human-readable status.
+    s : (n,) array
+        Reference arc length of the nodes (m), from the clamp (or left end) to the tip.
+    theta : (n,) array
+        Tangent angle (rad) from +x toward +z.
+    strain : (n,) array
+        Axial strain (zero unless ``extensible``).
+    x, z : (n,) arrays
+        Deformed centreline (m), eq. (17).
+    tip_angle : float
+        theta(L) (rad).
+    tip_deflection : float
+        Vertical displacement of the tip, z(L) (m).
+    rotation_angle : float
+        Overall rotation gamma (rad): the chord angle atan2(z(L), x(L)), taken on the branch
+        nearest the mean tangent angle so that it can exceed 180 degrees continuously.
+    stable : bool
+        Smallest eigenvalue of the discrete second variation is positive.
+    min_eigenvalue : float
+        That eigenvalue in units of EI/L^2 (dimensionless).
+    snap_through : bool
+        A fold (or a bifurcation onto an unstable branch) was passed on the way to this field
+        and the solver jumped to a stable branch by energy descent.
+    """
+
+    success: bool
+    status: int
+    message: str
+    s: np.ndarray
+    theta: np.ndarray
+    strain: np.ndarray
+    x: np.ndarray
+    z: np.ndarray
+    tip_angle: float
+    tip_deflection: float
+    rotation_angle: float
+    max_curvature: float
+    max_strain: float
+    stable: bool
+    min_eigenvalue: float
+    snap_through: bool
+    field: Field
+    gravity: float
+    residual: float
+    resolution: float
+    nodes: int
+    newton_iterations: int
+    events: list = dc_field(default_factory=list)
+    _grid: Grid | None = dc_field(default=None, repr=False)
+    _full: tuple | None = dc_field(default=None, repr=False)
+
+    @property
+    def length(self) -> float:
+        return float(self.s[-1])
+
+    def sample(self, n: int = 101):
+        """Centreline at ``n`` evenly spaced arc lengths: (s, x, z, theta) arrays (m, m, m, rad)."""
+        if not isinstance(n, (int, np.integer)) or n < 2:
+            raise ValueError(f"sample n must be an integer >= 2, got {n!r}.")
+        s_new = np.linspace(0.0, self.length, n)
+        th, xx, zz = self._full
+        vals = self._grid.interpolate(np.column_stack([th, xx, zz]), s_new)
+        return s_new, vals[:, 1], vals[:, 2], vals[:, 0]
+
+    def to_dict(self) -> dict:
+        """Metrics as plain numbers (SI and degrees), for JSON."""
+        L = self.length
+        return {
+            "success": bool(self.success),
+            "status": int(self.status),
+            "message": self.message,
+            "field_T": [self.field.Bx, self.field.Bz],
+            "gravity_m_s2": self.gravity,
+            "tip_deflection_m": self.tip_deflection,
+            "v_over_L": self.tip_deflection / L,
+            "tip_angle_rad": self.tip_angle,
+            "tip_angle_deg": math.degrees(self.tip_angle),
+            "rotation_angle_rad": self.rotation_angle,
+            "rotation_angle_deg": math.degrees(self.rotation_angle),
+            "tip_x_m": float(self.x[-1]),
+            "tip_z_m": float(self.z[-1]),
+            "max_curvature_1_m": self.max_curvature,
+            "max_strain": self.max_strain,
+            "stable": bool(self.stable),
+            "min_eigenvalue": self.min_eigenvalue,
+            "snap_through": bool(self.snap_through),
+            "residual": self.residual,
+            "nodes": self.nodes,
+        }
+
+
+# ----------------------------------------------------------------------------------------
+@lru_cache(maxsize=32)
+def _model_cached(beam, grid, coupling, extensible):
+    return BeamModel(beam, grid, coupling=coupling, extensible=extensible)
+
+
+def _model(beam, grid, coupling, extensible):
+    try:
+        return _model_cached(beam, grid, coupling, extensible)
+    except TypeError:  # unhashable user callables
+        return BeamModel(beam, grid, coupling=coupling, extensible=extensible)
+
+
+class _Solver:
+    """Continuation state for one beam: the current grid, model and solution."""
+
+    def __init__(self, beam: Beam, *, support, coupling, extensible, clamp_angle, options: SolverOptions):
+        self.beam = beam
+        self.support = support
+        self.coupling = coupling
+        self.extensible = extensible
+        self.theta0 = clamp_angle
+        self.opt = options
+        bps = beam.breakpoints()
+        if options.nodes is not None:
+            n = options.nodes
+        else:
+            n = 32 if not bps else 20
+        self._set_grid(make_grid(beam.length, bps, n=n, max_domain=options.max_domain * beam.length))
+        self.theta = np.full(self.grid.M, clamp_angle if support == "cantilever" else 0.0)
+        self.c = 0.0  # free support: angle at s = 0
+        self.load = Load(0.0, 0.0, 0.0)
+        self.newton_its = 0
+        self.events: list[dict] = []
+
+    def _set_grid(self, grid: Grid):
+        self.grid = grid
+        self.model = _model(self.beam, grid, self.coupling, self.extensible)
+
+    # Newton ---------------------------------------------------------------------------------
+    def newton(self, theta, load: Load, c=None, maxiter: int = _MAX_NEWTON):
+        """Damped Newton on the collocation equations. Returns (ok, theta, c, iterations, detsign)."""
+        mdl = self.model
+        free = self.support == "free"
+        th = theta.copy()
+        cc = self.c if c is None else c
+        M = th.size
+        scale = self.beam.length / mdl.EI_ref
+        prev_big = math.inf
+        for it in range(1, maxiter + 1):
+            if free:
+                R, fth = mdl.residual(th, cc, load)
+                _, f, _, _ = mdl.density(th, load)
+                J = np.empty((M + 1, M + 1))
+                J[:M, :M] = mdl.jacobian(fth)
+                J[:M, M] = -1.0
+                J[M, :M] = scale * mdl.grid.w * fth
+                J[M, M] = 0.0
+                R = np.concatenate([R, [scale * (mdl.grid.w @ f)]])
+            else:
+                R, fth = mdl.residual(th, self.theta0, load)
+                J = mdl.jacobian(fth)
+            if not np.all(np.isfinite(R)):
+                return False, theta, cc, it, 0
+            try:
+                d = -np.linalg.solve(J, R)
+            except np.linalg.LinAlgError:
+                return False, theta, cc, it, 0
+            big = float(np.max(np.abs(d)))
+            if not math.isfinite(big):
+                return False, theta, cc, it, 0
+            if it >= 3 and big > 0.25 * prev_big and maxiter <= _MAX_NEWTON:
+                return False, theta, cc, it, 0  # not converging quadratically: give up early
+            if big > _MAX_STEP_RAD:
+                d *= _MAX_STEP_RAD / big
+            th += d[:M]
+            if free:
+                cc += d[M]
+            # quadratic convergence: the next update would be about big^3 / prev^2
+            if big < self.opt.tol or (it >= 2 and big**3 < self.opt.tol * prev_big**2 and big < 1e-5):
+                sign, _ = np.linalg.slogdet(J)
+                self._J = J
+                return True, th, cc, it, int(sign)
+            prev_big = big
+        return False, theta, cc, maxiter, 0
+
+    def detsign(self, theta, load):
+        _, fth = self.model.residual(theta, self.theta0, load)
+        sign, _ = np.linalg.slogdet(self.model.jacobian(fth))
+        return int(sign)
+
+    # energy descent (branch switching) --------------------------------------------------------
+    def descend(self, theta, load: Load, kick=None):
+        """Minimize the discrete energy from ``theta`` (plus a kick), then polish with Newton."""
+        mdl = self.model
+        u0 = theta[mdl.uniq].copy()
+        if kick is not None:
+            u0 = u0 + kick[mdl.uniq]
+        clamped = self.support == "cantilever"
+        if clamped:
+            fixed = self.theta0
+
+            def fun(v):
+                u = np.concatenate([[fixed], v])
+                e, g, H = mdl.energy_grad_hess(u, load)
+                return e, g[1:], H[1:, 1:]
+
+            v0 = u0[1:]
+        else:
+
+            def fun(v):
+                return mdl.energy_grad_hess(v, load)
+
+            v0 = u0
+        cache = {}
+
+        def f(v):
+            cache["r"] = fun(v)
+            return cache["r"][0], cache["r"][1]
+
+        def h(v):
+            return fun(v)[2]
+
+        res = scipy.optimize.minimize(
+            f, v0, jac=True, hess=h, method="trust-exact", options={"gtol": 1e-10 * mdl.EI_ref / self.beam.length}
+        )
+        u = np.concatenate([[self.theta0], res.x]) if clamped else res.x
+        th = u[mdl.expand]
+        c = float(u[0]) if not clamped else None
+        ok, th2, c2, its, sign = self.newton(th, load, c)
+        return ok, th2, c2, sign
+
+    # continuation ---------------------------------------------------------------------------------
+    def tangent(self, theta, J, start: Load, target: Load, t: float):
+        """d theta / d t along the segment (tangent predictor), from the Jacobian J at theta."""
+        h = 1e-3
+        lo, hi = start.lerp(target, t - h), start.lerp(target, t + h)
+        _, f_hi, _, _ = self.model.density(theta, hi)
+        _, f_lo, _, _ = self.model.density(theta, lo)
+        dR = self.model.P @ ((f_hi - f_lo) / (2 * h))
+        try:
+            return -np.linalg.solve(J, dR)
+        except np.linalg.LinAlgError:
+            return np.zeros_like(theta)
+
+    def continue_to(self, target: Load) -> tuple[bool, bool]:
+        """Follow the equilibrium from the current load to ``target``. Returns (ok, snapped).
+
+        Tangent predictor, Newton corrector; the step is limited so that the predicted
+        change stays below ``_STEP_RAD`` and halved when Newton fails or lands far from
+        the prediction. A sign change of det J triggers a stability check.
+        """
+        if self.support == "free":
+            return self._free_to(target)
+        start = self.load
+        t, dt = 0.0, 1.0
+        theta = self.theta
+        _, fth = self.model.residual(theta, self.theta0, start)
+        J = self.model.jacobian(fth)
+        sign = int(np.linalg.slogdet(J)[0])
+        snapped = False
+        tan = self.tangent(theta, J, start, target, t)
+        while t < 1.0:
+            tmax = float(np.max(np.abs(tan)))
+            dt = min(dt, 1.0 - t, _STEP_RAD / tmax if tmax > 0 else 1.0)
+            fold = dt < self.opt.min_step
+            if not fold:
+                t_new = t + dt
+                if 1.0 - t_new < 1e-12:
+                    t_new = 1.0
+                load = start.lerp(target, t_new)
+                guess = theta + (t_new - t) * tan
+                ok, th_new, _, its, sgn = self.newton(guess, load)
+                self.newton_its += its
+                if ok and np.max(np.abs(th_new - guess)) > max(_JUMP_RAD, 0.5 * (t_new - t) * tmax):
+                    ok = False  # converged far from the prediction: likely another branch
+                if not ok:
+                    dt *= 0.25
+                    fold = dt < self.opt.min_step
+                    if not fold:
+                        continue
+            if fold:
+                # no equilibrium near the current one beyond load t: snap to a stable one
+                t_new = min(1.0, t + 4 * self.opt.min_step)
+                load = start.lerp(target, t_new)
+                lam, mode = self.model.min_eigen(theta, start.lerp(target, t), clamped=True)
+                ok2, th_new, _, sgn = self._jump(theta, 0.02 * mode, load, t_new, "fold")
+                if not ok2:
+                    self.theta, self.load = theta, start.lerp(target, t)
+                    return False, snapped
+                snapped, its, dt = True, _MAX_NEWTON, 4 * self.opt.min_step
+            elif sgn != sign:
+                lam, mode = self.model.min_eigen(th_new, load, clamped=True)
+                if lam < 0.0:
+                    ok2, th_s, _, sgn = self._jump(th_new, mode, load, t_new, "bifurcation")
+                    if not ok2:
+                        self.theta, self.load = theta, start.lerp(target, t)
+                        return False, snapped
+                    th_new, snapped = th_s, True
+            sign = sgn
+            t, theta = t_new, th_new
+            if its <= 4:
+                dt = min(1.0, 2.0 * dt)
+            if t < 1.0:
+                tan = self.tangent(theta, self._J, start, target, t)
+        self.theta, self.load = theta, target
+        return True, snapped
+
+    def _jump(self, theta, kick, load, t, kind, lam=None):
+        ok, th, c, sgn = self.descend(theta, load, kick=kick)
+        if ok:
+            lam2, mode2 = self.model.min_eigen(th, load, clamped=True)
+            if lam2 < 0.0:  # landed on a saddle: push along its unstable mode
+                ok, th, c, sgn = self.descend(th, load, kick=0.02 * mode2)
+        self.events.append(
+            {"kind": kind, "load_fraction": t, "field_T": (load.Bx, load.Bz), "gravity": load.g, "converged": ok}
+        )
+        return ok, th, c, sgn
+
+    def _free_to(self, target: Load):
+        # A free beam has no preferred orientation at zero field, so each field is reached by
+        # energy descent from the previous shape (a field switch), then polished by Newton.
+        ok, th, c, _ = self.descend(self.theta, target)
+        if ok:
+            lam, mode = self.model.min_eigen(th, target, clamped=False)
+            if lam < 0:
+                ok, th, c, _ = self.descend(th, target, kick=0.02 * mode)
+        if ok:
+            self.theta, self.c, self.load = th, c, target
+        return ok, False
+
+    # resolution -----------------------------------------------------------------------------------
+    def refine(self) -> float:
+        """Raise the degree until theta's Chebyshev tail is below tolerance. Returns the tail."""
+        tail = self.grid.tail(self.theta)
+        while tail > self.opt.resolution_tol and self.opt.nodes is None and self.grid.n < self.opt.max_nodes:
+            n_new = min(self.opt.max_nodes, int(math.ceil(self.grid.n * 1.5)))
+            old_grid, old_theta = self.grid, self.theta
+            new = _regrid(old_grid, n_new)
+            self._set_grid(new)
+            guess = old_grid.interpolate(old_theta, new.s)
+            ok, th, c, its, _ = self.newton(guess, self.load)
+            self.newton_its += its
+            if not ok:
+                self._set_grid(old_grid)
+                break
+            self.theta, self.c = th, c
+            tail = self.grid.tail(self.theta)
+        return tail
+
+    # result -------------------------------------------------------------------------------------
+    def result(self, ok, status, snapped, field_, gravity, tail) -> EquilibriumResult:
+        mdl, grid = self.model, self.grid
+        th = self.theta
+        load = self.load
+        _, f, _, eps = mdl.density(th, load)
+        theta0 = self.theta0 if self.support == "cantilever" else self.c
+        R = th - theta0 + mdl.P @ f
+        stretch = 1.0 + eps
+        x = grid.Q0 @ (stretch * np.cos(th))
+        z = grid.Q0 @ (stretch * np.sin(th))
+        lam, _ = mdl.min_eigen(th, load, clamped=self.support == "cantilever", vector=False)
+        u = mdl.uniq
+        L = self.beam.length
+        kappa = grid.derivative(th)
+        chord = math.atan2(z[-1], x[-1])
+        mean_angle = float(grid.w @ th) / L
+        chord += 2 * math.pi * round((mean_angle - chord) / (2 * math.pi))
+        if not ok:
+            status = 1 if status == 0 else status
+        elif status == 0 and tail > self.opt.resolution_tol:
+            status = 2
+        msg = TERMINATION_MESSAGES[status]
+        if self.events:
+            msg += f" Passed {len(self.events)} fold/bifurcation point(s) with a jump to a stable branch."
+        if status == 2:
+            msg += f" (trailing Chebyshev coefficient {tail:.1e} rad)"
+        return EquilibriumResult(
+            success=ok and status in (0, 2),
+            status=status,
+            message=msg,
+            s=grid.s[u].copy(),
+            theta=th[u].copy(),
+            strain=eps[u].copy(),
+            x=x[u],
+            z=z[u],
+            tip_angle=float(th[-1]),
+            tip_deflection=float(z[-1]),
+            rotation_angle=chord,
+            max_curvature=float(np.max(np.abs(kappa))),
+            max_strain=float(np.max(np.abs(eps))),
+            stable=bool(lam > 0.0),
+            min_eigenvalue=lam,
+            snap_through=snapped,
+            field=field_,
+            gravity=gravity,
+            residual=float(np.max(np.abs(R))),
+            resolution=tail,
+            nodes=int(u.size),
+            newton_iterations=self.newton_its,
+            events=list(self.events),
+            _grid=grid,
+            _full=(th.copy(), x, z),
+        )
+
+
+def _regrid(grid: Grid, n: int) -> Grid:
+    from .collocation import _grid_cached
+
+    return _grid_cached(tuple(float(e) for e in grid.edges), n)
+
+
+# ----------------------------------------------------------------------------------------------
+def _check_common(beam, gravity, support, coupling, extensible, clamp_angle, options):
+    if not isinstance(beam, Beam):
+        raise ValueError(f"beam must be a magsoft_env.Beam, got {type(beam).__name__}.")
+    g = finite_number("gravity", gravity, unit="m/s^2")
+    if g < 0:
+        raise ValueError(f"gravity must be >= 0 (m/s^2, acting along -z), got {gravity!r}.")
+    support = choice("support", support, ["cantilever", "free"])
+    coupling = choice("coupling", coupling, ["rotated", "paper"])
+    if not isinstance(extensible, (bool, np.bool_)):
+        raise ValueError(f"extensible must be True or False, got {extensible!r}.")
+    th0 = finite_number("clamp_angle", clamp_angle, unit="rad")
+    if support == "free" and g != 0.0:
+        raise ValueError(
+            "support='free' has no static equilibrium under gravity: expected gravity=0, "
+            f"got {gravity!r}. Use the MuJoCo floor scene for beams on the ground."
+        )
+    if options is None:
+        options = SolverOptions()
+    elif not isinstance(options, SolverOptions):
+        raise ValueError(f"options must be a SolverOptions, got {options!r}.")
+    if options.nodes is not None and not (8 <= options.nodes <= 400):
+        raise ValueError(f"options.nodes must lie in [8, 400], got {options.nodes!r}.")
+    positive("options.tol", options.tol)
+    return g, support, coupling, bool(extensible), th0, options
+
+
+def solve_path(
+    beam: Beam,
+    fields,
+    *,
+    gravity: float = 9.81,
+    support: str = "cantilever",
+    coupling: str = "rotated",
+    extensible: bool = False,
+    clamp_angle: float = 0.0,
+    options: SolverOptions | None = None,
+    progress: bool = False,
+) -> list[EquilibriumResult]:
+    """Equilibria along a loading path, one result per field, in order.
+
+    The path starts from the straight, unloaded beam: gravity is applied first (zero field),
+    then the field is ramped from zero to ``fields[0]`` and on to each following field.
+    Between fields, natural-parameter continuation with secant predictors and adaptive
+    steps follows the equilibrium branch. A change of sign of the Jacobian determinant
+    flags a critical point; if the branch has become unstable, or a fold ends it, the solver
+    jumps to a stable equilibrium by energy descent and reports ``snap_through``.
+
+    Parameters
+    ----------
+    beam : Beam
+        The beam.
+    fields : sequence of Field or (B_x, B_z) pairs
+        Applied fields (T), in loading order.
+    gravity : float
+        Gravitational acceleration (m/s^2) along -z. Must be 0 for ``support="free"``.
+    support : {"cantilever", "free"}
+        Clamped at s = 0 with angle ``clamp_angle`` and free at s = L, or free at both ends.
+    coupling : {"rotated", "paper"}
+        Magnetization that rotates with the cross-section (default; what tau = m x B gives),
+        or the paper's eq. (10), where only the axial component B_r cos(beta) couples.
+    extensible : bool
+        Include axial strain (paper eq. 14).
+    clamp_angle : float
+        theta(0) for the cantilever (rad).
+    options : SolverOptions, optional
+        Numerical settings.
+    progress : bool
+        Show a progress bar (tqdm).
+
+    Returns
+    -------
+    list of EquilibriumResult
+
+    Examples
+    --------
+    >>> import magsoft_env as ms
+    >>> beam = ms.Beam(length=25e-3, width=5e-3, thickness=1.13e-3)
+    >>> res = ms.solve_path(beam, ms.ramp((0, 0), (0, 13e-3), 14))
+    >>> bool(res[-1].success), round(res[-1].tip_deflection / beam.length, 2)
+    (True, 0.75)
+    """
+    g, support, coupling, extensible, th0, options = _check_common(
+        beam, gravity, support, coupling, extensible, clamp_angle, options
+    )
+    fields = as_fields(fields)
+    solver = _Solver(beam, support=support, coupling=coupling, extensible=extensible, clamp_angle=th0, options=options)
+    results: list[EquilibriumResult] = []
+    ok = True
+    if g > 0:
+        ok, _ = solver.continue_to(Load(0.0, 0.0, g))
+    iterator = fields
+    if progress:
+        from tqdm.auto import tqdm
+
+        iterator = tqdm(fields, desc="equilibria", unit="field")
+    for fld in iterator:
+        if ok:
+            n_events = len(solver.events)
+            ok, _ = solver.continue_to(Load(fld.Bx, fld.Bz, g))
+            snapped = len(solver.events) > n_events
+            tail = solver.refine() if ok else float("nan")
+        else:
+            snapped, tail = False, float("nan")
+        results.append(solver.result(ok, 0, snapped, fld, g, tail))
+    return results
+
+
+def solve_equilibrium(
+    beam: Beam,
+    field,
+    *,
+    gravity: float = 9.81,
+    support: str = "cantilever",
+    coupling: str = "rotated",
+    extensible: bool = False,
+    clamp_angle: float = 0.0,
+    start: str = "path",
+    options: SolverOptions | None = None,
+) -> EquilibriumResult:
+    """Equilibrium shape of a beam under a uniform field (T) and gravity.
+
+    Solves, for the cantilever (``theta(0) = clamp_angle``, ``theta'(L) = 0``)::
+
+        (E I theta')' = W(s) cos(theta) + (A B_r B_a / mu0) sin(theta + beta - alpha)
+
+    (rotated coupling, inextensible; see :mod:`magsoft_env.theory.model` for the general
+    energy), by Chebyshev collocation of the integral form and damped Newton.
+
+    Parameters
+    ----------
+    beam : Beam
+    field : Field or (B_x, B_z)
+        Applied field (T).
+    start : {"path", "straight"}
+        ``"path"`` (default) follows the loading path: gravity first, then the field ramped
+        from zero, as the real beam experiences it. ``"straight"`` runs Newton once from the
+        straight beam at the full load; it can land on an unstable or unreachable
+        equilibrium and exists to show why the path matters.
+    gravity, support, coupling, extensible, clamp_angle, options
+        As in :func:`solve_path`.
+
+    Returns
+    -------
+    EquilibriumResult
+
+    Examples
+    --------
+    >>> import magsoft_env as ms
+    >>> beam = ms.Beam(length=25e-3, width=5e-3, thickness=1.13e-3)
+    >>> r = ms.solve_equilibrium(beam, (0.0, 13e-3))
+    >>> r.success, r.stable
+    (True, True)
+    """
+    fld = as_field(field)
+    start = choice("start", start, ["path", "straight"])
+    if start == "path":
+        return solve_path(
+            beam,
+            [fld],
+            gravity=gravity,
+            support=support,
+            coupling=coupling,
+            extensible=extensible,
+            clamp_angle=clamp_angle,
+            options=options,
+        )[0]
+    g, support, coupling, extensible, th0, options = _check_common(
+        beam, gravity, support, coupling, extensible, clamp_angle, options
+    )
+    if support != "cantilever":
+        raise ValueError(f"start='straight' supports only support='cantilever', got {support!r}.")
+    solver = _Solver(beam, support=support, coupling=coupling, extensible=extensible, clamp_angle=th0, options=options)
+    load = Load(fld.Bx, fld.Bz, g)
+    ok, th, _, its, _ = solver.newton(solver.theta, load, maxiter=100)
+    solver.newton_its += its
+    status = 0
+    if ok:
+        solver.theta, solver.load = th, load
+        tail = solver.refine()
+    else:
+        status, tail = 3, float("nan")
+        solver.load = load
+    return solver.result(ok, status, False, fld, g, tail)
