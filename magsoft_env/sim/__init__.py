@@ -1,0 +1,21 @@
+"""MuJoCo rod: the magnetic beam as a planar hinge chain under gravity, fields and contact.
+
+Importing this package imports mujoco (no renderer, no gymnasium, no torch).
+
+Main entry points: :class:`Simulator` (dynamics, waveforms, settling, readouts),
+:func:`mujoco_equilibrium` and :func:`mujoco_path` (statics along a loading path),
+:func:`build_model` / :class:`RodOptions` (the MjSpec builder), :mod:`.waveforms`.
+"""
+
+from .discretize import RodDiscretization, discretize
+from .equilibrium import SimEquilibrium, mujoco_equilibrium, mujoco_path
+from .model import CHANNEL_SIZE, INTEGRATORS, OBSTACLE_SIZE, SCENES, RodModel, RodOptions, build_model, build_spec
+from .simulator import SettleResult, SimulationError, Simulator, Trajectory
+from .waveforms import Hold, PhaseShifted, Ramp, Sequence, Sine, Square, Waveform, as_waveform
+
+__all__ = [
+    "CHANNEL_SIZE", "INTEGRATORS", "OBSTACLE_SIZE", "SCENES", "Hold", "PhaseShifted", "Ramp", "RodDiscretization",
+    "RodModel", "RodOptions", "SettleResult", "Sequence", "SimEquilibrium", "SimulationError", "Simulator", "Sine",
+    "Square", "Trajectory", "Waveform", "as_waveform", "build_model", "build_spec", "discretize",
+    "mujoco_equilibrium", "mujoco_path",
+]

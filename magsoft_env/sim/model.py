@@ -1,0 +1,292 @@
+"""Build the planar MuJoCo rod (a hinge chain, midpoint layout) and its scene with ``mujoco.MjSpec``.
+
+World frame = the project frame: x along the undeformed beam from the clamp, z up, y the
+width axis. Every hinge turns about ``-y`` so that a positive joint angle turns +x toward
++z: the tangent angle of link ``i`` is ``theta_i = clamp_angle + sum_{j <= i} q_j``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from ..spec import Beam
+from ..spec._validate import choice, finite_number, nonnegative, positive
+from .discretize import RodDiscretization, discretize
+
+SCENES = ("cantilever", "floor", "channel", "obstacle")
+
+INTEGRATORS = {
+    "discrete": mujoco.mjtIntegrator.mjINT_DISCRETE,
+    "euler": mujoco.mjtIntegrator.mjINT_EULER,
+    "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
+    "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
+    "rk4": mujoco.mjtIntegrator.mjINT_RK4,
+}
+
+#: Paper Fig. 5a channel (hollow box), inner length x width x height (m).
+CHANNEL_SIZE = (42e-3, 8.5e-3, 7.6e-3)
+#: Paper Fig. 5b obstacle block, length x width x height (m).
+OBSTACLE_SIZE = (7e-3, 5.5e-3, 2e-3)
+_WALL = 1e-3  # channel wall thickness (m)
+_HINGE_AXIS = (0.0, -1.0, 0.0)
+_ROD_CONTYPE, _ROD_CONAFFINITY = 1, 2  # rod pieces touch the scene, never each other
+_SCENE_CONTYPE, _SCENE_CONAFFINITY = 2, 1
+
+
+@dataclass(frozen=True)
+class RodOptions:
+    """How to build the rod and its scene.
+
+    Parameters
+    ----------
+    segments : int
+        Number of cells N (hinges), in [2, 1000].
+    scene : {"cantilever", "floor", "channel", "obstacle"}
+        ``cantilever``: base clamped to the world at ``clamp_angle``, no contact.
+        ``floor``: free beam on a plane (planar base joint: slide x, slide z, hinge y).
+        ``channel``: floor plus the paper's hollow box (42 x 8.5 x 7.6 mm inside), entrance at
+        ``feature_x``. ``obstacle``: floor plus a 7 x 5.5 x 2 mm block whose left face is at
+        ``feature_x``.
+    integrator : {"discrete", "euler", "implicitfast", "implicit", "rk4"}
+        MuJoCo integrator. ``discrete`` folds hinge stiffness and damping into the implicit
+        solve; under the others the hinge springs are explicit (see docs/sim.md for the
+        measured stable timesteps).
+    timestep : float
+        Simulation step (s), in (0, 0.1].
+    gravity : float
+        Gravitational acceleration along -z (m/s^2); 0 turns gravity off.
+    clamp_angle : float
+        Cantilever clamp angle from +x toward +z (rad); for floor scenes the initial angle.
+    retardation_time : float
+        Kelvin-Voigt retardation time (s): hinge damping ``c_j = retardation_time * k_j``.
+    friction : float
+        Sliding friction coefficient between rod and scene (floor scenes).
+    contact_timeconst : float or None
+        Contact ``solref`` time constant (s); ``None`` gives ``2 * timestep``, the stiffest
+        that MuJoCo resolves.
+    contact_dampratio : float
+        Contact ``solref`` damping ratio.
+    feature_x : float or None
+        x (m) of the channel entrance or the obstacle's left face; ``None``: ``L + 5 mm``.
+    render : bool
+        Add box visual geoms, a light and a camera (only for rendering).
+    """
+
+    segments: int = 20
+    scene: str = "cantilever"
+    integrator: str = "discrete"
+    timestep: float = 1e-3
+    gravity: float = 9.81
+    clamp_angle: float = 0.0
+    retardation_time: float = 5e-3
+    friction: float = 0.5
+    contact_timeconst: float | None = None
+    contact_dampratio: float = 1.0
+    feature_x: float | None = None
+    render: bool = False
+
+    def __post_init__(self):
+        seg = self.segments
+        if isinstance(seg, bool) or not isinstance(seg, (int, np.integer)) or not 2 <= seg <= 1000:
+            raise ValueError(f"RodOptions.segments must be an integer in [2, 1000], got {seg!r}.")
+        choice("RodOptions.scene", self.scene, SCENES)
+        choice("RodOptions.integrator", self.integrator, INTEGRATORS)
+        dt = positive("RodOptions.timestep", self.timestep, unit="s")
+        if dt > 0.1:
+            raise ValueError(f"RodOptions.timestep must lie in (0, 0.1] s, got {self.timestep!r}.")
+        nonnegative("RodOptions.gravity", self.gravity, unit="m/s^2")
+        finite_number("RodOptions.clamp_angle", self.clamp_angle, unit="rad")
+        nonnegative("RodOptions.retardation_time", self.retardation_time, unit="s")
+        nonnegative("RodOptions.friction", self.friction)
+        if self.contact_timeconst is not None:
+            positive("RodOptions.contact_timeconst", self.contact_timeconst, unit="s")
+        positive("RodOptions.contact_dampratio", self.contact_dampratio)
+        if self.feature_x is not None:
+            finite_number("RodOptions.feature_x", self.feature_x, unit="m")
+
+    @property
+    def has_contact(self) -> bool:
+        return self.scene != "cantilever"
+
+
+@dataclass(frozen=True)
+class RodModel:
+    """A compiled rod: the MuJoCo model plus the indices the simulator needs.
+
+    Attributes
+    ----------
+    model : mujoco.MjModel
+    beam : Beam
+    options : RodOptions
+    disc : RodDiscretization
+        Per-piece mass, stiffness and magnetic moment.
+    body_ids : ndarray, shape (N + 1,)
+        MuJoCo body id of each piece (base half-cell first, tip last).
+    hinge_qpos : ndarray, shape (N,)
+        qpos address of each bending hinge.
+    hinge_dof : ndarray, shape (N,)
+        dof address of each bending hinge.
+    base_qpos : ndarray, shape (3,) or (0,)
+        qpos addresses of the planar base joints (slide x, slide z, hinge) in floor scenes.
+    """
+
+    model: mujoco.MjModel
+    beam: Beam
+    options: RodOptions
+    disc: RodDiscretization
+    body_ids: np.ndarray
+    hinge_qpos: np.ndarray
+    hinge_dof: np.ndarray
+    base_qpos: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+
+
+def _quat_y(theta: float) -> list[float]:
+    """Quaternion turning +x toward +z by ``theta`` (rad): a rotation about -y."""
+    return [math.cos(theta / 2), 0.0, -math.sin(theta / 2), 0.0]
+
+
+def build_spec(beam: Beam, options: RodOptions) -> tuple[mujoco.MjSpec, RodDiscretization]:
+    """The scene as an editable ``mujoco.MjSpec`` (see :func:`build_model`)."""
+    if not isinstance(options, RodOptions):
+        raise ValueError(f"options must be a RodOptions, got {type(options).__name__}.")
+    disc = discretize(beam, options.segments)
+    o = options
+    spec = mujoco.MjSpec()
+    spec.modelname = f"magsoft_rod_{o.scene}_{o.segments}"
+    spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
+    spec.option.timestep = o.timestep
+    spec.option.integrator = INTEGRATORS[o.integrator]
+    spec.option.gravity = [0.0, 0.0, -o.gravity]
+    if o.gravity == 0.0:
+        spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_GRAVITY
+    if not o.has_contact:
+        spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
+    # never silently reset on a bad state: the simulator reports it instead
+    spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
+
+    h, w = beam.thickness, beam.width
+    radius = 0.5 * h
+    tc = o.contact_timeconst if o.contact_timeconst is not None else 2.0 * o.timestep
+    world = spec.worldbody
+
+    if o.has_contact:
+        _add_scene(spec, beam, o, tc)
+
+    def add_piece(parent, i, pos, quat=None):
+        body = parent.add_body(name=f"piece{i}", pos=pos)
+        if quat is not None:
+            body.quat = quat
+        body.explicitinertial = True
+        body.mass = float(disc.mass[i])
+        body.ipos = [float(disc.com[i]), 0.0, 0.0]
+        body.inertia = [float(v) for v in disc.inertia[i]]
+        length = float(disc.piece_length[i])
+        g = body.add_geom(
+            name=f"capsule{i}", type=mujoco.mjtGeom.mjGEOM_CAPSULE, size=[radius, 0, 0],
+            fromto=[0, 0, 0, length, 0, 0],
+        )
+        g.contype, g.conaffinity = (_ROD_CONTYPE, _ROD_CONAFFINITY) if o.has_contact else (0, 0)
+        g.friction = [o.friction, 0.005, 0.0001]
+        g.solref = [tc, o.contact_dampratio]
+        g.group = 3
+        if o.render:
+            v = body.add_geom(
+                name=f"box{i}", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.5 * length, 0.5 * w, 0.5 * h],
+                pos=[0.5 * length, 0, 0], rgba=[0.35, 0.35, 0.4, 1],
+            )
+            v.contype = v.conaffinity = 0
+            v.group = 1
+        return body
+
+    if o.scene == "cantilever":
+        base = add_piece(world, 0, [0.0, 0.0, 0.0], _quat_y(o.clamp_angle))
+    else:
+        base = add_piece(world, 0, [0.0, 0.0, radius], _quat_y(o.clamp_angle))
+        base.add_joint(name="base_x", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[1, 0, 0])
+        base.add_joint(name="base_z", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, 1])
+        base.add_joint(name="base_theta", type=mujoco.mjtJoint.mjJNT_HINGE, axis=list(_HINGE_AXIS))
+
+    parent = base
+    for i in range(1, o.segments + 1):
+        body = add_piece(parent, i, [float(disc.piece_length[i - 1]), 0.0, 0.0])
+        k = float(disc.stiffness[i - 1])
+        body.add_joint(
+            name=f"hinge{i - 1}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=list(_HINGE_AXIS),
+            stiffness=[k, 0.0, 0.0], damping=[o.retardation_time * k, 0.0, 0.0],
+        )
+        parent = body
+
+    if o.render:
+        world.add_light(name="light", pos=[0.5 * beam.length, -0.1, 0.1], dir=[0, 1, -1])
+        world.add_camera(
+            name="side", pos=[0.5 * beam.length, -4.0 * beam.length, 0.0], xyaxes=[1, 0, 0, 0, 0, 1],
+        )
+    return spec, disc
+
+
+def _add_scene(spec, beam: Beam, o: RodOptions, tc: float) -> None:
+    world = spec.worldbody
+
+    def static_geom(name, **kw):
+        g = world.add_geom(name=name, **kw)
+        g.contype, g.conaffinity = _SCENE_CONTYPE, _SCENE_CONAFFINITY
+        g.friction = [o.friction, 0.005, 0.0001]
+        g.solref = [tc, o.contact_dampratio]
+        return g
+
+    half = 10.0 * beam.length
+    static_geom("floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[half, half, 1e-3])
+    x0 = beam.length + 5e-3 if o.feature_x is None else float(o.feature_x)
+    if o.scene == "channel":
+        cl, cw, ch = CHANNEL_SIZE
+        static_geom(
+            "channel_ceiling", type=mujoco.mjtGeom.mjGEOM_BOX,
+            size=[0.5 * cl, 0.5 * cw + _WALL, 0.5 * _WALL], pos=[x0 + 0.5 * cl, 0.0, ch + 0.5 * _WALL],
+        )
+        for side, y in (("left", 0.5 * cw + 0.5 * _WALL), ("right", -(0.5 * cw + 0.5 * _WALL))):
+            static_geom(
+                f"channel_wall_{side}", type=mujoco.mjtGeom.mjGEOM_BOX,
+                size=[0.5 * cl, 0.5 * _WALL, 0.5 * ch], pos=[x0 + 0.5 * cl, y, 0.5 * ch],
+            )
+    elif o.scene == "obstacle":
+        bl, bw, bh = OBSTACLE_SIZE
+        static_geom(
+            "obstacle", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.5 * bl, 0.5 * bw, 0.5 * bh],
+            pos=[x0 + 0.5 * bl, 0.0, 0.5 * bh],
+        )
+
+
+def build_model(beam: Beam, options: RodOptions | None = None) -> RodModel:
+    """Compile the rod and its scene.
+
+    Parameters
+    ----------
+    beam : Beam
+        The beam specification (SI units).
+    options : RodOptions, optional
+        Scene, segments, integrator and timestep (defaults: a 20-segment clamped cantilever,
+        ``discrete`` integrator, 1 ms step).
+
+    Returns
+    -------
+    RodModel
+    """
+    options = RodOptions() if options is None else options
+    spec, disc = build_spec(beam, options)
+    model = spec.compile()
+    n = options.segments
+    body_ids = np.array([mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, f"piece{i}") for i in range(n + 1)])
+    jids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, f"hinge{i}") for i in range(n)]
+    hinge_qpos = np.array([model.jnt_qposadr[j] for j in jids])
+    hinge_dof = np.array([model.jnt_dofadr[j] for j in jids])
+    base_qpos = np.zeros(0, dtype=int)
+    if options.has_contact:
+        base_qpos = np.array([
+            model.jnt_qposadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, nm)]
+            for nm in ("base_x", "base_z", "base_theta")
+        ])
+    return RodModel(model, beam, options, disc, body_ids, hinge_qpos, hinge_dof, base_qpos)

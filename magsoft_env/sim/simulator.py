@@ -1,0 +1,458 @@
+"""The rod simulator: field, stepping, waveforms, settling, readouts and stability checks."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from ..spec import Beam, Field, as_field
+from ..spec._validate import positive
+from . import magnetics
+from .model import RodModel, RodOptions, build_model
+from .waveforms import Waveform, as_waveform
+
+_WARNINGS = {
+    mujoco.mjtWarning.mjWARN_BADQACC: "qacc (acceleration)",
+    mujoco.mjtWarning.mjWARN_BADQVEL: "qvel (velocity)",
+    mujoco.mjtWarning.mjWARN_BADQPOS: "qpos (position)",
+    mujoco.mjtWarning.mjWARN_CONTACTFULL: "contact buffer full",
+    mujoco.mjtWarning.mjWARN_CNSTRFULL: "constraint buffer full",
+    mujoco.mjtWarning.mjWARN_INERTIA: "inertia",
+}
+_WARN_IDS = np.array([int(w) for w in _WARNINGS])
+#: kinetic energy above this multiple of the system's energy scale is runaway
+_RUNAWAY_FACTOR = 100.0
+#: field magnitude (T) below which the energy scale uses this floor instead
+_FIELD_FLOOR = 0.05
+
+
+class SimulationError(RuntimeError):
+    """The simulation became unstable; stepping stopped.
+
+    Attributes
+    ----------
+    step : int
+        Index of the step (since construction or reset) at which the problem was detected.
+    time : float
+        Simulation time (s) at detection.
+    quantity : str
+        What went wrong (``"qvel"``, ``"kinetic energy"``, a MuJoCo warning, ...).
+    value : float
+        The offending value where one exists (NaN otherwise).
+    """
+
+    def __init__(self, message: str, *, step: int, time: float, quantity: str, value: float = math.nan):
+        super().__init__(message)
+        self.step = step
+        self.time = time
+        self.quantity = quantity
+        self.value = value
+
+
+@dataclass(frozen=True)
+class SettleResult:
+    """Outcome of :meth:`Simulator.settle`.
+
+    Attributes
+    ----------
+    success : bool
+        Whether the convergence test passed within ``max_time``.
+    steps : int
+        Steps taken.
+    residual : float
+        Final static residual: ``max_j |Q_j| / k_j`` (rad), the largest hinge-angle change
+        that would balance the net generalized force ``Q`` at zero velocity.
+    max_speed : float
+        Final largest hinge angular speed (rad/s).
+    message : str
+    """
+
+    success: bool
+    steps: int
+    residual: float
+    max_speed: float
+    message: str
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """Samples recorded by :meth:`Simulator.run`.
+
+    Attributes
+    ----------
+    time : ndarray, shape (n,)
+        Times (s).
+    field : ndarray, shape (n, 2)
+        Applied field B_x, B_z (T).
+    x, z : ndarray, shape (n, N + 2)
+        Centerline points (m), base to tip (see :meth:`Simulator.centerline`).
+    tip_angle : ndarray, shape (n,)
+        Tangent angle of the tip (rad).
+    """
+
+    time: np.ndarray
+    field: np.ndarray
+    x: np.ndarray
+    z: np.ndarray
+    tip_angle: np.ndarray
+
+
+class Simulator:
+    """A magnetic rod in MuJoCo under a uniform applied field.
+
+    Each step the couple ``tau_i = (R_i m_i) x B`` (N m) on every rigid piece goes into
+    ``data.xfrc_applied``, computed from the piece orientations of the current state (via
+    ``mj_step1`` / ``mj_step2``; RK4 uses ``mj_step`` and the previous step's orientations).
+    After every call to :meth:`step` the state is checked: non-finite or huge values
+    (MuJoCo's warnings; auto-reset is disabled), and kinetic energy above
+    ``100 x`` the system's energy scale, raise :class:`SimulationError`.
+
+    Parameters
+    ----------
+    beam : Beam
+        The beam specification.
+    options : RodOptions, optional
+        Scene, segments, integrator, timestep.
+    field : Field or (B_x, B_z), optional
+        Initial applied field (T).
+    check_every : int
+        Steps between energy checks (the finite-state check runs after every step).
+
+    Examples
+    --------
+    >>> from magsoft_env import Beam
+    >>> sim = Simulator(Beam(length=25e-3, width=5e-3, thickness=1.13e-3), field=(0, 0.005))
+    >>> sim.settle().success
+    True
+    """
+
+    def __init__(self, beam: Beam, options: RodOptions | None = None, *, field=(0.0, 0.0), check_every: int = 50):
+        if isinstance(check_every, bool) or not isinstance(check_every, (int, np.integer)) or check_every < 1:
+            raise ValueError(f"check_every must be a positive integer, got {check_every!r}.")
+        self.rod: RodModel = build_model(beam, options)
+        self.model = self.rod.model
+        self.data = mujoco.MjData(self.model)
+        self.check_every = int(check_every)
+        disc = self.rod.disc
+        self._bodies = self.rod.body_ids
+        self._m_body = magnetics.body_moments_3d(disc.moment)
+        self._k = disc.stiffness
+        self._hinge_dof = self.rod.hinge_dof
+        self._hinge_qpos = self.rod.hinge_qpos
+        self._tip_len = float(disc.piece_length[-1])
+        self._two_stage = self.model.opt.integrator != mujoco.mjtIntegrator.mjINT_RK4
+        self._torque = np.zeros((len(self._bodies), 3))
+        #: Extra constant wrench per piece, world frame, shape (N + 1, 6): force (N) at the
+        #: piece's centre of mass, then couple (N m); added to the magnetic couples each step.
+        self.external_wrench = np.zeros((len(self._bodies), 6))
+        self._B3 = np.zeros(3)
+        self._has_external = False
+        self._stale = False
+        self._waveform: Waveform | None = None
+        self._wf_t0 = 0.0
+        self.nstep = 0
+        self.set_field(field)
+        self.reset()
+
+    # ------------------------------------------------------------------ state
+    @property
+    def options(self) -> RodOptions:
+        return self.rod.options
+
+    @property
+    def beam(self) -> Beam:
+        return self.rod.beam
+
+    @property
+    def time(self) -> float:
+        """Simulation time (s)."""
+        return float(self.data.time)
+
+    @property
+    def timestep(self) -> float:
+        """Simulation step (s)."""
+        return float(self.model.opt.timestep)
+
+    @property
+    def field(self) -> Field:
+        """The applied field now (T)."""
+        return Field(float(self._B3[0]), float(self._B3[2]))
+
+    def reset(self) -> None:
+        """Straight beam at rest (floor scenes: lying on the floor), time zero."""
+        mujoco.mj_resetData(self.model, self.data)
+        self.nstep = 0
+        self._wf_t0 = 0.0
+        mujoco.mj_forward(self.model, self.data)
+        self._warn0 = self._warning_counts()
+
+    def set_field(self, field) -> None:
+        """Hold a constant applied field ``(B_x, B_z)`` (T) from now on."""
+        f = as_field(field)
+        self._waveform = None
+        self._B3[:] = (f.Bx, 0.0, f.Bz)
+        self._energy_scale = self._compute_energy_scale()
+
+    def set_waveform(self, waveform, *, start_time: float | None = None) -> None:
+        """Let the field follow ``waveform(t - start_time)`` (T); ``start_time`` defaults to now."""
+        self._waveform = as_waveform(waveform, "waveform")
+        self._wf_t0 = self.time if start_time is None else float(start_time)
+        self._B3[[0, 2]] = self._waveform.sample(np.array([self.time - self._wf_t0]))[0]
+        peak = np.abs(self._waveform.sample(np.linspace(0.0, 1.0, 257))).max(axis=0)
+        self._energy_scale = self._compute_energy_scale(float(np.hypot(*peak)))
+
+    def _compute_energy_scale(self, bmax: float | None = None) -> float:
+        b = max(np.linalg.norm(self._B3) if bmax is None else bmax, _FIELD_FLOOR)
+        m_tot = float(self.rod.disc.mass.sum())
+        mags = np.linalg.norm(self._m_body, axis=1).sum()
+        elastic = 0.5 * float(np.sum(self._k)) * math.pi**2
+        return 2.0 * mags * b + 2.0 * m_tot * self.options.gravity * self.beam.length + elastic
+
+    # ------------------------------------------------------------------ stepping
+    def _apply_torques(self) -> None:
+        d = self.data
+        if self._waveform is not None:
+            self._B3[[0, 2]] = self._waveform.sample(np.array([d.time - self._wf_t0]))[0]
+        mw = magnetics.world_moments(d.xmat[self._bodies], self._m_body)
+        magnetics.couples(mw, self._B3, out=self._torque)
+        if self._has_external:
+            d.xfrc_applied[self._bodies] = self.external_wrench
+            d.xfrc_applied[self._bodies, 3:6] += self._torque
+        else:
+            d.xfrc_applied[self._bodies, 3:6] = self._torque
+
+    def step(self, n: int = 1) -> None:
+        """Advance ``n`` steps, applying the magnetic couples each step.
+
+        Raises
+        ------
+        SimulationError
+            On a non-finite or huge state (MuJoCo warning) or runaway kinetic energy.
+        """
+        m, d = self.model, self.data
+        two = self._two_stage
+        self._has_external = bool(np.any(self.external_wrench))
+        for _ in range(int(n)):
+            if two:
+                mujoco.mj_step1(m, d)
+                self._apply_torques()
+                mujoco.mj_step2(m, d)
+            else:
+                self._apply_torques()
+                mujoco.mj_step(m, d)
+            self.nstep += 1
+            self._stale = True
+            if self.nstep % self.check_every == 0:
+                self._check(energy=True)
+        self._check(energy=False)
+
+    def _sync(self) -> None:
+        # after mj_step the position-dependent quantities (xpos, xmat, qM, contacts) belong to
+        # the state before the step; readouts recompute them for the current qpos
+        if self._stale:
+            mujoco.mj_fwdPosition(self.model, self.data)
+            self._stale = False
+
+    def _warning_counts(self) -> np.ndarray:
+        return np.array([self.data.warning[i].number for i in _WARN_IDS])
+
+    def _fail(self, quantity: str, value: float, hint: str) -> None:
+        o = self.options
+        raise SimulationError(
+            f"simulation unstable at step {self.nstep} (t = {self.time:.6g} s): {quantity}"
+            f"{'' if math.isnan(value) else f' = {value:.4g}'}. {hint} "
+            f"(integrator={o.integrator!r}, timestep={o.timestep:g} s, segments={o.segments}, "
+            f"field=({self._B3[0] * 1e3:.4g}, {self._B3[2] * 1e3:.4g}) mT).",
+            step=self.nstep, time=self.time, quantity=quantity, value=value,
+        )
+
+    def _check(self, *, energy: bool) -> None:
+        d = self.data
+        hint = "Use a smaller timestep or integrator='discrete'."
+        counts = self._warning_counts()
+        new = np.nonzero(counts > self._warn0)[0]
+        if new.size:
+            wid = int(_WARN_IDS[new[0]])
+            self._fail(f"MuJoCo warning: non-finite or huge {_WARNINGS[wid]}", math.nan, hint)
+        for name in ("qpos", "qvel"):
+            arr = getattr(d, name)
+            if not np.all(np.isfinite(arr)):
+                self._fail(f"non-finite {name}", math.nan, hint)
+        if energy:
+            ke = self.kinetic_energy()
+            if not ke <= _RUNAWAY_FACTOR * self._energy_scale:
+                self._fail(
+                    "runaway kinetic energy (J)", ke,
+                    f"It exceeds {_RUNAWAY_FACTOR:g} x the energy scale {self._energy_scale:.3g} J. {hint}",
+                )
+
+    def run(self, waveform, duration: float, *, record_every: int = 10) -> Trajectory:
+        """Follow ``waveform`` (or a constant field) for ``duration`` (s), recording every
+        ``record_every`` steps (and the first state)."""
+        duration = positive("duration", duration, unit="s")
+        if isinstance(record_every, bool) or not isinstance(record_every, (int, np.integer)) or record_every < 1:
+            raise ValueError(f"record_every must be a positive integer, got {record_every!r}.")
+        self.set_waveform(waveform)
+        nsteps = int(round(duration / self.timestep))
+        ts, fs, xs, zs, tips = [], [], [], [], []
+
+        def record():
+            x, z = self.centerline()
+            ts.append(self.time)
+            fs.append(self._B3[[0, 2]].copy())
+            xs.append(x)
+            zs.append(z)
+            tips.append(self.tip_angle())
+
+        record()
+        done = 0
+        while done < nsteps:
+            k = min(record_every, nsteps - done)
+            self.step(k)
+            done += k
+            record()
+        return Trajectory(np.array(ts), np.array(fs), np.array(xs), np.array(zs), np.array(tips))
+
+    # ------------------------------------------------------------------ statics
+    def static_residual(self) -> float:
+        """``max_j |Q_j| / k_j`` (rad) at the current configuration and zero velocity, where Q
+        is the net generalized force on the hinges (springs, gravity, magnetic couples)."""
+        m, d = self.model, self.data
+        qvel = d.qvel.copy()
+        self._has_external = bool(np.any(self.external_wrench))
+        d.qvel[:] = 0.0
+        mujoco.mj_kinematics(m, d)
+        self._apply_torques()
+        mujoco.mj_forward(m, d)
+        self._stale = False
+        q = d.qfrc_smooth[self._hinge_dof] + d.qfrc_constraint[self._hinge_dof]
+        d.qvel[:] = qvel
+        mujoco.mj_forward(m, d)
+        return float(np.max(np.abs(q) / self._k))
+
+    def settle(
+        self, *, tol: float = 1e-7, max_time: float = 20.0, speed_tol: float | None = None,
+        settle_damping: float = 0.05,
+    ) -> SettleResult:
+        """Settle to static equilibrium by damped dynamics at the current (constant) field.
+
+        Hinge damping is raised to ``settle_damping * k_j`` (a Kelvin-Voigt time in s) while
+        settling and restored after. Converged when, at a check, the static residual
+        (:meth:`static_residual`, rad) is below ``tol`` and the largest hinge speed is below
+        ``speed_tol`` (rad/s; default ``tol / settle_damping``).
+
+        Parameters
+        ----------
+        tol : float
+            Residual tolerance (rad), > 0.
+        max_time : float
+            Simulated-time budget (s).
+        settle_damping : float
+            Retardation time used while settling (s).
+        """
+        tol = positive("tol", tol, unit="rad")
+        max_time = positive("max_time", max_time, unit="s")
+        settle_damping = positive("settle_damping", settle_damping, unit="s")
+        speed_tol = tol / settle_damping if speed_tol is None else positive("speed_tol", speed_tol, unit="rad/s")
+        m = self.model
+        damp0 = m.dof_damping[self._hinge_dof].copy()
+        m.dof_damping[self._hinge_dof] = settle_damping * self._k
+        if self._waveform is not None:
+            self._waveform = None  # hold the present field
+        steps, chunk = 0, 20
+        nmax = int(math.ceil(max_time / self.timestep))
+        res, speed = math.inf, math.inf
+        try:
+            while steps < nmax:
+                self.step(chunk)
+                steps += chunk
+                speed = float(np.max(np.abs(self.data.qvel[self._hinge_dof])))
+                if speed < speed_tol:
+                    res = self.static_residual()
+                    if res < tol:
+                        return SettleResult(True, steps, res, speed, "converged")
+            res = self.static_residual()
+        finally:
+            m.dof_damping[self._hinge_dof] = damp0
+        return SettleResult(
+            False, steps, res, speed,
+            f"not settled in {max_time:g} s: residual {res:.3g} rad (tol {tol:g}), speed {speed:.3g} rad/s",
+        )
+
+    # ------------------------------------------------------------------ readouts
+    def centerline(self) -> tuple[np.ndarray, np.ndarray]:
+        """Centerline points (m): the base end (s = 0), every hinge, the tip; shape ``(N + 2,)``.
+
+        Hinge ``j`` sits at ``s = (j + 1/2) L / N``.
+        """
+        self._sync()
+        d = self.data
+        p = d.xpos[self._bodies]
+        tipmat = d.xmat[self._bodies[-1]]
+        tip = p[-1] + self._tip_len * tipmat[[0, 3, 6]]
+        x = np.concatenate([p[:, 0], [tip[0]]])
+        z = np.concatenate([p[:, 2], [tip[2]]])
+        return x, z
+
+    def arc_length(self) -> np.ndarray:
+        """Reference arc length (m) of the :meth:`centerline` points, shape ``(N + 2,)``."""
+        disc = self.rod.disc
+        return np.concatenate([[0.0], disc.hinge_s, [disc.length]])
+
+    def angles(self) -> np.ndarray:
+        """Tangent angle of every piece from +x toward +z (rad), shape ``(N + 1,)``."""
+        self._sync()
+        R = self.data.xmat[self._bodies]
+        return np.arctan2(R[:, 6], R[:, 0])  # world z and x of the body x axis
+
+    def tip_angle(self) -> float:
+        """Tangent angle of the tip piece (rad), continuous beyond +-pi (sum of joint angles)."""
+        base = self.options.clamp_angle
+        if self.rod.base_qpos.size:
+            base += float(self.data.qpos[self.rod.base_qpos[2]])
+        return base + float(np.sum(self.data.qpos[self._hinge_qpos]))
+
+    def contacts(self) -> list[dict]:
+        """Active contacts: geom names, position (m), penetration depth (m, >= 0 when touching)."""
+        self._sync()
+        m, d = self.model, self.data
+        out = []
+        for c in d.contact[: d.ncon]:
+            out.append({
+                "geom1": mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, c.geom1),
+                "geom2": mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, c.geom2),
+                "pos": np.array(c.pos), "penetration": float(-c.dist),
+            })
+        return out
+
+    @property
+    def ncon(self) -> int:
+        """Number of active contacts."""
+        self._sync()
+        return int(self.data.ncon)
+
+    def kinetic_energy(self) -> float:
+        """Kinetic energy (J)."""
+        self._sync()
+        mv = np.zeros(self.model.nv)
+        mujoco.mj_mulM(self.model, self.data, mv, self.data.qvel)
+        return 0.5 * float(self.data.qvel @ mv)
+
+    def energies(self) -> dict[str, float]:
+        """Kinetic, elastic, gravitational, magnetic and total energy (J).
+
+        Gravity is measured from z = 0; magnetic energy is ``-sum (R m) . B``.
+        """
+        self._sync()
+        d = self.data
+        q = d.qpos[self._hinge_qpos]
+        elastic = 0.5 * float(np.sum(self._k * q**2))
+        zc = d.xipos[self._bodies, 2]
+        grav = float(np.sum(self.rod.disc.mass * zc)) * self.options.gravity
+        mag = magnetics.energy(magnetics.world_moments(d.xmat[self._bodies], self._m_body), self._B3)
+        kin = self.kinetic_energy()
+        return {"kinetic": kin, "elastic": elastic, "gravity": grav, "magnetic": mag,
+                "total": kin + elastic + grav + mag}
