@@ -148,12 +148,20 @@ class Preset:
 
     @property
     def fields(self) -> list[Field]:
-        """The loading path's fields in order (T); consecutive duplicates are dropped."""
+        """The loading path's fields in order (T); consecutive duplicates are dropped.
+
+        A free-free beam has no preferred orientation at zero field, so zero-field states
+        are dropped from its path (the solver ramps up from zero to the first field itself).
+        """
         out: list[Field] = []
         for seg in self.path:
             for f in seg.fields():
+                if self.support == "free" and f.magnitude == 0.0:
+                    continue
                 if not out or f != out[-1]:
                     out.append(f)
+        if not out:
+            raise ValueError(f"preset {self.name!r}: the loading path of a free-free beam needs a non-zero field.")
         return out
 
     def solver_options(self) -> dict:
