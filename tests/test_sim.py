@@ -271,6 +271,7 @@ def test_waveform_drives_simulator(beam):
         ({"gravity": -9.81}, "gravity"),
         ({"friction": -1.0}, "friction"),
         ({"contact_timeconst": 0.0}, "contact_timeconst"),
+        ({"grading": 20.0}, "grading"),
     ],
 )
 def test_rod_options_reject_bad_input(kwargs, name):

@@ -1,12 +1,14 @@
 """Backend-neutral discretization of a :class:`~magsoft_env.spec.Beam` into rigid links.
 
-The midpoint layout: the beam is cut into ``N`` equal cells of length ``ds = L / N`` and
-a hinge sits at the midpoint of each cell, ``s_j = (j + 1/2) ds``. The half-cell
-``[0, ds/2]`` is the base piece (fixed to the clamp in a cantilever), links ``0 .. N-2``
-span one cell length between hinges and the last link is the half cell ``[L - ds/2, L]``.
-Hinge ``j`` carries the bending compliance of cell ``j`` (``k_j = 1 / int_cell ds / EI``,
-which is ``E I / ds`` for a uniform beam): the midpoint rule for the elastica, second-order
-accurate in ``ds``. Everything here is numpy only, so a 3D rod backend can reuse it.
+The midpoint layout: the beam is cut into ``N`` cells (equal, ``ds = L / N``, unless a
+``grading`` is given) and a hinge sits at the midpoint of each cell, ``s_j = (j + 1/2) ds``.
+The half-cell ``[0, ds/2]`` is the base piece (fixed to the clamp in a cantilever), links
+``0 .. N-2`` span from one hinge to the next and the last link is the half cell
+``[L - ds/2, L]``. Hinge ``j`` carries the bending compliance of cell ``j``
+(``k_j = 1 / int_cell ds / EI``, which is ``E I / ds`` for a uniform beam): the midpoint rule
+for the elastica, second-order accurate in ``ds``. A ``grading > 1`` makes the cells
+geometrically finer toward the clamp, where a cantilever in a strong field concentrates its
+curvature. Everything here is numpy only, so a 3D rod backend can reuse it.
 """
 
 from __future__ import annotations
@@ -77,11 +79,21 @@ class RodDiscretization:
 
     @property
     def ds(self) -> float:
-        """Cell length L / N (m)."""
+        """Mean cell length L / N (m)."""
         return self.length / self.segments
 
 
-def discretize(beam: Beam, segments: int) -> RodDiscretization:
+def cell_edges(length: float, segments: int, grading: float = 1.0) -> np.ndarray:
+    """Cell boundaries (m), shape ``(segments + 1,)``: geometric cells, the last ``grading``
+    times as long as the first (1: equal cells; > 1: finer at the clamp)."""
+    if grading == 1.0:
+        return np.linspace(0.0, length, segments + 1)
+    r = grading ** (1.0 / (segments - 1))
+    sizes = r ** np.arange(segments)
+    return np.concatenate([[0.0], np.cumsum(sizes)]) * (length / sizes.sum())
+
+
+def discretize(beam: Beam, segments: int, *, grading: float = 1.0) -> RodDiscretization:
     """Cut ``beam`` into ``segments`` midpoint cells (see the module docstring).
 
     Parameters
@@ -89,7 +101,9 @@ def discretize(beam: Beam, segments: int) -> RodDiscretization:
     beam : Beam
         The beam specification.
     segments : int
-        Number of cells N, at least 2.
+        Number of cells N, in [2, 1000].
+    grading : float
+        Ratio of the first cell's length to the last one's, in [0.1, 10] (1: equal cells).
 
     Returns
     -------
@@ -99,10 +113,12 @@ def discretize(beam: Beam, segments: int) -> RodDiscretization:
         raise ValueError(f"beam must be a magsoft_env.Beam, got {type(beam).__name__}.")
     if isinstance(segments, bool) or not isinstance(segments, (int, np.integer)) or not 2 <= segments <= 1000:
         raise ValueError(f"segments must be an integer in [2, 1000], got {segments!r}.")
+    if not (isinstance(grading, (int, float, np.floating)) and 0.1 <= grading <= 10.0):
+        raise ValueError(f"grading must be a number in [0.1, 10], got {grading!r}.")
     n = int(segments)
     L = beam.length
-    ds = L / n
-    hinge_s = (np.arange(n) + 0.5) * ds
+    edges = cell_edges(L, n, float(grading))
+    hinge_s = 0.5 * (edges[:-1] + edges[1:])
     start = np.concatenate([[0.0], hinge_s])
     end = np.concatenate([hinge_s, [L]])
     h, w = beam.thickness, beam.width
@@ -110,7 +126,7 @@ def discretize(beam: Beam, segments: int) -> RodDiscretization:
     def flex(s):
         return 1.0 / beam.bending_stiffness(s)
 
-    stiffness = np.array([1.0 / _integrate(beam, j * ds, (j + 1) * ds, [flex])[0] for j in range(n)])
+    stiffness = np.array([1.0 / _integrate(beam, edges[j], edges[j + 1], [flex])[0] for j in range(n)])
 
     mass = np.empty(n + 1)
     com = np.empty(n + 1)

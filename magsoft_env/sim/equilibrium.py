@@ -73,6 +73,7 @@ def mujoco_path(
     integrator: str = "discrete",
     tol: float = 1e-8,
     max_time: float = 20.0,
+    grading: float = 1.0,
 ) -> list[SimEquilibrium]:
     """Settle the clamped MuJoCo rod along a loading path: gravity first, then each field in turn.
 
@@ -101,6 +102,8 @@ def mujoco_path(
         Static-residual tolerance (rad).
     max_time : float
         Simulated-time budget per settle (s).
+    grading : float
+        Last / first cell length (see :class:`RodOptions`); 1 gives equal cells.
 
     Returns
     -------
@@ -111,7 +114,7 @@ def mujoco_path(
     mstep = positive("max_field_step", max_field_step, unit="T")
     opts = RodOptions(
         segments=segments, scene="cantilever", integrator=integrator, timestep=timestep, gravity=gravity,
-        clamp_angle=clamp_angle,
+        clamp_angle=clamp_angle, grading=grading,
     )
     sim = Simulator(beam, opts)
     steps = 0
@@ -147,6 +150,7 @@ def mujoco_equilibrium(
     integrator: str = "discrete",
     tol: float = 1e-8,
     max_time: float = 20.0,
+    grading: float = 1.0,
 ) -> SimEquilibrium:
     """Static equilibrium of the clamped MuJoCo rod under ``field`` (T), reached like the
     analytical solver: gravity first, then the field ramped from zero in straight-line steps
@@ -168,4 +172,5 @@ def mujoco_equilibrium(
     return mujoco_path(
         beam, [as_field(field)], gravity=gravity, segments=segments, clamp_angle=clamp_angle,
         max_field_step=max_field_step, timestep=timestep, integrator=integrator, tol=tol, max_time=max_time,
+        grading=grading,
     )[0]

@@ -74,6 +74,9 @@ class RodOptions:
         x (m) of the channel entrance or the obstacle's left face; ``None``: ``L + 5 mm``.
     render : bool
         Add box visual geoms, a light and a camera (only for rendering).
+    grading : float
+        Last cell length / first cell length, in [0.1, 10]; 1 gives equal cells, > 1 finer
+        cells at the clamp (more accurate cantilevers in strong fields, see docs/sim.md).
     """
 
     segments: int = 20
@@ -88,6 +91,7 @@ class RodOptions:
     contact_dampratio: float = 1.0
     feature_x: float | None = None
     render: bool = False
+    grading: float = 1.0
 
     def __post_init__(self):
         seg = self.segments
@@ -107,6 +111,9 @@ class RodOptions:
         positive("RodOptions.contact_dampratio", self.contact_dampratio)
         if self.feature_x is not None:
             finite_number("RodOptions.feature_x", self.feature_x, unit="m")
+        g = finite_number("RodOptions.grading", self.grading)
+        if not 0.1 <= g <= 10.0:
+            raise ValueError(f"RodOptions.grading must lie in [0.1, 10], got {self.grading!r}.")
 
     @property
     def has_contact(self) -> bool:
@@ -153,7 +160,7 @@ def build_spec(beam: Beam, options: RodOptions) -> tuple[mujoco.MjSpec, RodDiscr
     """The scene as an editable ``mujoco.MjSpec`` (see :func:`build_model`)."""
     if not isinstance(options, RodOptions):
         raise ValueError(f"options must be a RodOptions, got {type(options).__name__}.")
-    disc = discretize(beam, options.segments)
+    disc = discretize(beam, options.segments, grading=options.grading)
     o = options
     spec = mujoco.MjSpec()
     spec.modelname = f"magsoft_rod_{o.scene}_{o.segments}"
