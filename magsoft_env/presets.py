@@ -440,7 +440,8 @@ def compile_expression(text: str, *, name: str = "expression", variable: str = "
     Allowed: numbers, the variable, ``pi``, ``+ - * / **``, unary ``-``/``+``, the comparisons
     ``< <= > >=`` (for ``where``) and the functions ``sin cos exp sqrt abs where``. Anything
     else (attribute access, names, subscripts, keywords, lambdas, ...) raises ValueError
-    naming ``name``. Nothing is passed to ``eval``.
+    naming ``name``, and so does evaluating it where it is not finite. Nothing is passed to
+    ``eval``.
 
     Examples
     --------
@@ -459,8 +460,16 @@ def compile_expression(text: str, *, name: str = "expression", variable: str = "
     _check_node(tree.body, name, variable)
 
     def f(x):
+        x = np.asarray(x, dtype=float)
         with np.errstate(all="ignore"):
-            return np.asarray(_eval(tree.body, np.asarray(x, dtype=float), variable), dtype=float) + 0.0 * x
+            out = np.asarray(_eval(tree.body, x, variable), dtype=float) + np.zeros_like(x)
+        if not np.all(np.isfinite(out)):
+            bad = x[~np.isfinite(out)] if out.shape == x.shape and x.ndim else x
+            raise ValueError(
+                f"{name} = {text!r} gives non-finite values (overflow, or sqrt of a negative number), "
+                f"e.g. at {variable} = {np.ravel(bad)[0]:g}."
+            )
+        return out
 
     f.__doc__ = f"z = {text}"
     return f
