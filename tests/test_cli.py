@@ -149,6 +149,8 @@ def test_demo_runs_on_defaults(tmp_path, capsys):
         (["solve", "--field-mT", "0", "nan"], "--field-mT BZ must lie in"),
         (["solve", "--steps", "1"], r"--steps must lie in \[2, 10000\], got 1"),
         (["solve", "--gravity", "-1"], "--gravity must lie in"),
+        (["solve", "--density-kg-per-m3", "0"], "--density-kg-per-m3 must lie in"),
+        (["solve", "--preset", "fig3a_L20", "--length-mm", "30"], "give --preset or beam parameters, not both"),
         (["solve", "--preset", "fig4a_4cells_up", "--gravity", "9.81"], "free-free beam needs gravity 0"),
         (["solve", "--support", "free"], "free-free beam needs gravity 0"),
         (["sweep", "--lengths-mm", "-5"], "--lengths-mm must lie in"),

@@ -17,6 +17,15 @@ import textwrap
 from pathlib import Path
 
 DEFAULT_OUT = "magsoft_out"
+# beam flags of ``magsoft solve``: (flag, default, help); defaults are the paper's 25 mm beam
+BEAM_FLAGS = (
+    ("--length-mm", 25.0, "beam length L in mm"),
+    ("--width-mm", 5.0, "width w in mm"),
+    ("--thickness-mm", 1.13, "thickness h in mm"),
+    ("--phi", 0.2, "particle volume fraction in [0, 0.5]"),
+    ("--beta-deg", 0.0, "uniform magnetization angle in deg, from +x toward +z"),
+    ("--density-kg-per-m3", 1940.0, "composite density in kg/m^3"),
+)
 MM = 1e-3
 MT = 1e-3
 
@@ -68,7 +77,7 @@ def write_text_atomic(path, text: str) -> Path:
 
 
 def write_json(path, data) -> Path:
-    return write_text_atomic(path, json.dumps(_jsonable(data), indent=2, allow_nan=True) + "\n")
+    return write_text_atomic(path, json.dumps(_jsonable(data), indent=2, allow_nan=False) + "\n")
 
 
 def write_csv(path, rows: list[dict]) -> Path:
@@ -100,8 +109,8 @@ def _jsonable(obj):
         return bool(obj)
     if isinstance(obj, np.integer):
         return int(obj)
-    if isinstance(obj, np.floating):
-        return float(obj)
+    if isinstance(obj, (float, np.floating)):
+        return float(obj) if math.isfinite(obj) else None  # strict JSON: NaN/inf (failed solves) -> null
     return obj
 
 
@@ -187,12 +196,8 @@ def add_parser(subparsers) -> None:
     src = p.add_argument_group("case")
     src.add_argument("--preset", metavar="NAME", help="a shipped preset (or a path to a preset .json file)")
     src.add_argument("--list", action="store_true", help="list the presets and exit")
-    src.add_argument("--length-mm", type=float, default=25.0, help="beam length L in mm (default 25)")
-    src.add_argument("--width-mm", type=float, default=5.0, help="width w in mm (default 5)")
-    src.add_argument("--thickness-mm", type=float, default=1.13, help="thickness h in mm (default 1.13)")
-    src.add_argument("--phi", type=float, default=0.2, help="particle volume fraction in [0, 0.5] (default 0.2)")
-    src.add_argument("--beta-deg", type=float, default=0.0, help="uniform magnetization angle in deg (default 0)")
-    src.add_argument("--density", type=float, default=1940.0, help="composite density kg/m^3 (default 1940)")
+    for flag, default, text in BEAM_FLAGS:
+        src.add_argument(flag, type=float, default=None, help=f"{text} (default {default:g})")
     src.add_argument("--field-mT", type=float, nargs=2, metavar=("BX", "BZ"), default=None,
                      help="final applied field in mT (default 0 13); with --preset, replaces its path")
     src.add_argument("--steps", type=int, default=None,
@@ -215,6 +220,12 @@ def build_case(args):
         _check_flag("--field-mT BX", bx, lo=-1000.0, hi=1000.0)
         _check_flag("--field-mT BZ", bz, lo=-1000.0, hi=1000.0)
         field = Field.from_mT(bx, bz)
+    given = [flag for flag, _, _ in BEAM_FLAGS if getattr(args, _dest(flag)) is not None]
+    if args.preset and given:
+        raise ValueError(f"give --preset or beam parameters, not both: got --preset {args.preset} and {given}.")
+    for flag, default, _ in BEAM_FLAGS:
+        if getattr(args, _dest(flag)) is None:
+            setattr(args, _dest(flag), default)
     if args.preset:
         preset = load_preset(args.preset)
         if field is not None:
@@ -225,12 +236,12 @@ def build_case(args):
         _check_flag("--thickness-mm", args.thickness_mm, lo=0.0, hi=1000.0, open_lo=True)
         _check_flag("--phi", args.phi, lo=0.0, hi=0.5)
         _check_flag("--beta-deg", args.beta_deg, lo=-360.0, hi=360.0)
-        _check_flag("--density", args.density, lo=0.0, hi=1e5, open_lo=True)
+        _check_flag("--density-kg-per-m3", args.density_kg_per_m3, lo=0.0, hi=1e5, open_lo=True)
         beam = Beam(
             length=args.length_mm * MM,
             width=args.width_mm * MM,
             thickness=args.thickness_mm * MM,
-            material=Material(density=args.density),
+            material=Material(density=args.density_kg_per_m3),
             volume_fraction=args.phi,
             magnetization=math.radians(args.beta_deg),
         )
@@ -242,12 +253,16 @@ def build_case(args):
             beam=beam,
             path=(PathSegment(Field(), field, args.steps or 14),),
             config={"length_mm": args.length_mm, "width_mm": args.width_mm, "thickness_mm": args.thickness_mm,
-                    "phi": args.phi, "beta_deg": args.beta_deg, "density_kg_per_m3": args.density,
+                    "phi": args.phi, "beta_deg": args.beta_deg, "density_kg_per_m3": args.density_kg_per_m3,
                     "field_mT": [field.Bx / MT, field.Bz / MT]},
         )
     if args.steps is not None and field is None:
         preset = preset.with_steps(args.steps)
     return apply_overrides(preset, args)
+
+
+def _dest(flag: str) -> str:
+    return flag.lstrip("-").replace("-", "_")
 
 
 def _check_flag(flag, value, *, lo, hi, open_lo=False, integer=False):
