@@ -1,0 +1,31 @@
+"""Inverse design: target curves, point-to-curve objective, parametrized profiles, optimizer, jig output."""
+
+from .distance import point_to_polyline
+from .families import FAMILIES, BasisProfile, ProfileFamily
+from .optimize import STATUS_MESSAGES, DesignResult, design_profile
+from .targets import (
+    BUILTIN_TARGETS,
+    builtin_target,
+    curve_length,
+    prepare_target,
+    read_curve_csv,
+    resample,
+    validate_target,
+)
+
+__all__ = [
+    "BUILTIN_TARGETS",
+    "FAMILIES",
+    "STATUS_MESSAGES",
+    "BasisProfile",
+    "DesignResult",
+    "ProfileFamily",
+    "builtin_target",
+    "curve_length",
+    "design_profile",
+    "point_to_polyline",
+    "prepare_target",
+    "read_curve_csv",
+    "resample",
+    "validate_target",
+]
