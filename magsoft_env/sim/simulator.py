@@ -144,7 +144,10 @@ class Simulator:
         self._hinge_qpos = self.rod.hinge_qpos
         self._tip_len = float(disc.piece_length[-1])
         self._two_stage = self.model.opt.integrator != mujoco.mjtIntegrator.mjINT_RK4
-        self._torque = np.zeros((len(self._bodies), 3))
+        self._b0, self._b1 = int(self._bodies[0]), int(self._bodies[-1]) + 1
+        if not np.array_equal(self._bodies, np.arange(self._b0, self._b1)):
+            raise RuntimeError("rod bodies must have consecutive ids")  # guaranteed by build_model
+        self._coef = np.zeros((len(self._bodies), 9))
         #: Extra constant wrench per piece, world frame, shape (N + 1, 6): force (N) at the
         #: piece's centre of mass, then couple (N m); added to the magnetic couples each step.
         self.external_wrench = np.zeros((len(self._bodies), 6))
@@ -194,6 +197,7 @@ class Simulator:
         f = as_field(field)
         self._waveform = None
         self._B3[:] = (f.Bx, 0.0, f.Bz)
+        self._set_coefficients()
         self._energy_scale = self._compute_energy_scale()
 
     def set_waveform(self, waveform, *, start_time: float | None = None) -> None:
@@ -201,6 +205,7 @@ class Simulator:
         self._waveform = as_waveform(waveform, "waveform")
         self._wf_t0 = self.time if start_time is None else float(start_time)
         self._B3[[0, 2]] = self._waveform.sample(np.array([self.time - self._wf_t0]))[0]
+        self._set_coefficients()
         peak = np.abs(self._waveform.sample(np.linspace(0.0, 1.0, 257))).max(axis=0)
         self._energy_scale = self._compute_energy_scale(float(np.hypot(*peak)))
 
@@ -212,17 +217,32 @@ class Simulator:
         return 2.0 * mags * b + 2.0 * m_tot * self.options.gravity * self.beam.length + elastic
 
     # ------------------------------------------------------------------ stepping
-    def _apply_torques(self) -> None:
+    def _set_coefficients(self) -> None:
+        # planar fast path: every piece turns about y, so tau = (R m) x B has only a y part,
+        # tau_y = B_x (R m)_z - B_z (R m)_x, linear in the row-major xmat entries 0, 2, 6, 8
+        bx, bz = self._B3[0], self._B3[2]
+        mx, mz = self._m_body[:, 0], self._m_body[:, 2]
+        c = self._coef
+        c[:, 0], c[:, 2], c[:, 6], c[:, 8] = -bz * mx, -bz * mz, bx * mx, bx * mz
+
+    def _apply_torques(self, field=None) -> None:
         d = self.data
-        if self._waveform is not None:
-            self._B3[[0, 2]] = self._waveform.sample(np.array([d.time - self._wf_t0]))[0]
-        mw = magnetics.world_moments(d.xmat[self._bodies], self._m_body)
-        magnetics.couples(mw, self._B3, out=self._torque)
+        if field is not None:
+            self._B3[0], self._B3[2] = field
+            self._set_coefficients()
+        b0, b1 = self._b0, self._b1
+        tau_y = np.einsum("ij,ij->i", d.xmat[b0:b1], self._coef)
         if self._has_external:
-            d.xfrc_applied[self._bodies] = self.external_wrench
-            d.xfrc_applied[self._bodies, 3:6] += self._torque
+            d.xfrc_applied[b0:b1] = self.external_wrench
+            d.xfrc_applied[b0:b1, 4] += tau_y
         else:
-            d.xfrc_applied[self._bodies, 3:6] = self._torque
+            d.xfrc_applied[b0:b1, 4] = tau_y
+
+    def magnetic_couples(self) -> np.ndarray:
+        """Magnetic couples on the pieces now, world frame, shape ``(N + 1, 3)`` (N m)."""
+        self._sync()
+        mw = magnetics.world_moments(self.data.xmat[self._bodies], self._m_body)
+        return magnetics.couples(mw, self._B3)
 
     def step(self, n: int = 1) -> None:
         """Advance ``n`` steps, applying the magnetic couples each step.
@@ -234,14 +254,20 @@ class Simulator:
         """
         m, d = self.model, self.data
         two = self._two_stage
+        n = int(n)
         self._has_external = bool(np.any(self.external_wrench))
-        for _ in range(int(n)):
+        fields = None
+        if self._waveform is not None:  # all fields of this call in one vectorized sample
+            t = d.time - self._wf_t0 + self.timestep * np.arange(n)
+            fields = self._waveform.sample(t)
+        for k in range(n):
+            f = None if fields is None else fields[k]
             if two:
                 mujoco.mj_step1(m, d)
-                self._apply_torques()
+                self._apply_torques(f)
                 mujoco.mj_step2(m, d)
             else:
-                self._apply_torques()
+                self._apply_torques(f)
                 mujoco.mj_step(m, d)
             self.nstep += 1
             self._stale = True

@@ -1,0 +1,96 @@
+"""Theory versus MuJoCo rod along a preset's loading path: tip error / L against segments."""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from .equilibrium import SimEquilibrium, mujoco_path
+
+
+@dataclass(frozen=True)
+class CrosscheckRow:
+    """One preset at one segment count.
+
+    Attributes
+    ----------
+    preset : str
+    segments : int
+    grading : float
+    max_tip_error : float
+        Largest tip-position distance over the path, divided by L (dimensionless).
+    mean_tip_error : float
+        Mean of the same over the path states.
+    sim_seconds, theory_seconds : float
+        Wall time of the MuJoCo path and of the analytical path (s), same process.
+    success : bool
+        Both sides converged at every state.
+    """
+
+    preset: str
+    segments: int
+    grading: float
+    max_tip_error: float
+    mean_tip_error: float
+    sim_seconds: float
+    theory_seconds: float
+    success: bool
+
+
+def crosscheck_preset(preset, segments=(10, 20, 40), *, grading: float = 1.0, theory_results=None):
+    """Compare the analytical solver (``coupling="rotated"``, inextensible) and the MuJoCo rod.
+
+    Parameters
+    ----------
+    preset : magsoft_env.presets.Preset
+        A cantilever preset.
+    segments : sequence of int
+        Segment counts to run.
+    grading : float
+        Cell grading of the rod (see :class:`~magsoft_env.sim.RodOptions`).
+    theory_results : list, optional
+        Precomputed analytical path (skips the theory solve and its timing).
+
+    Returns
+    -------
+    rows : list of CrosscheckRow
+    theory : list of EquilibriumResult
+    sims : dict of int to list of SimEquilibrium
+    """
+    if preset.support != "cantilever":
+        raise ValueError(f"preset {preset.name!r} has support={preset.support!r}; the MuJoCo rod is clamped only.")
+    from .. import theory as th
+
+    fields = preset.fields
+    t_th = math.nan
+    if theory_results is None:
+        t0 = time.perf_counter()
+        theory_results = th.solve_path(
+            preset.beam, fields, gravity=preset.gravity, coupling="rotated", extensible=False,
+            clamp_angle=preset.clamp_angle,
+        )
+        t_th = time.perf_counter() - t0
+    L = preset.beam.length
+    rows, sims = [], {}
+    for n in segments:
+        t0 = time.perf_counter()
+        sim = mujoco_path(
+            preset.beam, fields, gravity=preset.gravity, segments=int(n), clamp_angle=preset.clamp_angle,
+            grading=grading,
+        )
+        t_sim = time.perf_counter() - t0
+        err = tip_errors(sim, theory_results, L)
+        ok = all(r.success for r in theory_results) and all(s.success for s in sim)
+        rows.append(CrosscheckRow(preset.name, int(n), grading, float(err.max()), float(err.mean()), t_sim, t_th, ok))
+        sims[int(n)] = sim
+    return rows, theory_results, sims
+
+
+def tip_errors(sims: list[SimEquilibrium], theory_results, length: float) -> np.ndarray:
+    """Tip-position distance / L for each state of a path, shape ``(n,)``."""
+    return np.array([
+        math.hypot(s.x[-1] - t.x[-1], s.z[-1] - t.z[-1]) / length for s, t in zip(sims, theory_results, strict=True)
+    ])
