@@ -159,13 +159,26 @@ def sel_axis_label(path_name: str) -> str:
 
 def couplings_figure(cases: Sequence[dict], path) -> Path:
     """Overlay of the two couplings. Each case: ``title``, ``length`` (m), ``reference`` (x, z) m,
-    ``rotated`` and ``paper`` (lists of results at the same fields)."""
+    ``rotated`` and ``paper`` (lists of results at the same fields), optionally ``beta``
+    (s in m, beta in rad) drawn in a second row."""
     n = len(cases)
-    fig, axes = _figure(1, n, size=(5.2 * n, 4.6))
+    with_beta = all("beta" in c for c in cases)
+    fig, axes = _figure(2 if with_beta else 1, n, size=(5.2 * n, 4.6 + (2.2 if with_beta else 0.0)))
+    if with_beta:
+        fig.get_layout_engine().set(h_pad=0.1)
+        for ax in axes[0]:  # shapes get most of the height
+            ax.set_box_aspect(None)
     import matplotlib
 
     colours = matplotlib.colormaps["viridis"]
-    for ax, case in zip(axes.flat, cases, strict=True):
+    if with_beta:
+        for ax, case in zip(axes[1], cases, strict=True):
+            s, beta = case["beta"]
+            ax.plot(np.asarray(s) * MM, np.degrees(beta), color="k", lw=1.4)
+            ax.set_xlabel("s (mm)")
+            ax.set_ylabel("magnetization angle beta (deg)")
+            ax.grid(True, lw=0.4, alpha=0.5)
+    for ax, case in zip(axes[0], cases, strict=True):
         ref = case["reference"]
         ax.plot(np.asarray(ref[0]) * MM, np.asarray(ref[1]) * MM, color="0.6", ls="--", lw=1.0, label="undeformed")
         m = len(case["rotated"])

@@ -13,6 +13,8 @@ from __future__ import annotations
 import argparse
 import math
 
+import numpy as np
+
 from .solve import (
     DEFAULT_OUT,
     _check_flag,
@@ -79,12 +81,14 @@ def run(args) -> int:
         rot = preset.replace(coupling="rotated").solve()
         pap = preset.replace(coupling="paper").solve()
         idx = _levels(len(rot), args.levels)
+        s_fine = np.linspace(0.0, preset.beam.length, 801)
         cases.append({
             "title": f"{preset.name} (L = {preset.beam.length / MM:.1f} mm)",
             "length": preset.beam.length,
             "reference": ([0.0, preset.beam.length], [0.0, 0.0]),
             "rotated": [rot[i] for i in idx],
             "paper": [pap[i] for i in idx],
+            "beta": (s_fine, preset.beam.beta(s_fine)),
         })
         for i in idx:
             mr = metrics_row(rot[i], preset.beam, axis=preset.sweep_axis)
