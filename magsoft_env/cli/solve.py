@@ -34,7 +34,7 @@ MT = 1e-3
 # shared helpers
 
 
-def add_solver_flags(p, *, preset_defaults: bool) -> None:
+def add_solver_flags(p, *, preset_defaults: bool, support: bool = True) -> None:
     """Flags that override solver options; ``None`` means "the preset's (or the default) value"."""
     p.add_argument("--gravity", type=float, default=None, metavar="G",
                    help="gravitational acceleration in m/s^2 along -z; 0 switches gravity off"
@@ -44,8 +44,9 @@ def add_solver_flags(p, *, preset_defaults: bool) -> None:
                    "'paper' (eq. 10 verbatim)")
     p.add_argument("--extensible", action=argparse.BooleanOptionalAction, default=None,
                    help="include axial strain (paper eq. 14); --no-extensible for the inextensible beam")
-    p.add_argument("--support", choices=("cantilever", "free"), default=None,
-                   help="cantilever (clamped at s = 0) or free-free (needs --gravity 0)")
+    if support:
+        p.add_argument("--support", choices=("cantilever", "free"), default=None,
+                       help="cantilever (clamped at s = 0) or free-free (needs --gravity 0)")
 
 
 def check_out_dir(out) -> Path:
@@ -174,7 +175,7 @@ METRIC_COLUMNS = [
 
 def apply_overrides(preset, args):
     """The preset with the solver flags of ``args`` applied (``None``: keep); checked again by Preset."""
-    changed = {k: getattr(args, k) for k in ("gravity", "coupling", "extensible", "support")}
+    changed = {k: getattr(args, k, None) for k in ("gravity", "coupling", "extensible", "support")}
     changed = {k: v for k, v in changed.items() if v is not None}
     if changed.get("gravity") is not None:
         _check_flag("--gravity", changed["gravity"], lo=0.0, hi=1000.0)
