@@ -7,6 +7,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.integrate import quad
 
 from magsoft_env.presets import (
@@ -266,3 +268,38 @@ def test_jig_curve_round_trip_reproduces_the_jig(name):
     x_mm = xj * 1e3 + mag["x_start_mm"]
     np.testing.assert_allclose(zj * 1e3, f(x_mm) - f(mag["x_start_mm"]), atol=2e-3)
     assert x_mm[-1] == pytest.approx(mag["x_end_mm"], abs=2e-3)
+
+
+# ----------------------------------------------------------------------------------- property test
+
+_leaf = st.one_of(
+    st.just("x"), st.just("pi"), st.integers(0, 9).map(str), st.floats(0.1, 5.0).map(lambda v: f"{v:.3f}")
+)
+
+
+def _grow(children):
+    return st.one_of(
+        st.tuples(children, st.sampled_from(["+", "-", "*"]), children).map(lambda t: f"({t[0]} {t[1]} {t[2]})"),
+        st.tuples(children, st.integers(1, 3)).map(lambda t: f"({t[0]})**{t[1]}"),
+        children.map(lambda c: f"-({c})"),
+        st.tuples(st.sampled_from(["sin", "cos", "abs"]), children).map(lambda t: f"{t[0]}({t[1]})"),
+        st.tuples(children, st.sampled_from(["<", ">=", "<="]), children, children).map(
+            lambda t: f"where({t[0]} {t[1]} {t[2]}, {t[3]}, 1.5)"
+        ),
+    )
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.recursive(_leaf, _grow, max_leaves=8))
+def test_expression_agrees_with_numpy_on_random_expressions(text):
+    """The interpreter computes what numpy computes for the same formula (numpy as the reference)."""
+    x = np.linspace(-3.0, 3.0, 13)
+    env = {"x": x, "pi": np.pi, "sin": np.sin, "cos": np.cos, "abs": np.abs, "where": np.where}
+    with np.errstate(all="ignore"):
+        ref = np.asarray(eval(text, {"__builtins__": {}}, env), dtype=float) + np.zeros_like(x)  # test oracle only
+    f = compile_expression(text, name="z_mm")
+    if np.all(np.isfinite(ref)):
+        np.testing.assert_allclose(f(x), ref, rtol=1e-12, atol=1e-12)
+    else:
+        with pytest.raises(ValueError, match="non-finite"):
+            f(x)
