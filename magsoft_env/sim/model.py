@@ -55,8 +55,9 @@ class RodOptions:
         MuJoCo integrator. ``discrete`` folds hinge stiffness and damping into the implicit
         solve; under the others the hinge springs are explicit (see docs/sim.md for the
         measured stable timesteps).
-    timestep : float
-        Simulation step (s), in (0, 0.1].
+    timestep : float or None
+        Simulation step (s), in (0, 0.1]. ``None``: 1 ms for the cantilever, 0.1 ms for the
+        contact scenes (the floor contact needs it: see docs/sim.md for measured errors).
     gravity : float
         Gravitational acceleration along -z (m/s^2); 0 turns gravity off.
     clamp_angle : float
@@ -82,7 +83,7 @@ class RodOptions:
     segments: int = 20
     scene: str = "cantilever"
     integrator: str = "discrete"
-    timestep: float = 1e-3
+    timestep: float | None = None
     gravity: float = 9.81
     clamp_angle: float = 0.0
     retardation_time: float = 5e-3
@@ -99,6 +100,8 @@ class RodOptions:
             raise ValueError(f"RodOptions.segments must be an integer in [2, 1000], got {seg!r}.")
         choice("RodOptions.scene", self.scene, SCENES)
         choice("RodOptions.integrator", self.integrator, INTEGRATORS)
+        if self.timestep is None:
+            object.__setattr__(self, "timestep", 1e-3 if self.scene == "cantilever" else 1e-4)
         dt = positive("RodOptions.timestep", self.timestep, unit="s")
         if dt > 0.1:
             raise ValueError(f"RodOptions.timestep must lie in (0, 0.1] s, got {self.timestep!r}.")

@@ -15,12 +15,12 @@ from .model import RodModel, RodOptions, build_model
 from .waveforms import Waveform, as_waveform
 
 _WARNINGS = {
-    mujoco.mjtWarning.mjWARN_BADQACC: "qacc (acceleration)",
-    mujoco.mjtWarning.mjWARN_BADQVEL: "qvel (velocity)",
-    mujoco.mjtWarning.mjWARN_BADQPOS: "qpos (position)",
+    mujoco.mjtWarning.mjWARN_BADQACC: "non-finite or huge qacc (acceleration)",
+    mujoco.mjtWarning.mjWARN_BADQVEL: "non-finite or huge qvel (velocity)",
+    mujoco.mjtWarning.mjWARN_BADQPOS: "non-finite or huge qpos (position)",
     mujoco.mjtWarning.mjWARN_CONTACTFULL: "contact buffer full",
     mujoco.mjtWarning.mjWARN_CNSTRFULL: "constraint buffer full",
-    mujoco.mjtWarning.mjWARN_INERTIA: "inertia",
+    mujoco.mjtWarning.mjWARN_INERTIA: "singular inertia or failed effective-metric solve",
 }
 _WARN_IDS = np.array([int(w) for w in _WARNINGS])
 #: kinetic energy above this multiple of the system's energy scale is runaway
@@ -119,7 +119,11 @@ class Simulator:
     field : Field or (B_x, B_z), optional
         Initial applied field (T).
     check_every : int
-        Steps between energy checks (the finite-state check runs after every step).
+        Steps between energy checks (the finite-state check runs after every call to
+        :meth:`step`).
+    torque_every : int
+        Recompute the magnetic couples every this many steps and hold them in between (1:
+        every step). A speed shortcut whose error docs/sim.md measures.
 
     Examples
     --------
@@ -129,9 +133,14 @@ class Simulator:
     True
     """
 
-    def __init__(self, beam: Beam, options: RodOptions | None = None, *, field=(0.0, 0.0), check_every: int = 50):
-        if isinstance(check_every, bool) or not isinstance(check_every, (int, np.integer)) or check_every < 1:
-            raise ValueError(f"check_every must be a positive integer, got {check_every!r}.")
+    def __init__(
+        self, beam: Beam, options: RodOptions | None = None, *, field=(0.0, 0.0), check_every: int = 50,
+        torque_every: int = 1,
+    ):
+        for name, v in (("check_every", check_every), ("torque_every", torque_every)):
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+                raise ValueError(f"{name} must be a positive integer, got {v!r}.")
+        self.torque_every = int(torque_every)
         self.rod: RodModel = build_model(beam, options)
         self.model = self.rod.model
         self.data = mujoco.MjData(self.model)
@@ -153,6 +162,7 @@ class Simulator:
         self.external_wrench = np.zeros((len(self._bodies), 6))
         self._B3 = np.zeros(3)
         self._has_external = False
+        self._warning_text: list[str] = []
         self._stale = False
         self._waveform: Waveform | None = None
         self._wf_t0 = 0.0
@@ -187,6 +197,7 @@ class Simulator:
     def reset(self) -> None:
         """Straight beam at rest (floor scenes: lying on the floor), time zero."""
         mujoco.mj_resetData(self.model, self.data)
+        self._warning_text.clear()
         self.nstep = 0
         self._wf_t0 = 0.0
         mujoco.mj_forward(self.model, self.data)
@@ -260,19 +271,32 @@ class Simulator:
         if self._waveform is not None:  # all fields of this call in one vectorized sample
             t = d.time - self._wf_t0 + self.timestep * np.arange(n)
             fields = self._waveform.sample(t)
-        for k in range(n):
-            f = None if fields is None else fields[k]
-            if two:
-                mujoco.mj_step1(m, d)
-                self._apply_torques(f)
-                mujoco.mj_step2(m, d)
-            else:
-                self._apply_torques(f)
-                mujoco.mj_step(m, d)
-            self.nstep += 1
-            self._stale = True
-            if self.nstep % self.check_every == 0:
-                self._check(energy=True)
+        # MuJoCo's own warning text is captured (not printed or logged to MUJOCO_LOG.TXT);
+        # _check turns the warning counters into a SimulationError
+        prev = mujoco.get_mju_user_warning()
+        warned = self._warning_text
+        mujoco.set_mju_user_warning(warned.append)
+        try:
+            hold = self.torque_every
+            for k in range(n):
+                f = None if fields is None else fields[k]
+                if hold > 1 and self.nstep % hold:
+                    mujoco.mj_step(m, d)  # couples held from the last update
+                elif two:
+                    mujoco.mj_step1(m, d)
+                    self._apply_torques(f)
+                    mujoco.mj_step2(m, d)
+                else:
+                    self._apply_torques(f)
+                    mujoco.mj_step(m, d)
+                self.nstep += 1
+                self._stale = True
+                if warned:  # MuJoCo reported a bad state in this step: stop here
+                    break
+                if self.nstep % self.check_every == 0:
+                    self._check(energy=True)
+        finally:
+            mujoco.set_mju_user_warning(prev)
         self._check(energy=False)
 
     def _sync(self) -> None:
@@ -302,7 +326,8 @@ class Simulator:
         new = np.nonzero(counts > self._warn0)[0]
         if new.size:
             wid = int(_WARN_IDS[new[0]])
-            self._fail(f"MuJoCo warning: non-finite or huge {_WARNINGS[wid]}", math.nan, hint)
+            text = f" ({self._warning_text[0].strip()})" if self._warning_text else ""
+            self._fail(f"MuJoCo warning: {_WARNINGS[wid]}{text}", math.nan, hint)
         for name in ("qpos", "qvel"):
             arr = getattr(d, name)
             if not np.all(np.isfinite(arr)):
