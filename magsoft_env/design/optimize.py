@@ -12,6 +12,7 @@ import numpy as np
 from ..spec import MAX_FIELD, Beam, Field, jig_curve
 from ..spec._validate import choice, finite_number
 from ..spec.material import MAX_VOLUME_FRACTION
+from ._blas import single_threaded_blas
 from .distance import point_to_polyline
 from .families import ProfileFamily
 from .targets import curve_length, prepare_target, tangent_angle
@@ -21,7 +22,7 @@ _DEFAULT_SIZE = {"polynomial": 6, "fourier": 7, "piecewise_linear": 8, "spline":
 _START_NOISE_RAD = 0.35  # spread (rad) of the random starts around the aligned guess
 
 STATUS_MESSAGES = {
-    0: "Converged: the optimizer stopped on its tolerances and the fit meets rms_tol.",
+    0: "Converged: the fit meets rms_tol.",
     1: "Converged, but the fit does not meet rms_tol: the target may be out of reach of this profile family, "
     "field range or beam; try more parameters, a wider field range, more starts or global=True.",
     2: "Stopped at the evaluation limit (max_nfev) before converging; the best design found is returned.",
@@ -272,83 +273,84 @@ def design_profile(
         gravity=g, coupling=coupling, extensible=bool(extensible),
     )
     lo, hi = problem.bounds(p_lo, p_hi)
-    x_guess = problem.initial_guess(lo, hi)
-    rng = np.random.default_rng(seed)
+    with single_threaded_blas():  # ~100 x 100 systems: threads only cost time
+        x_guess = problem.initial_guess(lo, hi)
+        rng = np.random.default_rng(seed)
 
-    from scipy.optimize import least_squares
+        from scipy.optimize import least_squares
 
-    history: list[dict] = []
-    best = None  # (cost, x, ls_result)
-    starts = range(n_starts)
-    bar = None
-    if progress:
-        from tqdm.auto import tqdm
+        history: list[dict] = []
+        best = None  # (cost, x, ls_result)
+        starts = range(n_starts)
+        bar = None
+        if progress:
+            from tqdm.auto import tqdm
 
-        bar = tqdm(total=n_starts, desc="design starts", unit="start")
-    for k in starts:
-        x0 = x_guess if k == 0 else problem.perturb(x_guess, lo, hi, rng)
-        t0 = time.perf_counter()
-        r0 = problem.rms(x0)
-        ls = least_squares(
-            problem.residuals, x0, bounds=(lo, hi), method="trf", jac="2-point", diff_step=1e-4,
-            x_scale=1.0, max_nfev=max_nfev, ftol=1e-10, xtol=1e-10, gtol=1e-10,
-        )
-        rms = problem.rms(ls.x)
-        history.append({
-            "start": k, "stage": "local", "initial_rms_m": r0 * L, "rms_m": rms * L,
-            "field_T": problem.field(ls.x).as_array().tolist(), "nfev": int(ls.nfev), "status": int(ls.status),
-            "message": ls.message, "time_s": time.perf_counter() - t0,
-        })
-        if best is None or rms < best[0]:
-            best = (rms, ls.x, ls)
+            bar = tqdm(total=n_starts, desc="design starts", unit="start")
+        for k in starts:
+            x0 = x_guess if k == 0 else problem.perturb(x_guess, lo, hi, rng)
+            t0 = time.perf_counter()
+            r0 = problem.rms(x0)
+            ls = least_squares(
+                problem.residuals, x0, bounds=(lo, hi), method="trf", jac="2-point", diff_step=1e-4,
+                x_scale=1.0, max_nfev=max_nfev, ftol=1e-9, xtol=1e-9, gtol=1e-9,
+            )
+            rms = problem.rms(ls.x)
+            history.append({
+                "start": k, "stage": "local", "initial_rms_m": r0 * L, "rms_m": rms * L,
+                "field_T": problem.field(ls.x).as_array().tolist(), "nfev": int(ls.nfev), "status": int(ls.status),
+                "message": ls.message, "time_s": time.perf_counter() - t0,
+            })
+            if best is None or rms < best[0]:
+                best = (rms, ls.x, ls)
+            if bar is not None:
+                bar.update(1)
+                bar.set_postfix(best_rms_pct=f"{100 * best[0]:.3f}")
+            if best[0] <= rms_tol:
+                break
         if bar is not None:
-            bar.update(1)
-            bar.set_postfix(best_rms_pct=f"{100 * best[0]:.3f}")
-        if best[0] <= rms_tol:
-            break
-    if bar is not None:
-        bar.close()
+            bar.close()
 
-    if global_stage and best[0] > rms_tol:
-        best = _global(problem, lo, hi, best, seed, max_nfev, history, L)
+        if global_stage and best[0] > rms_tol:
+            best = _global(problem, lo, hi, best, seed, max_nfev, history, L)
 
-    # ---- final, accurate evaluation of the best design
-    x_best, ls_best = best[1], best[2]
-    d_beam, d_field = problem.beam_for(x_best), problem.field(x_best)
-    from ..theory import solve_equilibrium
+        # ---- final, accurate evaluation of the best design
+        x_best, ls_best = best[1], best[2]
+        d_beam, d_field = problem.beam_for(x_best), problem.field(x_best)
+        from ..theory import solve_equilibrium
 
-    eq = solve_equilibrium(d_beam, d_field, gravity=g, coupling=coupling, extensible=bool(extensible))
-    if eq.success:
-        _, xs, zs, _ = eq.sample(_CENTRELINE_SAMPLES)
-        pred = np.column_stack([xs, zs])
-        dist = point_to_polyline(target, pred)
-        rms_error, max_error = float(np.sqrt(np.mean(dist**2))), float(dist.max())
-    else:
-        pred = np.full((2, 2), np.nan)
-        rms_error = max_error = float("nan")
-    jx, jz = jig_curve(d_beam.magnetization, L, n=201)
-    if not eq.success:
-        status = 3
-    elif ls_best.status == 0:
-        status = 2
-    elif rms_error <= rms_tol * L:
-        status = 0
-    else:
-        status = 1
-    message = f"{STATUS_MESSAGES[status]} (optimizer: {ls_best.message})"
-    return DesignResult(
-        success=status in (0, 1), status=status, message=message, beam=d_beam, field=d_field, family=fam,
-        params=np.asarray(x_best[: fam.size]).copy(), rms_error=rms_error, max_error=max_error,
-        target_xz=target, predicted_xz=pred, jig_xz=np.column_stack([jx, jz]), equilibrium=eq, history=history,
-        nfev=problem.nfev, wall_time=time.perf_counter() - t_start,
-        settings={
-            "field_bounds_T": [b_lo, b_hi], "beta_bounds_rad": [p_lo, p_hi], "field_direction": direction,
-            "volume_fraction_bounds": list(vf) if vf else None, "n_points": n_points, "n_starts": n_starts,
-            "seed": seed, "rms_tol": rms_tol, "max_nfev": max_nfev, "global_stage": bool(global_stage),
-            "gravity_m_s2": g, "coupling": coupling, "extensible": bool(extensible), "family": fam.kind,
-            "size": fam.size, "target_length_m": raw_length,
-        },
-    )
+        eq = solve_equilibrium(d_beam, d_field, gravity=g, coupling=coupling, extensible=bool(extensible))
+        if eq.success:
+            _, xs, zs, _ = eq.sample(_CENTRELINE_SAMPLES)
+            pred = np.column_stack([xs, zs])
+            dist = point_to_polyline(target, pred)
+            rms_error, max_error = float(np.sqrt(np.mean(dist**2))), float(dist.max())
+        else:
+            pred = np.full((2, 2), np.nan)
+            rms_error = max_error = float("nan")
+        jx, jz = jig_curve(d_beam.magnetization, L, n=201)
+        if not eq.success:
+            status = 3
+        elif rms_error <= rms_tol * L:
+            status = 0
+        elif ls_best.status == 0:
+            status = 2
+        else:
+            status = 1
+        message = f"{STATUS_MESSAGES[status]} (optimizer: {ls_best.message})"
+        return DesignResult(
+            success=status in (0, 1), status=status, message=message, beam=d_beam, field=d_field, family=fam,
+            params=np.asarray(x_best[: fam.size]).copy(), rms_error=rms_error, max_error=max_error,
+            target_xz=target, predicted_xz=pred, jig_xz=np.column_stack([jx, jz]), equilibrium=eq, history=history,
+            nfev=problem.nfev, wall_time=time.perf_counter() - t_start,
+            settings={
+                "field_bounds_T": [b_lo, b_hi], "beta_bounds_rad": [p_lo, p_hi], "field_direction": direction,
+                "volume_fraction_bounds": list(vf) if vf else None, "n_points": n_points, "n_starts": n_starts,
+                "seed": seed, "rms_tol": rms_tol, "max_nfev": max_nfev, "global_stage": bool(global_stage),
+                "gravity_m_s2": g, "coupling": coupling, "extensible": bool(extensible), "family": fam.kind,
+                "size": fam.size, "target_length_m": raw_length,
+            },
+        )
 
 
 class _Problem:
@@ -363,7 +365,10 @@ class _Problem:
         self.gravity, self.coupling, self.extensible = gravity, coupling, extensible
         self.n = len(target)
         # looser than the default: ~1e-6 rad resolution is far below the fit errors that matter
-        self.options = SolverOptions(resolution_tol=1e-6, tol=1e-10, max_nodes=64)
+        if family.kind == "piecewise_linear":  # one spectral domain per knot interval: few nodes each
+            self.options = SolverOptions(nodes=16, resolution_tol=1e-6, tol=1e-10)
+        else:
+            self.options = SolverOptions(resolution_tol=1e-6, tol=1e-10, max_nodes=64)
         self.nfev = 0
         self._cache: dict[bytes, np.ndarray] = {}
 
@@ -455,7 +460,7 @@ def _global(problem, lo, hi, best, seed, max_nfev, history, L):
     )
     ls = least_squares(
         problem.residuals, np.clip(de.x, lo, hi), bounds=(lo, hi), method="trf", jac="2-point", diff_step=1e-4,
-        max_nfev=max_nfev, ftol=1e-10, xtol=1e-10, gtol=1e-10,
+        max_nfev=max_nfev, ftol=1e-9, xtol=1e-9, gtol=1e-9,
     )
     rms = problem.rms(ls.x)
     history.append({
