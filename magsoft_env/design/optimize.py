@@ -144,7 +144,7 @@ def design_profile(
     field_bounds,
     family: str | ProfileFamily = "spline",
     size: int | None = None,
-    beta_bounds=(-2.0 * math.pi, 2.0 * math.pi),
+    beta_bounds=(-math.pi, math.pi),
     field_direction: str = "perpendicular",
     volume_fraction_bounds=None,
     match_length: bool = True,
@@ -190,7 +190,8 @@ def design_profile(
     family : {"spline", "polynomial", "fourier", "piecewise_linear"} or ProfileFamily
         Profile family for beta(s); ``size`` parameters (default 7, 6, 7 or 8).
     beta_bounds : (float, float)
-        Bounds (rad) on every profile parameter (knot values or coefficients).
+        Bounds (rad) on every profile parameter (knot values or coefficients). The default
+        [-pi, pi] keeps jigs free of loops; widen it if a profile must wind further.
     field_direction : {"perpendicular", "free"}
         ``"perpendicular"``: along +z, perpendicular to the undeformed beam (the paper's
         choice); ``"free"``: the field angle alpha in [-pi, pi] is a design variable too.
@@ -389,6 +390,8 @@ class _Problem:
 
     def field(self, x) -> Field:
         b = float(np.clip(x[self.family.size], self.b_lo / self.b_hi, 1.0)) * self.b_hi
+        if self.direction == "perpendicular":
+            return Field(0.0, b)
         return Field.polar(b, self.alpha(x))
 
     def beam_for(self, x) -> Beam:

@@ -1,0 +1,85 @@
+"""``magsoft design``: magnetization profile, jig and field for a target shape (paper Fig. 6)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+MM = 1e-3
+MT = 1e-3
+
+
+def add_parser(subparsers) -> None:
+    p = subparsers.add_parser(
+        "design",
+        help="inverse design: profile, jig and field that make a beam follow a target curve",
+        description="Design the magnetization profile (and its jig, eq. 1) and the field that bend a cantilever "
+        "into a target curve (eq. 18). The beam length is set to the curve length, as in the paper. Writes "
+        "profile.csv, field.csv, jig.csv/jig.svg, target/prediction/ramp CSV, summary.json, fit.png and "
+        "ramp.png to --out.",
+    )
+    src = p.add_mutually_exclusive_group(required=True)
+    src.add_argument("--target", metavar="NAME", help="built-in object contour: ball, vase, calabash, dumbbell")
+    src.add_argument("--target-csv", metavar="FILE", help="CSV with columns x_mm,z_mm (or x_m,z_m), clamp first")
+    p.add_argument("--width-mm", type=float, default=5.0, help="beam width in mm (default 5)")
+    p.add_argument("--thickness-mm", type=float, default=1.13, help="beam thickness in mm (default 1.13)")
+    p.add_argument("--volume-fraction", type=float, default=0.2, help="particle volume fraction (default 0.2)")
+    p.add_argument("--field-min-mT", type=float, default=1.0, help="smallest field magnitude in mT (default 1)")
+    p.add_argument("--field-max-mT", type=float, default=20.0, help="largest field magnitude in mT (default 20)")
+    p.add_argument("--free-direction", action="store_true",
+                   help="let the field angle vary too (default: along +z, perpendicular to the beam)")
+    p.add_argument("--family", choices=("spline", "polynomial", "fourier", "piecewise_linear"), default="spline",
+                   help="profile family (default spline)")
+    p.add_argument("--size", type=int, default=None, help="number of profile parameters (default per family)")
+    p.add_argument("--points", type=int, default=50, help="target points N (default 50)")
+    p.add_argument("--starts", type=int, default=4, help="local starts at most (default 4)")
+    p.add_argument("--max-nfev", type=int, default=60, help="evaluations per start (default 60)")
+    p.add_argument("--global", dest="global_stage", action="store_true",
+                   help="add a differential-evolution stage if the local starts miss the tolerance")
+    p.add_argument("--rms-tol-percent", type=float, default=0.25,
+                   help="RMS error in %% of L that counts as a fit (default 0.25)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random starts (default 0)")
+    p.add_argument("--gravity", type=float, default=9.81, help="m/s^2 along -z (default 9.81)")
+    p.add_argument("--coupling", choices=("rotated", "paper"), default="rotated", help="magnetic coupling")
+    p.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--out", default="magsoft_out/design", help="output folder (default magsoft_out/design)")
+    p.set_defaults(run=run)
+
+
+def run(args) -> int:
+    import magsoft_env as ms
+    from magsoft_env.design import builtin_target, read_curve_csv, validate_target
+    from magsoft_env.design.output import write_design
+
+    from .solve import check_out_dir
+
+    out = check_out_dir(args.out)
+    for flag, v in (("--width-mm", args.width_mm), ("--thickness-mm", args.thickness_mm)):
+        if not (math.isfinite(v) and v > 0):
+            raise ValueError(f"{flag} must be a positive number of mm, got {v!r}.")
+    if not (math.isfinite(args.rms_tol_percent) and args.rms_tol_percent >= 0):
+        raise ValueError(f"--rms-tol-percent must be >= 0, got {args.rms_tol_percent!r}.")
+    if args.target is not None:
+        name, target = args.target, builtin_target(args.target)
+    else:
+        name, target = Path(args.target_csv).stem, read_curve_csv(args.target_csv)
+    target = validate_target(target, name="target")
+    beam = ms.Beam(length=1.0, width=args.width_mm * MM, thickness=args.thickness_mm * MM,
+                   volume_fraction=args.volume_fraction)
+    res = ms.design_profile(
+        target, beam, field_bounds=(args.field_min_mT * MT, args.field_max_mT * MT), family=args.family,
+        size=args.size, field_direction="free" if args.free_direction else "perpendicular", n_points=args.points,
+        n_starts=args.starts, seed=args.seed, rms_tol=args.rms_tol_percent / 100.0, max_nfev=args.max_nfev,
+        global_stage=args.global_stage, gravity=args.gravity, coupling=args.coupling, progress=not args.quiet,
+    )
+    files = write_design(res, out, name=name, figures=not args.no_figures)
+    f = res.field
+    print(f"target {name}: beam length {res.beam.length / MM:.2f} mm (= curve length), "
+          f"{res.family.kind} profile with {res.family.size} parameters")
+    print(f"field: Bx = {f.Bx / MT:.3f} mT, Bz = {f.Bz / MT:.3f} mT (|B| = {f.magnitude / MT:.3f} mT)")
+    print(f"fit error: RMS {res.rms_error / MM:.4f} mm ({res.rms_error_percent:.3f}% of L), "
+          f"max {res.max_error / MM:.4f} mm ({res.max_error_percent:.3f}% of L)")
+    print(f"{res.nfev} equilibrium solves in {res.wall_time:.1f} s; {res.message}")
+    print(f"wrote {len(files)} files to {out}/")
+    return 0 if res.success else 1

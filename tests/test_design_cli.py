@@ -1,0 +1,71 @@
+"""``magsoft design`` end to end with tiny budgets, and its input errors."""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from magsoft_env.cli import main
+
+
+def _rows(path):
+    with open(path, encoding="utf-8") as fh:
+        return list(csv.DictReader(fh))
+
+
+def test_design_builtin_target_writes_all_outputs(tmp_path, capsys):
+    out = tmp_path / "ball"
+    rc = main(["design", "--target", "ball", "--out", str(out), "--starts", "1", "--max-nfev", "4", "--points", "20",
+               "--quiet", "--size", "5"])
+    assert rc in (0, 1)  # 1: a tiny budget may miss the tolerance, which must be reported, not hidden
+    text = capsys.readouterr().out
+    assert "fit error: RMS" in text and "% of L" in text
+    for name in ("profile.csv", "field.csv", "jig.csv", "jig.svg", "target.csv", "prediction.csv", "ramp.csv",
+                 "summary.json", "fit.png", "ramp.png"):
+        assert (out / name).is_file(), name
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["success"] == (rc == 0)
+    # the summary's error is recomputed from the written curves
+    target = np.array([[float(r["x_mm"]), float(r["z_mm"])] for r in _rows(out / "target.csv")])
+    pred = np.array([[float(r["x_mm"]), float(r["z_mm"])] for r in _rows(out / "prediction.csv")])
+    from magsoft_env.design import point_to_polyline
+
+    d = point_to_polyline(target, pred)
+    assert summary["rms_error_mm"] == pytest.approx(np.sqrt(np.mean(d**2)), rel=1e-6)
+    field = _rows(out / "field.csv")[0]
+    assert float(field["Bx_mT"]) == 0.0 and 1.0 <= float(field["Bz_mT"]) <= 20.0
+    assert summary["length_mm"] == pytest.approx(10 * np.radians(135), rel=2e-3)
+    svg = (out / "jig.svg").read_text()
+    assert svg.startswith("<?xml") and "<polyline" in svg and 'mm"' in svg
+
+
+def test_design_target_csv(tmp_path):
+    t = np.linspace(0, 1.8, 30)
+    csv_path = tmp_path / "arc.csv"
+    csv_path.write_text("x_mm,z_mm\n" + "\n".join(f"{12 * np.sin(a)},{12 * (1 - np.cos(a))}" for a in t) + "\n")
+    rc = main(["design", "--target-csv", str(csv_path), "--out", str(tmp_path / "o"), "--starts", "1",
+               "--max-nfev", "3", "--points", "15", "--quiet", "--no-figures"])
+    assert rc in (0, 1)
+    assert (tmp_path / "o" / "jig.svg").is_file() and not (tmp_path / "o" / "fit.png").exists()
+
+
+@pytest.mark.parametrize(
+    ("argv", "fragment"),
+    [
+        (["--target", "bal"], "Did you mean 'ball'"),
+        (["--target", "ball", "--field-min-mT", "30"], "field_bounds"),
+        (["--target", "ball", "--thickness-mm", "0"], "--thickness-mm"),
+    ],
+)
+def test_design_bad_input_exits_2(tmp_path, capsys, argv, fragment):
+    rc = main(["design", *argv, "--out", str(tmp_path / "x"), "--quiet"])
+    assert rc == 2
+    assert fragment in capsys.readouterr().err
+
+
+def test_design_bad_csv_exits_2(tmp_path, capsys):
+    p = tmp_path / "few.csv"
+    p.write_text("x_mm,z_mm\n0,0\n1,0\n")
+    assert main(["design", "--target-csv", str(p), "--out", str(tmp_path / "x"), "--quiet"]) == 2
+    assert "at least 4 distinct points" in capsys.readouterr().err
