@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 from dataclasses import field as dc_field
 from functools import lru_cache
@@ -27,6 +28,7 @@ TERMINATION_MESSAGES = {
 _MAX_NEWTON = 10
 _MAX_STEP_RAD = 0.6  # Newton steps larger than this (rad, max norm) are damped
 _JUMP_RAD = 0.2  # a converged step this far from its prediction counts as a branch jump
+_NEUTRAL = 1e-9  # eigenvalues (units EI/L^2) above -this count as stable (neutral rigid rotation)
 _STEP_RAD = 1.0  # largest predicted change of theta in one continuation step (rad)
 
 
@@ -92,6 +94,9 @@ class EquilibriumResult:
     snap_through : bool
         A fold (or a bifurcation onto an unstable branch) was passed on the way to this field
         and the solver jumped to a stable branch by energy descent.
+    wall_time : float
+        Seconds spent reaching this equilibrium from the previous one (or from the unloaded
+        beam, gravity included, for the first).
     """
 
     success: bool
@@ -116,6 +121,7 @@ class EquilibriumResult:
     resolution: float
     nodes: int
     newton_iterations: int
+    wall_time: float = 0.0
     events: list = dc_field(default_factory=list)
     _grid: Grid | None = dc_field(default=None, repr=False)
     _full: tuple | None = dc_field(default=None, repr=False)
@@ -129,9 +135,16 @@ class EquilibriumResult:
         if not isinstance(n, (int, np.integer)) or n < 2:
             raise ValueError(f"sample n must be an integer >= 2, got {n!r}.")
         s_new = np.linspace(0.0, self.length, n)
+        return (s_new, *self.at(s_new))
+
+    def at(self, s):
+        """Centreline (x, z, theta) at reference arc lengths ``s`` (m), spectrally interpolated."""
+        s = np.asarray(s, dtype=float)
+        if not np.all(np.isfinite(s)) or np.any(s < 0) or np.any(s > self.length * (1 + 1e-12)):
+            raise ValueError(f"s must lie in [0, {self.length:g}] m, got values in [{s.min():g}, {s.max():g}].")
         th, xx, zz = self._full
-        vals = self._grid.interpolate(np.column_stack([th, xx, zz]), s_new)
-        return s_new, vals[:, 1], vals[:, 2], vals[:, 0]
+        vals = self._grid.interpolate(np.column_stack([th, xx, zz]), s.ravel())
+        return vals[:, 1].reshape(s.shape), vals[:, 2].reshape(s.shape), vals[:, 0].reshape(s.shape)
 
     def to_dict(self) -> dict:
         """Metrics as plain numbers (SI and degrees), for JSON."""
@@ -201,7 +214,7 @@ class _Solver:
 
     # Newton ---------------------------------------------------------------------------------
     def newton(self, theta, load: Load, c=None, maxiter: int = _MAX_NEWTON):
-        """Damped Newton on the collocation equations. Returns (ok, theta, c, iterations, detsign)."""
+        """Damped Newton on the collocation equations. Returns (ok, theta, c, iterations)."""
         mdl = self.model
         free = self.support == "free"
         th = theta.copy()
@@ -223,16 +236,16 @@ class _Solver:
                 R, fth = mdl.residual(th, self.theta0, load)
                 J = mdl.jacobian(fth)
             if not np.all(np.isfinite(R)):
-                return False, theta, cc, it, 0
+                return False, theta, cc, it
             try:
                 d = -np.linalg.solve(J, R)
             except np.linalg.LinAlgError:
-                return False, theta, cc, it, 0
+                return False, theta, cc, it
             big = float(np.max(np.abs(d)))
             if not math.isfinite(big):
-                return False, theta, cc, it, 0
+                return False, theta, cc, it
             if it >= 3 and big > 0.25 * prev_big and maxiter <= _MAX_NEWTON:
-                return False, theta, cc, it, 0  # not converging quadratically: give up early
+                return False, theta, cc, it  # not converging quadratically: give up early
             if big > _MAX_STEP_RAD:
                 d *= _MAX_STEP_RAD / big
             th += d[:M]
@@ -240,16 +253,10 @@ class _Solver:
                 cc += d[M]
             # quadratic convergence: the next update would be about big^3 / prev^2
             if big < self.opt.tol or (it >= 2 and big**3 < self.opt.tol * prev_big**2 and big < 1e-5):
-                sign, _ = np.linalg.slogdet(J)
                 self._J = J
-                return True, th, cc, it, int(sign)
+                return True, th, cc, it
             prev_big = big
-        return False, theta, cc, maxiter, 0
-
-    def detsign(self, theta, load):
-        _, fth = self.model.residual(theta, self.theta0, load)
-        sign, _ = np.linalg.slogdet(self.model.jacobian(fth))
-        return int(sign)
+        return False, theta, cc, maxiter
 
     # energy descent (branch switching) --------------------------------------------------------
     def descend(self, theta, load: Load, kick=None):
@@ -289,8 +296,8 @@ class _Solver:
         u = np.concatenate([[self.theta0], res.x]) if clamped else res.x
         th = u[mdl.expand]
         c = float(u[0]) if not clamped else None
-        ok, th2, c2, its, sign = self.newton(th, load, c)
-        return ok, th2, c2, sign
+        ok, th2, c2, _ = self.newton(th, load, c)
+        return ok, th2, c2
 
     # continuation ---------------------------------------------------------------------------------
     def tangent(self, theta, J, start: Load, target: Load, t: float):
@@ -310,7 +317,9 @@ class _Solver:
 
         Tangent predictor, Newton corrector; the step is limited so that the predicted
         change stays below ``_STEP_RAD`` and halved when Newton fails or lands far from
-        the prediction. A sign change of det J triggers a stability check.
+        the prediction. Every accepted step is checked for stability; when the smallest
+        eigenvalue turns negative the step is shortened to the crossing, then the solver
+        jumps to a stable branch by energy descent.
         """
         if self.support == "free":
             return self._free_to(target)
@@ -319,7 +328,6 @@ class _Solver:
         theta = self.theta
         _, fth = self.model.residual(theta, self.theta0, start)
         J = self.model.jacobian(fth)
-        sign = int(np.linalg.slogdet(J)[0])
         snapped = False
         tan = self.tangent(theta, J, start, target, t)
         while t < 1.0:
@@ -332,7 +340,7 @@ class _Solver:
                     t_new = 1.0
                 load = start.lerp(target, t_new)
                 guess = theta + (t_new - t) * tan
-                ok, th_new, _, its, sgn = self.newton(guess, load)
+                ok, th_new, _, its = self.newton(guess, load)
                 self.newton_its += its
                 if ok and np.max(np.abs(th_new - guess)) > max(_JUMP_RAD, 0.5 * (t_new - t) * tmax):
                     ok = False  # converged far from the prediction: likely another branch
@@ -346,20 +354,24 @@ class _Solver:
                 t_new = min(1.0, t + 4 * self.opt.min_step)
                 load = start.lerp(target, t_new)
                 lam, mode = self.model.min_eigen(theta, start.lerp(target, t), clamped=True)
-                ok2, th_new, _, sgn = self._jump(theta, 0.02 * mode, load, t_new, "fold")
+                ok2, th_new, _ = self._jump(theta, 0.02 * mode, load, t_new, "fold")
                 if not ok2:
                     self.theta, self.load = theta, start.lerp(target, t)
                     return False, snapped
                 snapped, its, dt = True, _MAX_NEWTON, 4 * self.opt.min_step
-            elif sgn != sign:
-                lam, mode = self.model.min_eigen(th_new, load, clamped=True)
+            else:
+                # stability at every accepted step: one eigenvalue crossing at a time
+                lam, _ = self.model.min_eigen(th_new, load, clamped=True, vector=False)
                 if lam < 0.0:
-                    ok2, th_s, _, sgn = self._jump(th_new, mode, load, t_new, "bifurcation")
+                    if t_new - t > 1e-3:
+                        dt = 0.25 * (t_new - t)  # home in on the crossing before leaving the branch
+                        continue
+                    lam, mode = self.model.min_eigen(th_new, load, clamped=True)
+                    ok2, th_s, _ = self._jump(th_new, mode, load, t_new, "bifurcation")
                     if not ok2:
                         self.theta, self.load = theta, start.lerp(target, t)
                         return False, snapped
                     th_new, snapped = th_s, True
-            sign = sgn
             t, theta = t_new, th_new
             if its <= 4:
                 dt = min(1.0, 2.0 * dt)
@@ -368,25 +380,30 @@ class _Solver:
         self.theta, self.load = theta, target
         return True, snapped
 
-    def _jump(self, theta, kick, load, t, kind, lam=None):
-        ok, th, c, sgn = self.descend(theta, load, kick=kick)
+    def _jump(self, theta, kick, load, t, kind):
+        ok, th, c = self.descend(theta, load, kick=kick)
         if ok:
             lam2, mode2 = self.model.min_eigen(th, load, clamped=True)
             if lam2 < 0.0:  # landed on a saddle: push along its unstable mode
-                ok, th, c, sgn = self.descend(th, load, kick=0.02 * mode2)
+                ok, th, c = self.descend(th, load, kick=0.02 * mode2)
         self.events.append(
             {"kind": kind, "load_fraction": t, "field_T": (load.Bx, load.Bz), "gravity": load.g, "converged": ok}
         )
-        return ok, th, c, sgn
+        return ok, th, c
 
     def _free_to(self, target: Load):
         # A free beam has no preferred orientation at zero field, so each field is reached by
         # energy descent from the previous shape (a field switch), then polished by Newton.
-        ok, th, c, _ = self.descend(self.theta, target)
+        if target.Bx == 0.0 and target.Bz == 0.0:
+            # no load at all: the beam relaxes straight, keeping its mean orientation
+            mean = float(self.grid.w @ self.theta) / self.beam.length
+            self.theta, self.c, self.load = np.full_like(self.theta, mean), mean, target
+            return True, False
+        ok, th, c = self.descend(self.theta, target)
         if ok:
             lam, mode = self.model.min_eigen(th, target, clamped=False)
             if lam < 0:
-                ok, th, c, _ = self.descend(th, target, kick=0.02 * mode)
+                ok, th, c = self.descend(th, target, kick=0.02 * mode)
         if ok:
             self.theta, self.c, self.load = th, c, target
         return ok, False
@@ -401,7 +418,7 @@ class _Solver:
             new = _regrid(old_grid, n_new)
             self._set_grid(new)
             guess = old_grid.interpolate(old_theta, new.s)
-            ok, th, c, its, _ = self.newton(guess, self.load)
+            ok, th, c, its = self.newton(guess, self.load)
             self.newton_its += its
             if not ok:
                 self._set_grid(old_grid)
@@ -451,7 +468,7 @@ class _Solver:
             rotation_angle=chord,
             max_curvature=float(np.max(np.abs(kappa))),
             max_strain=float(np.max(np.abs(eps))),
-            stable=bool(lam > 0.0),
+            stable=bool(lam > -_NEUTRAL),
             min_eigenvalue=lam,
             snap_through=snapped,
             field=field_,
@@ -516,9 +533,9 @@ def solve_path(
     The path starts from the straight, unloaded beam: gravity is applied first (zero field),
     then the field is ramped from zero to ``fields[0]`` and on to each following field.
     Between fields, natural-parameter continuation with secant predictors and adaptive
-    steps follows the equilibrium branch. A change of sign of the Jacobian determinant
-    flags a critical point; if the branch has become unstable, or a fold ends it, the solver
-    jumps to a stable equilibrium by energy descent and reports ``snap_through``.
+    steps follows the equilibrium branch. Each step is checked for stability (smallest
+    eigenvalue of the second variation); if the branch turns unstable, or a fold ends it, the
+    solver jumps to a stable equilibrium by energy descent and reports ``snap_through``.
 
     Parameters
     ----------
@@ -558,6 +575,7 @@ def solve_path(
         beam, gravity, support, coupling, extensible, clamp_angle, options
     )
     fields = as_fields(fields)
+    t_start = time.perf_counter()
     solver = _Solver(beam, support=support, coupling=coupling, extensible=extensible, clamp_angle=th0, options=options)
     results: list[EquilibriumResult] = []
     ok = True
@@ -568,6 +586,7 @@ def solve_path(
         from tqdm.auto import tqdm
 
         iterator = tqdm(fields, desc="equilibria", unit="field")
+    t_prev = t_start
     for fld in iterator:
         if ok:
             n_events = len(solver.events)
@@ -576,7 +595,10 @@ def solve_path(
             tail = solver.refine() if ok else float("nan")
         else:
             snapped, tail = False, float("nan")
-        results.append(solver.result(ok, 0, snapped, fld, g, tail))
+        res = solver.result(ok, 0, snapped, fld, g, tail)
+        now = time.perf_counter()
+        res.wall_time, t_prev = now - t_prev, now
+        results.append(res)
     return results
 
 
@@ -646,7 +668,7 @@ def solve_equilibrium(
         raise ValueError(f"start='straight' supports only support='cantilever', got {support!r}.")
     solver = _Solver(beam, support=support, coupling=coupling, extensible=extensible, clamp_angle=th0, options=options)
     load = Load(fld.Bx, fld.Bz, g)
-    ok, th, _, its, _ = solver.newton(solver.theta, load, maxiter=100)
+    ok, th, _, its = solver.newton(solver.theta, load, maxiter=100)
     solver.newton_its += its
     status = 0
     if ok:
