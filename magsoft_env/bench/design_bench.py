@@ -41,7 +41,8 @@ def _baseline(target, beam, b_hi, family, coupling):
     return best
 
 
-def run(objects, *, field_max_mT: float, family: str, starts: int, seed: int, coupling: str) -> list[dict]:
+def run(objects, *, field_max_mT: float, family: str, starts: int, seed: int, coupling: str,
+        mujoco: bool = False) -> list[dict]:
     import magsoft_env as ms
     from magsoft_env.design import ProfileFamily, builtin_target, curve_length
     from magsoft_env.design._blas import single_threaded_blas
@@ -63,6 +64,12 @@ def run(objects, *, field_max_mT: float, family: str, starts: int, seed: int, co
             "starts": len(res.history), "solves": res.nfev, "time_s": wall, "success": res.success,
             "baseline_rms_mm": base * MM, "baseline_rms_pct": 100 * base / L,
         })
+        if mujoco:
+            from magsoft_env.design import mujoco_check
+
+            chk = mujoco_check(res, segments=20)
+            rows[-1].update({"mj_max_mm": chk["max_to_analytical"] * MM,
+                             "mj_target_pct": 100 * chk["rms_to_target"] / L, "mj_ok": chk["success"]})
     return rows
 
 
@@ -74,10 +81,21 @@ COLUMNS = [
 ]
 
 
+MUJOCO_COLUMNS = [
+    ("mj_max_mm", "MuJoCo N=20 vs analytical, max (mm)", ".3f"), ("mj_target_pct", "MuJoCo RMS to target (% L)", ".3f"),
+    ("mj_ok", "MuJoCo settled", ""),
+]
+
+
+def _columns(rows):
+    return COLUMNS + (MUJOCO_COLUMNS if rows and "mj_max_mm" in rows[0] else [])
+
+
 def markdown(rows) -> str:
-    head = "| " + " | ".join(h for _, h, _ in COLUMNS) + " |"
-    sep = "|" + "|".join("---" for _ in COLUMNS) + "|"
-    body = ["| " + " | ".join(format(r[k], f) if f else str(r[k]) for k, _, f in COLUMNS) + " |" for r in rows]
+    cols = _columns(rows)
+    head = "| " + " | ".join(h for _, h, _ in cols) + " |"
+    sep = "|" + "|".join("---" for _ in cols) + "|"
+    body = ["| " + " | ".join(format(r[k], f) if f else str(r[k]) for k, _, f in cols) + " |" for r in rows]
     return "\n".join([head, sep, *body])
 
 
@@ -91,17 +109,18 @@ def main(argv=None) -> int:
     p.add_argument("--starts", type=int, default=4)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--coupling", default="rotated", choices=("rotated", "paper"))
+    p.add_argument("--mujoco", action="store_true", help="also simulate each design in MuJoCo (20 segments)")
     p.add_argument("--markdown", metavar="FILE", help="also write the table as Markdown to FILE")
     a = p.parse_args(argv)
     rows = run(a.objects, field_max_mT=a.field_max_mT, family=a.family, starts=a.starts, seed=a.seed,
-               coupling=a.coupling)
+               coupling=a.coupling, mujoco=a.mujoco)
     from magsoft_env.cli.solve import format_table
 
     env = (f"{platform.processor() or platform.machine()}, {os.cpu_count()} CPUs visible, "
            f"python {platform.python_version()}, numpy {np.__version__}")
     print(f"inverse design, field 1-{a.field_max_mT:g} mT along +z, {a.family} profile, coupling {a.coupling}, "
           f"seed {a.seed}; {env}")
-    print(format_table(rows, COLUMNS))
+    print(format_table(rows, _columns(rows)))
     if a.markdown:
         with open(a.markdown, "w", encoding="utf-8") as fh:
             fh.write(markdown(rows) + "\n")

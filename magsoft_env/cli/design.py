@@ -41,6 +41,9 @@ def add_parser(subparsers) -> None:
     p.add_argument("--seed", type=int, default=0, help="seed of the random starts (default 0)")
     p.add_argument("--gravity", type=float, default=9.81, help="m/s^2 along -z (default 9.81)")
     p.add_argument("--coupling", choices=("rotated", "paper"), default="rotated", help="magnetic coupling")
+    p.add_argument("--mujoco", action="store_true",
+                   help="also simulate the designed beam under the designed field in MuJoCo (20 segments) and "
+                   "report its distance to the analytical shape")
     p.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--out", default="magsoft_out/design", help="output folder (default magsoft_out/design)")
@@ -81,5 +84,18 @@ def run(args) -> int:
     print(f"fit error: RMS {res.rms_error / MM:.4f} mm ({res.rms_error_percent:.3f}% of L), "
           f"max {res.max_error / MM:.4f} mm ({res.max_error_percent:.3f}% of L)")
     print(f"{res.nfev} equilibrium solves in {res.wall_time:.1f} s; {res.message}")
+    if args.mujoco:
+        from magsoft_env.cli.solve import write_json
+        from magsoft_env.design import mujoco_check
+
+        chk = mujoco_check(res, segments=20)
+        print(f"MuJoCo (20 segments): max distance to the analytical shape {chk['max_to_analytical'] / MM:.4f} mm, "
+              f"RMS to target {100 * chk['rms_to_target'] / res.beam.length:.3f}% of L; settled: {chk['success']}")
+        files.append(write_json(out / "mujoco_check.json", {
+            "segments": chk["segments"], "success": chk["success"], "message": chk["message"],
+            "max_to_analytical_mm": chk["max_to_analytical"] / MM,
+            "rms_to_analytical_mm": chk["rms_to_analytical"] / MM,
+            "rms_to_target_mm": chk["rms_to_target"] / MM, "sim_xz_mm": (chk["sim_xz"] / MM).tolist(),
+        }))
     print(f"wrote {len(files)} files to {out}/")
     return 0 if res.success else 1

@@ -1,5 +1,6 @@
 """Inverse design: target curves, point-to-curve objective, parametrized profiles, optimizer, jig output."""
 
+from .check import mujoco_check
 from .distance import point_to_polyline
 from .families import FAMILIES, BasisProfile, ProfileFamily
 from .optimize import STATUS_MESSAGES, DesignResult, design_profile
@@ -23,6 +24,7 @@ __all__ = [
     "builtin_target",
     "curve_length",
     "design_profile",
+    "mujoco_check",
     "point_to_polyline",
     "prepare_target",
     "read_curve_csv",
