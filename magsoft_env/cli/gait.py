@@ -1,0 +1,62 @@
+"""``magsoft gait``: run one of the paper's crawling gaits (Fig. 5) on the floor and report its speed."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    from magsoft_env.gaits import list_gaits
+
+    p = subparsers.add_parser(
+        "gait",
+        help="run a paper crawling gait (paper-5a, paper-5b, paper-5c) and print displacement and speed",
+        description=(
+            "Simulate an open-loop crawling gait of the paper's Fig. 5 on a floor (MuJoCo rod) and print the "
+            "centre-of-mass displacement (mm) and speed (mm/s, signed along +x), the direction, and the paper's "
+            "value. Speed excludes the first field period (start-up transient)."
+        ),
+    )
+    p.add_argument("--preset", required=True, choices=list(list_gaits()), help="gait name")
+    p.add_argument("--reverse", action="store_true", help="invert B_x (paper Fig. 5c: reverses the direction)")
+    p.add_argument("--seconds", type=float, default=4.0, help="simulated time in s (default 4)")
+    p.add_argument("--timestep-ms", type=float, default=0.1, help="simulation step in ms (default 0.1, converged)")
+    p.add_argument("--segments", type=int, default=20, help="rod segments (default 20)")
+    p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+    p.set_defaults(run=run)
+    return p
+
+
+def run(args) -> int:
+    from magsoft_env.gaits import gait_preset, run_gait
+
+    if not args.seconds > 0:
+        raise ValueError(f"--seconds must be > 0 (s), got {args.seconds}.")
+    if not 0 < args.timestep_ms <= 10:
+        raise ValueError(f"--timestep-ms must lie in (0, 10] ms, got {args.timestep_ms}.")
+    if not 2 <= args.segments <= 1000:
+        raise ValueError(f"--segments must be an integer in [2, 1000], got {args.segments}.")
+    preset = gait_preset(args.preset, reverse=args.reverse)
+    res = run_gait(preset, args.seconds, segments=args.segments, timestep=args.timestep_ms * 1e-3)
+    out = res.as_dict()
+    out["paper_speed_mm_s"] = None if preset.paper_speed is None else preset.paper_speed * 1e3
+    out["paper_direction"] = preset.paper_direction
+    out["field_mT"] = {
+        "amplitude_x": preset.wave.amplitude_x * 1e3, "amplitude_z": preset.wave.amplitude_z * 1e3,
+        "frequency_Hz": preset.wave.frequency, "phase_x_deg": preset.wave.phase * 180.0 / 3.141592653589793,
+    }
+    out["friction"] = preset.friction
+    if args.json:
+        print(json.dumps(out))
+    else:
+        paper = "no speed given" if preset.paper_speed is None else f"{preset.paper_speed * 1e3:+.2f} mm/s"
+        print(f"{out['preset']}: {preset.description}")
+        print(f"displacement {out['displacement_mm']:+.3f} mm in {out['seconds']:.2f} s; "
+              f"speed {out['speed_mm_s']:+.3f} mm/s (after {out['warmup_s']:.2f} s warm-up), "
+              f"direction {out['direction']}")
+        print(f"paper: {preset.paper_direction}, {paper}; max height {out['max_height_mm']:.2f} mm, "
+              f"max link rotation {out['max_link_rotation_deg']:.0f} deg; {out['wall_time_s']:.1f} s wall")
+        if not res.success:
+            print(f"UNSTABLE: {res.message}")
+    return 0 if res.success else 1

@@ -1,0 +1,68 @@
+"""MagSoftChannel-v0: crawl through the paper's hollow box (Fig. 5a: 42 x 8.5 x 7.6 mm inside)."""
+
+from __future__ import annotations
+
+from ..sim import CHANNEL_SIZE
+from .crawl import MagSoftCrawlEnv
+
+#: Default gap between the beam's right end and the channel entrance (m).
+DEFAULT_ENTRANCE_GAP = 2e-3
+
+
+class MagSoftChannelEnv(MagSoftCrawlEnv):
+    """
+    ## Description
+
+    :class:`~magsoft_env.envs.crawl.MagSoftCrawlEnv` in the ``channel`` scene: the paper's
+    hollow box (inside 42 x 8.5 x 7.6 mm) starts ``entrance_gap`` to the right of the beam.
+    The goal is to crawl through it: success when the whole beam lies past the far end.
+    The crawl limit defaults to ``crawl_mode="height"`` with ``max_height`` = the ceiling
+    height, 7.6 mm, everywhere: a beam that rises higher outside the box could not enter it.
+
+    ## Action Space, Observation Space
+
+    As ``MagSoftCrawl-v0`` (field mode by default).
+
+    ## Rewards
+
+    As ``MagSoftCrawl-v0`` (target direction +x) plus ``reward_success = success_reward`` on
+    the step the beam's base end passes the far end of the box.
+
+    ## Starting State
+
+    As ``MagSoftCrawl-v0``; the entrance is at ``x = L + entrance_gap``.
+
+    ## Episode End
+
+    Termination on success or a broken crawl limit; truncation after 1500 steps (30 s) or on
+    instability (``info["truncation_reason"]``).
+
+    ## Arguments
+
+    ``entrance_gap`` (m, default 2e-3), ``success_reward`` (default 100), and every argument
+    of ``MagSoftCrawl-v0``. Default ``crawl_mode="height"``.
+
+    ## Version History
+
+    - v0: initial version (magsoft_env 0.1).
+    """
+
+    _scene = "channel"
+
+    def __init__(self, robot: str = "paper-5a", *, entrance_gap: float = DEFAULT_ENTRANCE_GAP,
+                 success_reward: float = 100.0, crawl_mode: str = "height", **kwargs):
+        from ..gaits import gait_preset
+        from ..spec._validate import finite_number, nonnegative
+
+        length = gait_preset(robot).beam.length if isinstance(robot, str) else 0.0
+        gap = finite_number("entrance_gap", entrance_gap, unit="m")
+        self.success_reward = nonnegative("success_reward", success_reward)
+        self.entrance_x = length + gap
+        self.exit_x = self.entrance_x + CHANNEL_SIZE[0]
+        super().__init__(robot, crawl_mode=crawl_mode, feature_x=self.entrance_x, **kwargs)
+
+    def _is_success(self) -> bool:
+        return bool(self.sim.centerline()[0].min() > self.exit_x)
+
+    def _success_reward(self) -> float:
+        return self.success_reward if self._is_success() else 0.0

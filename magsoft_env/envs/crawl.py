@@ -1,0 +1,410 @@
+"""MagSoftCrawl-v0: a free hard-magnetic beam on a floor, driven by the applied field (B_x, B_z)."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+
+from ..render.backend import preselect_gl_backend
+
+preselect_gl_backend()  # MUJOCO_GL must be set before mujoco is imported (for render_mode="rgb_array")
+
+import mujoco  # noqa: E402
+import numpy as np
+from gymnasium import spaces  # noqa: E402
+
+from ..gaits import Waveparams, gait_preset, list_gaits
+from ..sim import PhaseShifted, Ramp, RodOptions, SimulationError, Simulator
+from ..spec._validate import choice, nonnegative, positive
+
+#: Default coil limit per axis (T): +-20 mT.
+DEFAULT_FIELD_LIMIT = 20e-3
+#: Default control interval in "field" mode (s).
+DEFAULT_CTRL_DT = 0.02
+#: Default simulation step for learning (s); 0.1 ms converges the contact but costs 5x (docs/envs.md).
+DEFAULT_SIM_DT = 5e-4
+#: The paper's channel ceiling (m): the crawl-mode height limit by default.
+DEFAULT_MAX_HEIGHT = 7.6e-3
+#: Largest |tangent angle| of any piece in crawl mode "rotation" (rad): beyond it the beam tumbles.
+DEFAULT_MAX_LINK_ROTATION = math.pi / 2
+#: Observation bounds (observations are clipped to them): angular speed (rad/s), COM speed (m/s).
+OBS_MAX_ANGULAR_VELOCITY = 1e3
+OBS_MAX_VELOCITY = 10.0
+#: Waveform mode: frequency range of one cycle (Hz).
+DEFAULT_FREQUENCY_RANGE = (0.5, 4.0)
+ACTION_MODES = ("field", "waveform")
+CRAWL_MODES = ("rotation", "height", "none")
+
+
+class MagSoftCrawlEnv(gym.Env):
+    """
+    ## Description
+
+    A centimetre-scale hard-magnetic soft beam (silicone + NdFeB, the paper's Fig. 5 robots)
+    lies on a floor. A uniform field from coils bends it; friction with the floor turns the
+    bending into crawling. The agent chooses the field. Physics: the MuJoCo hinge-chain rod of
+    :mod:`magsoft_env.sim` (planar, ``segments`` cells, magnetic couples ``(R m) x B``).
+
+    Above about 2.5-3 mT a 20-30 mm beam stops crawling and tumbles end over end at tens of
+    mm/s (DESIGN.md section 6). The default ``crawl_mode="rotation"`` ends the episode when a
+    piece turns more than ``max_link_rotation`` from the floor, so that rewards compare
+    crawling with crawling; ``"height"`` limits the highest point to ``max_height`` (the
+    paper's 7.6 mm channel ceiling), ``"none"`` allows tumbling.
+
+    ## Action Space
+
+    ``action_mode="field"`` (default): ``Box(-1, 1, (2,), float32)``; the field is held for
+    ``ctrl_dt`` seconds (ramped over it when ``slew_rate`` is set).
+
+    | Num | Action | Min | Max | Type (Unit) |
+    |-----|--------|-----|-----|-------------|
+    | 0 | B_x / field_limit | -1 | 1 | field (T) |
+    | 1 | B_z / field_limit | -1 | 1 | field (T) |
+
+    ``action_mode="waveform"``: ``Box(-1, 1, (4,), float32)``; each step plays one period of
+    ``B_x = A_x sin(2 pi f t + phase)``, ``B_z = A_z sin(2 pi f t)``.
+
+    | Num | Action | Min | Max | Type (Unit) |
+    |-----|--------|-----|-----|-------------|
+    | 0 | A_x / field_limit | -1 | 1 | field (T) |
+    | 1 | A_z / field_limit | -1 | 1 | field (T) |
+    | 2 | phase / pi | -1 | 1 | angle (rad) |
+    | 3 | frequency, mapped linearly onto ``frequency_range`` | -1 | 1 | frequency (Hz) |
+
+    ## Observation Space
+
+    ``Box(-high, high, (2 N + 8,), float32)`` for N = ``segments`` (N + 1 rigid pieces); values
+    are clipped to the bounds (pi for angles, 1000 rad/s, 10 m/s, 1 for the rest):
+
+    | Num | Observation | Type (Unit) |
+    |-----|-------------|-------------|
+    | 0 .. N | tangent angle of each piece from +x toward +z, base end first | angle (rad) |
+    | N+1 .. 2N+1 | angular velocity of each piece | angular velocity (rad/s) |
+    | 2N+2 | centre-of-mass velocity along x, mean over the last step | velocity (m/s) |
+    | 2N+3 | centre-of-mass velocity along z, mean over the last step | velocity (m/s) |
+    | 2N+4 .. 2N+7 | field mode: B_x / limit, B_z / limit now, sin and cos of the clock phase ``2 pi clock_frequency t``; waveform mode: the last action (A_x, A_z, phase, frequency, normalized) | dimensionless |
+
+    The centre-of-mass position is left out (the task is translation invariant); it is in
+    ``info["x_position"]``.
+
+    ## Rewards
+
+    ``reward = forward + field_cost + crawl_penalty (+ success for subclasses)``, each term in
+    ``info`` as ``reward_forward``, ``reward_field``, ``reward_crawl``, ``reward_success``:
+
+    - ``forward = forward_reward_weight * target_direction * dx / dt``: centre-of-mass travel
+      along the target direction over the step, per second (default weight 1000 s/m: the term
+      reads in mm/s).
+    - ``field_cost = -field_cost_weight * mean_t (B_x^2 + B_z^2) / field_limit^2``.
+    - ``crawl_penalty = -crawl_penalty`` on the step that breaks the crawl limit, else 0; that
+      step's forward term is 0 (one flip would otherwise pay).
+
+    ## Starting State
+
+    The straight beam lies on the floor at rest, zero field, hinge angles perturbed by
+    ``U(-reset_noise_scale, reset_noise_scale)`` rad.
+
+    ## Episode End
+
+    - Termination: the crawl limit is broken (``info["crawl_violation"]`` says which).
+    - Truncation: the time limit (``max_episode_steps`` of the registered id: 250 steps = 5 s
+      in field mode, 20 cycles in waveform mode), or an unstable simulation:
+      ``info["truncation_reason"]`` holds the :class:`~magsoft_env.sim.SimulationError` text.
+
+    ## Arguments
+
+    | Parameter | Default | Description |
+    |-----------|---------|-------------|
+    | ``robot`` | ``"paper-5c"`` | beam, magnetization and volume fraction of a gait preset (:func:`magsoft_env.gaits.list_gaits`) |
+    | ``action_mode`` | ``"field"`` | ``"field"`` or ``"waveform"`` |
+    | ``field_limit`` | 0.02 | coil limit per axis (T) |
+    | ``slew_rate`` | None | largest field change rate per axis (T/s); None: unlimited |
+    | ``ctrl_dt`` | 0.02 | control interval in field mode (s) |
+    | ``sim_dt`` | 5e-4 | simulation step (s) |
+    | ``segments`` | 20 | rod cells |
+    | ``friction`` | 0.5 | rod-floor sliding friction |
+    | ``target_direction`` | 1 | +1: reward motion along +x; -1: along -x |
+    | ``forward_reward_weight`` | 1000 | (s/m) |
+    | ``field_cost_weight`` | 0.1 | weight of the normalized field power |
+    | ``crawl_mode`` | ``"rotation"`` | ``"rotation"``, ``"height"`` or ``"none"`` |
+    | ``max_link_rotation`` | pi/2 | crawl-mode rotation limit (rad) |
+    | ``max_height`` | 7.6e-3 | crawl-mode height limit (m) |
+    | ``crawl_penalty`` | 10 | reward lost when the crawl limit is broken |
+    | ``frequency_range`` | (0.5, 4) | waveform-mode frequencies (Hz) |
+    | ``clock_frequency`` | 2 | field-mode clock observed as sin/cos (Hz) |
+    | ``reset_noise_scale`` | 1e-3 | initial hinge-angle noise (rad) |
+    | ``render_mode`` | None | ``"rgb_array"`` |
+    | ``width``, ``height`` | 480, 270 | frame size (pixels) |
+
+    ## Version History
+
+    - v0: initial version (magsoft_env 0.1).
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 50}
+    _scene = "floor"
+
+    def __init__(
+        self,
+        robot: str = "paper-5c",
+        *,
+        action_mode: str = "field",
+        field_limit: float = DEFAULT_FIELD_LIMIT,
+        slew_rate: float | None = None,
+        ctrl_dt: float = DEFAULT_CTRL_DT,
+        sim_dt: float = DEFAULT_SIM_DT,
+        segments: int = 20,
+        friction: float = 0.5,
+        target_direction: int = 1,
+        forward_reward_weight: float = 1000.0,
+        field_cost_weight: float = 0.1,
+        crawl_mode: str = "rotation",
+        max_link_rotation: float = DEFAULT_MAX_LINK_ROTATION,
+        max_height: float = DEFAULT_MAX_HEIGHT,
+        crawl_penalty: float = 10.0,
+        frequency_range: tuple[float, float] = DEFAULT_FREQUENCY_RANGE,
+        clock_frequency: float = 2.0,
+        reset_noise_scale: float = 1e-3,
+        feature_x: float | None = None,
+        render_mode: str | None = None,
+        width: int = 480,
+        height: int = 270,
+    ):
+        choice("robot", robot, list_gaits())
+        self.action_mode = choice("action_mode", action_mode, ACTION_MODES)
+        self.crawl_mode = choice("crawl_mode", crawl_mode, CRAWL_MODES)
+        self.field_limit = positive("field_limit", field_limit, unit="T")
+        if self.field_limit > 0.1:
+            raise ValueError(f"field_limit must be <= 0.1 T (fields are in tesla: 20 mT is 0.02), got {field_limit!r}.")
+        self.slew_rate = None if slew_rate is None else positive("slew_rate", slew_rate, unit="T/s")
+        self.sim_dt = positive("sim_dt", sim_dt, unit="s")
+        self.ctrl_dt = positive("ctrl_dt", ctrl_dt, unit="s")
+        self.n_substeps = max(1, int(round(self.ctrl_dt / self.sim_dt)))
+        if target_direction not in (1, -1):
+            raise ValueError(f"target_direction must be +1 or -1, got {target_direction!r}.")
+        self.target_direction = int(target_direction)
+        self.forward_reward_weight = nonnegative("forward_reward_weight", forward_reward_weight, unit="s/m")
+        self.field_cost_weight = nonnegative("field_cost_weight", field_cost_weight)
+        self.max_link_rotation = positive("max_link_rotation", max_link_rotation, unit="rad")
+        self.max_height = positive("max_height", max_height, unit="m")
+        self.crawl_penalty = nonnegative("crawl_penalty", crawl_penalty)
+        try:
+            f_lo, f_hi = (float(v) for v in frequency_range)
+        except (TypeError, ValueError):
+            raise ValueError(f"frequency_range must be (f_min, f_max) in Hz, got {frequency_range!r}.") from None
+        if not 0.0 < f_lo <= f_hi or not math.isfinite(f_hi):
+            raise ValueError(f"frequency_range must satisfy 0 < f_min <= f_max (Hz), got {frequency_range!r}.")
+        self.frequency_range = (f_lo, f_hi)
+        self.clock_frequency = positive("clock_frequency", clock_frequency, unit="Hz")
+        self.reset_noise_scale = nonnegative("reset_noise_scale", reset_noise_scale, unit="rad")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}.")
+        for name, v in (("width", width), ("height", height)):
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 16 <= v <= 4096:
+                raise ValueError(f"{name} must be an integer number of pixels in [16, 4096], got {v!r}.")
+        self.render_mode = render_mode
+        self.width, self.height = int(width), int(height)
+
+        self.robot = robot
+        self.gait = gait_preset(robot)
+        options = RodOptions(
+            scene=self._scene, segments=segments, timestep=self.sim_dt, friction=friction,
+            render=render_mode is not None, feature_x=feature_x,
+        )
+        self.sim = Simulator(self.gait.beam, options)
+        self.segments = options.segments
+        self._mass = self.sim.rod.disc.mass
+        self._bodies = self.sim.rod.body_ids
+        if self.action_mode == "field":
+            self.metadata = {**self.metadata, "render_fps": int(round(1.0 / (self.n_substeps * self.sim_dt)))}
+            self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
+        else:
+            self.metadata = {**self.metadata, "render_fps": 2}
+            self.action_space = spaces.Box(-1.0, 1.0, (4,), np.float32)
+        n1 = self.segments + 1
+        high = np.concatenate([np.full(n1, np.pi), np.full(n1, OBS_MAX_ANGULAR_VELOCITY),
+                               np.full(2, OBS_MAX_VELOCITY), np.ones(4)]).astype(np.float32)
+        self.observation_space = spaces.Box(-high, high, dtype=np.float32)
+        self._renderer = None
+        self._field = np.zeros(2)
+        self._last_action = np.zeros(4)
+        self._com = np.zeros(2)
+        self._com_vel = np.zeros(2)
+        self._broken = False
+
+    # ------------------------------------------------------------------ physics readouts
+    def com_position(self) -> np.ndarray:
+        """Centre of mass (x, z) of the rod (m)."""
+        self.sim.centerline()  # brings positions up to date with the state
+        p = self.sim.data.xipos[self._bodies]
+        return np.array([self._mass @ p[:, 0], self._mass @ p[:, 2]]) / self._mass.sum()
+
+    def piece_angular_velocities(self) -> np.ndarray:
+        """Angular velocity of every piece about -y (rad/s), shape ``(N + 1,)``."""
+        self.sim.centerline()
+        mujoco.mj_comVel(self.sim.model, self.sim.data)
+        return -self.sim.data.cvel[self._bodies, 1].copy()
+
+    def field_of_action(self, action) -> np.ndarray:
+        """Field-mode action in [-1, 1]^2 -> (B_x, B_z) (T)."""
+        return np.clip(np.asarray(action, dtype=float), -1.0, 1.0) * self.field_limit
+
+    def waveparams_of_action(self, action) -> Waveparams:
+        """Waveform-mode action in [-1, 1]^4 -> the cycle's :class:`~magsoft_env.gaits.Waveparams`."""
+        a = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
+        f_lo, f_hi = self.frequency_range
+        freq = f_lo + 0.5 * (a[3] + 1.0) * (f_hi - f_lo)
+        return Waveparams(a[0] * self.field_limit, a[1] * self.field_limit, float(freq), float(a[2] * math.pi))
+
+    def action_of_waveparams(self, wave: Waveparams) -> np.ndarray:
+        """Inverse of :meth:`waveparams_of_action` (clipped to the limits)."""
+        f_lo, f_hi = self.frequency_range
+        fa = 0.0 if f_hi == f_lo else 2.0 * (wave.frequency - f_lo) / (f_hi - f_lo) - 1.0
+        ph = (wave.phase + math.pi) % (2 * math.pi) - math.pi
+        a = np.array([wave.amplitude_x / self.field_limit, wave.amplitude_z / self.field_limit, ph / math.pi, fa])
+        return np.clip(a, -1.0, 1.0).astype(np.float32)
+
+    # ------------------------------------------------------------------ gymnasium API
+    def _get_obs(self) -> np.ndarray:
+        ang = self.sim.angles()
+        omega = self.piece_angular_velocities()
+        if self.action_mode == "field":
+            w = 2.0 * math.pi * self.clock_frequency * self.sim.time
+            tail = np.array([*(self._field / self.field_limit), math.sin(w), math.cos(w)])
+        else:
+            tail = self._last_action
+        obs = np.concatenate([ang, omega, self._com_vel, tail]).astype(np.float32)
+        return np.clip(obs, self.observation_space.low, self.observation_space.high)
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        sim = self.sim
+        sim.reset()
+        sim.set_field((0.0, 0.0))
+        noise = self.np_random.uniform(-self.reset_noise_scale, self.reset_noise_scale, self.segments)
+        sim.data.qpos[sim.rod.hinge_qpos] += noise
+        mujoco.mj_forward(sim.model, sim.data)
+        self._field = np.zeros(2)
+        self._last_action = np.zeros(4)
+        self._com = self.com_position()
+        self._com_vel = np.zeros(2)
+        self._broken = False
+        self._last_obs = self._get_obs()
+        return self._last_obs, self._info(0.0)
+
+    def _advance(self, action) -> tuple[float, float]:
+        """Apply the action and step the physics; returns (duration s, mean normalized field power)."""
+        sim = self.sim
+        if self.action_mode == "field":
+            target = self.field_of_action(action)
+            if self.slew_rate is not None:
+                dmax = self.slew_rate * self.n_substeps * self.sim_dt
+                target = self._field + np.clip(target - self._field, -dmax, dmax)
+                start = self._field.copy()
+                sim.set_waveform(Ramp(tuple(start), tuple(target), duration=self.n_substeps * self.sim_dt))
+                # mean of the squared linear ramp
+                power = float(np.sum(start**2 + start * target + target**2) / 3.0)
+            else:
+                sim.set_field(tuple(target))
+                power = float(np.sum(target**2))
+            self._field = target
+            n = self.n_substeps
+        else:
+            wave = self.waveparams_of_action(action)
+            self._last_action = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
+            sim.set_waveform(PhaseShifted(wave.amplitude_x, wave.amplitude_z, wave.frequency, wave.phase, 0.0))
+            n = max(1, int(round(1.0 / (wave.frequency * self.sim_dt))))
+            power = 0.5 * (wave.amplitude_x**2 + wave.amplitude_z**2)
+            self._field = np.zeros(2)  # a whole period ends where it began
+        sim.step(n)
+        return n * self.sim_dt, power / self.field_limit**2
+
+    def step(self, action):
+        if self._broken:
+            raise RuntimeError("step() called after the simulation became unstable; call reset() first.")
+        action = np.asarray(action, dtype=np.float64).reshape(self.action_space.shape)
+        try:
+            duration, power = self._advance(action)
+        except SimulationError as err:
+            self._broken = True
+            info = self._info(0.0)
+            info.update(truncation_reason=str(err), instability=err.quantity)
+            return self._last_obs, 0.0, False, True, info
+        com = self.com_position()
+        self._com_vel = (com - self._com) / duration
+        self._com = com
+        violation = self._crawl_violation()
+        # a step that breaks the crawl limit earns no forward reward (else one flip pays)
+        forward = 0.0 if violation else self.forward_reward_weight * self.target_direction * self._com_vel[0]
+        field_cost = -self.field_cost_weight * power
+        crawl = -self.crawl_penalty if violation else 0.0
+        success = self._success_reward()
+        reward = forward + field_cost + crawl + success
+        obs = self._get_obs()
+        if not np.all(np.isfinite(obs)):
+            self._broken = True
+            info = self._info(0.0)
+            info.update(truncation_reason="non-finite observation", instability="observation")
+            return self._last_obs, 0.0, False, True, info
+        self._last_obs = obs
+        info = self._info(float(reward), forward=forward, field=field_cost, crawl=crawl, success=success)
+        if violation:
+            info["crawl_violation"] = violation
+        terminated = bool(violation) or self._is_success()
+        return obs, float(reward), terminated, False, info
+
+    def _crawl_violation(self) -> str:
+        if self.crawl_mode == "rotation":
+            rot = float(np.max(np.abs(self.sim.angles())))
+            if rot > self.max_link_rotation:
+                return f"link rotation {math.degrees(rot):.1f} deg > {math.degrees(self.max_link_rotation):.1f} deg"
+        elif self.crawl_mode == "height":
+            top = float(np.max(self.sim.centerline()[1]))
+            if top > self.max_height:
+                return f"height {top * 1e3:.2f} mm > {self.max_height * 1e3:.2f} mm"
+        return ""
+
+    def _success_reward(self) -> float:
+        return 0.0
+
+    def _is_success(self) -> bool:
+        return False
+
+    def _info(self, reward: float, *, forward: float = 0.0, field: float = 0.0, crawl: float = 0.0,
+              success: float = 0.0) -> dict:
+        return {
+            "reward_forward": float(forward), "reward_field": float(field), "reward_crawl": float(crawl),
+            "reward_success": float(success), "reward": float(reward),
+            "x_position": float(self._com[0]), "z_position": float(self._com[1]),
+            "x_velocity": float(self._com_vel[0]), "field": self._field.copy(), "time": self.sim.time,
+            "is_success": self._is_success(),
+        }
+
+    def open_loop_action(self, t: float, wave: Waveparams | None = None) -> np.ndarray:
+        """Action reproducing the open-loop gait ``wave`` (default: the robot's paper gait).
+
+        Field mode: the field sampled at the middle of the step starting at ``t`` (s);
+        waveform mode: the gait's parameters (``t`` unused).
+        """
+        wave = self.gait.wave if wave is None else wave
+        if self.action_mode == "waveform":
+            return self.action_of_waveparams(wave)
+        b = wave.sample([t + 0.5 * self.n_substeps * self.sim_dt])[0]
+        return np.clip(b / self.field_limit, -1.0, 1.0).astype(np.float32)
+
+    # ------------------------------------------------------------------ rendering
+    def render(self):
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' to the constructor.")
+            return None
+        if self._renderer is None:
+            from ..render import RodRenderer
+
+            self._renderer = RodRenderer(self.sim, width=self.width, height=self.height)
+        return self._renderer.render(field=self.sim.field)
+
+    def close(self):
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None

@@ -1,0 +1,66 @@
+"""MagSoftObstacle-v0: crawl over the paper's block (Fig. 5b: 7 x 5.5 x 2 mm)."""
+
+from __future__ import annotations
+
+from ..sim import OBSTACLE_SIZE
+from .crawl import MagSoftCrawlEnv
+
+#: Default gap between the beam's right end and the block's left face (m).
+DEFAULT_OBSTACLE_GAP = 2e-3
+
+
+class MagSoftObstacleEnv(MagSoftCrawlEnv):
+    """
+    ## Description
+
+    :class:`~magsoft_env.envs.crawl.MagSoftCrawlEnv` in the ``obstacle`` scene: the paper's
+    7 x 5.5 x 2 mm block stands ``obstacle_gap`` to the right of the beam. The goal is to
+    climb over it: success when the whole beam lies past the block's right face.
+
+    ## Action Space, Observation Space
+
+    As ``MagSoftCrawl-v0`` (field mode by default).
+
+    ## Rewards
+
+    As ``MagSoftCrawl-v0`` (target direction +x) plus ``reward_success = success_reward`` on
+    the step the beam's base end passes the block.
+
+    ## Starting State
+
+    As ``MagSoftCrawl-v0``; the block's left face is at ``x = L + obstacle_gap``.
+
+    ## Episode End
+
+    Termination on success or a broken crawl limit; truncation after 1500 steps (30 s) or on
+    instability (``info["truncation_reason"]``).
+
+    ## Arguments
+
+    ``obstacle_gap`` (m, default 2e-3), ``success_reward`` (default 100), and every argument
+    of ``MagSoftCrawl-v0``. Default robot ``"paper-5b"`` (the paper's climber).
+
+    ## Version History
+
+    - v0: initial version (magsoft_env 0.1).
+    """
+
+    _scene = "obstacle"
+
+    def __init__(self, robot: str = "paper-5b", *, obstacle_gap: float = DEFAULT_OBSTACLE_GAP,
+                 success_reward: float = 100.0, **kwargs):
+        from ..gaits import gait_preset
+        from ..spec._validate import finite_number, nonnegative
+
+        length = gait_preset(robot).beam.length if isinstance(robot, str) else 0.0
+        gap = finite_number("obstacle_gap", obstacle_gap, unit="m")
+        self.success_reward = nonnegative("success_reward", success_reward)
+        self.obstacle_x = length + gap
+        self.clear_x = self.obstacle_x + OBSTACLE_SIZE[0]
+        super().__init__(robot, feature_x=self.obstacle_x, **kwargs)
+
+    def _is_success(self) -> bool:
+        return bool(self.sim.centerline()[0].min() > self.clear_x)
+
+    def _success_reward(self) -> float:
+        return self.success_reward if self._is_success() else 0.0

@@ -1,0 +1,352 @@
+"""The paper's crawling gaits (Fig. 5a-c) as open-loop baselines: robot, field waveform, floor.
+
+The paper gives no beam lengths, field amplitudes, frequencies or friction for Fig. 5; the
+presets below choose them and say so (see docs/envs.md for the reasons and the measured
+speeds next to the paper's). Everything here is SI: m, T, s, Hz, rad.
+
+Examples
+--------
+>>> from magsoft_env.gaits import gait_preset, run_gait
+>>> preset = gait_preset("paper-5c", reverse=True)
+>>> result = run_gait(preset, seconds=2.0)          # doctest: +SKIP
+>>> result.speed * 1e3                              # mm/s, signed along +x  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from .spec import Beam, PiecewiseConstant, jig_from_function, jig_from_polyline
+from .spec._validate import nonnegative, positive
+
+MM = 1e-3
+MT = 1e-3
+
+#: Beam cross-section shared by the presets (m): the paper's 5 x 1.13 mm strips.
+WIDTH = 5e-3
+THICKNESS = 1.13e-3
+#: Default gait timestep (s): the floor contact needs <= 0.1 ms to converge (docs/sim.md).
+GAIT_TIMESTEP = 1e-4
+#: Default sliding friction coefficient between silicone and the substrate (dimensionless).
+GAIT_FRICTION = 0.5
+#: Default number of rod segments.
+GAIT_SEGMENTS = 20
+
+
+@dataclass(frozen=True)
+class Waveparams:
+    """A periodic field: ``B_x = amplitude_x sin(2 pi f t + phase)``, ``B_z = amplitude_z sin(2 pi f t)``.
+
+    Attributes
+    ----------
+    amplitude_x, amplitude_z : float
+        Amplitudes (T); signed.
+    frequency : float
+        Frequency f (Hz).
+    phase : float
+        Phase of B_x ahead of B_z (rad).
+    """
+
+    amplitude_x: float
+    amplitude_z: float
+    frequency: float
+    phase: float = 0.0
+
+    def waveform(self):
+        """The :class:`magsoft_env.sim.PhaseShifted` waveform (imports mujoco via ``magsoft_env.sim``)."""
+        from .sim.waveforms import PhaseShifted
+
+        return PhaseShifted(self.amplitude_x, self.amplitude_z, self.frequency, self.phase, 0.0)
+
+    def sample(self, t) -> np.ndarray:
+        """Field (T) at times ``t`` (s), shape ``(n, 2)``: B_x, B_z."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        w = 2.0 * np.pi * self.frequency * t
+        return np.stack([self.amplitude_x * np.sin(w + self.phase), self.amplitude_z * np.sin(w)], axis=1)
+
+    @property
+    def peak(self) -> tuple[float, float]:
+        """Peak |B_x|, |B_z| (T)."""
+        return (abs(self.amplitude_x), abs(self.amplitude_z))
+
+
+@dataclass(frozen=True)
+class GaitPreset:
+    """One open-loop crawling gait: robot, field, floor, and the paper's observation.
+
+    Attributes
+    ----------
+    name : str
+    description : str
+        What the paper says and what was chosen here.
+    beam : Beam
+    wave : Waveparams
+        The applied field (T, Hz, rad).
+    friction : float
+        Sliding friction coefficient rod-floor.
+    paper_speed : float or None
+        Speed the paper reports (m/s, signed along +x; None where the paper gives none).
+    paper_direction : str
+        ``"left"``, ``"right"`` or ``"reversible"``.
+    reverse : bool
+        Whether B_x was inverted (``--reverse``).
+    """
+
+    name: str
+    description: str
+    beam: Beam
+    wave: Waveparams
+    friction: float = GAIT_FRICTION
+    paper_speed: float | None = None
+    paper_direction: str = ""
+    reverse: bool = False
+
+    def rod_options(self, *, scene: str = "floor", segments: int = GAIT_SEGMENTS, timestep: float = GAIT_TIMESTEP,
+                    render: bool = False, feature_x: float | None = None):
+        """The :class:`magsoft_env.sim.RodOptions` for this gait (imports mujoco)."""
+        from .sim import RodOptions
+
+        return RodOptions(scene=scene, segments=segments, timestep=timestep, friction=self.friction,
+                          render=render, feature_x=feature_x)
+
+
+@dataclass(frozen=True)
+class GaitResult:
+    """Outcome of :func:`run_gait`.
+
+    Attributes
+    ----------
+    name : str
+    seconds : float
+        Simulated time (s).
+    warmup : float
+        Time (s) excluded from the speed (the first cycle, a start-up transient).
+    displacement : float
+        Centre-of-mass travel along +x over the whole run (m).
+    speed : float
+        Mean centre-of-mass speed along +x after the warm-up (m/s).
+    direction : str
+        ``"left"``, ``"right"`` or ``"none"`` (|speed| below 0.01 mm/s).
+    max_height : float
+        Highest centerline point over the run (m): crawling stays low, tumbling does not.
+    max_link_rotation : float
+        Largest |tangent angle| of any piece over the run (rad).
+    wall_time : float
+        Seconds of computing.
+    time, com_x : ndarray
+        Recorded times (s) and centre-of-mass x (m).
+    success : bool
+        False when the simulation became unstable (then ``message`` says why).
+    message : str
+    """
+
+    name: str
+    seconds: float
+    warmup: float
+    displacement: float
+    speed: float
+    direction: str
+    max_height: float
+    max_link_rotation: float
+    wall_time: float
+    time: np.ndarray = field(repr=False)
+    com_x: np.ndarray = field(repr=False)
+    success: bool = True
+    message: str = "ok"
+
+    def as_dict(self) -> dict:
+        """JSON-ready summary with units in the keys (mm, mm/s, deg)."""
+        return {
+            "preset": self.name,
+            "seconds": self.seconds,
+            "warmup_s": self.warmup,
+            "displacement_mm": self.displacement / MM,
+            "speed_mm_s": self.speed / MM,
+            "direction": self.direction,
+            "max_height_mm": self.max_height / MM,
+            "max_link_rotation_deg": math.degrees(self.max_link_rotation),
+            "wall_time_s": self.wall_time,
+            "success": self.success,
+            "message": self.message,
+        }
+
+
+def _beam_5a() -> Beam:
+    # symmetric polyline ("V") jig: falling 15 deg over the left half, rising 15 deg over the right,
+    # so beta = +15 deg on the left half and -15 deg on the right
+    L, a = 25e-3, math.radians(15.0)
+    x = np.array([0.0, 0.5 * L * math.cos(a), L * math.cos(a)])
+    z = np.array([0.0, -0.5 * L * math.sin(a), 0.0])
+    return Beam(length=L, width=WIDTH, thickness=THICKNESS, volume_fraction=PiecewiseConstant([0.1, 0.2]),
+                magnetization=jig_from_polyline(x, z))
+
+
+def _beam_5b() -> Beam:
+    # polyline jig of three equal pieces falling ever more steeply to the right: slopes -5, -10, -20 deg
+    # (beta = +5, +10, +20 deg)
+    L = 25e-3
+    angles = np.radians([-5.0, -10.0, -20.0])
+    seg = L / 3.0
+    x = np.concatenate([[0.0], np.cumsum(seg * np.cos(angles))])
+    z = np.concatenate([[0.0], np.cumsum(seg * np.sin(angles))])
+    return Beam(length=L, width=WIDTH, thickness=THICKNESS, volume_fraction=0.2, magnetization=jig_from_polyline(x, z))
+
+
+def _beam_5c() -> Beam:
+    # cosine jig z = 3 cos(2 pi x / 20) mm over one period, x in [0, 20] mm (arc length 23.9 mm)
+    jig = jig_from_function(lambda x: 3.0 * np.cos(2.0 * np.pi * x / 20.0), 0.0, 20.0, unit=MM)
+    return Beam(length=jig.length, width=WIDTH, thickness=THICKNESS, volume_fraction=0.2, magnetization=jig)
+
+
+_PRESETS = {
+    "paper-5a": dict(
+        beam=_beam_5a,
+        wave=Waveparams(0.0, 2.0 * MT, 2.0),
+        paper_speed=-0.85 * MM, paper_direction="left",
+        description=(
+            "Fig. 5a: 25 x 5 x 1.13 mm beam, phi = 10 % left half / 20 % right half (composite density 1940 "
+            "kg/m^3 throughout, the paper's measured value), symmetric polyline ('V') jig falling 15 deg then "
+            "rising 15 deg (beta = +15 deg left half, -15 deg right half). Field: oscillating B_z = 2 mT "
+            "sin(2 pi 2 Hz t). Friction 0.5. Paper: crawls left at 0.85 mm/s."
+        ),
+    ),
+    "paper-5b": dict(
+        beam=_beam_5b,
+        wave=Waveparams(0.0, 2.0 * MT, 2.0),
+        paper_speed=None, paper_direction="left",
+        description=(
+            "Fig. 5b: 25 x 5 x 1.13 mm beam, phi = 20 %, polyline jig of three equal pieces falling with slopes "
+            "5, 10 and 20 deg (the largest on the right; beta = +5, +10, +20 deg). Field: oscillating B_z = 2 mT "
+            "sin(2 pi 2 Hz t). Friction "
+            "0.5. Paper: crawls left (no speed given), climbs a 7 x 5.5 x 2 mm block."
+        ),
+    ),
+    "paper-5c": dict(
+        beam=_beam_5c,
+        wave=Waveparams(-1.0 * MT, 2.0 * MT, 2.0, math.pi / 4),
+        paper_speed=None, paper_direction="reversible",
+        description=(
+            "Fig. 5c: cosine jig z = 3 cos(2 pi x / 20 mm) over one period (beam 23.9 x 5 x 1.13 mm, phi = 20 "
+            "%). Field: B_z = 2 mT sin(2 pi 2 Hz t) with B_x = -1 mT sin(2 pi 2 Hz t + 45 deg); --reverse "
+            "inverts B_x. Friction 0.5. Paper: dual-direction crawling at 3 mm/s, reversed by inverting B_x "
+            "(the sign of the non-reversed B_x is a convention: the paper gives no phase)."
+        ),
+    ),
+}
+
+
+def list_gaits() -> tuple[str, ...]:
+    """Names of the built-in gaits."""
+    return tuple(_PRESETS)
+
+
+def gait_preset(name: str, *, reverse: bool = False) -> GaitPreset:
+    """The built-in gait ``name`` (see :func:`list_gaits`); ``reverse`` inverts B_x.
+
+    Raises
+    ------
+    ValueError
+        For an unknown name (the message suggests the closest one).
+    """
+    if name not in _PRESETS:
+        hint = difflib.get_close_matches(str(name), list(_PRESETS), n=1)
+        extra = f" Did you mean {hint[0]!r}?" if hint else ""
+        raise ValueError(f"gait preset must be one of {list(_PRESETS)}, got {name!r}.{extra}")
+    d = _PRESETS[name]
+    wave = d["wave"]
+    if reverse:
+        wave = replace(wave, amplitude_x=-wave.amplitude_x)
+    speed = d["paper_speed"]
+    return GaitPreset(name=name, description=d["description"], beam=d["beam"](), wave=wave,
+                      paper_speed=speed, paper_direction=d["paper_direction"], reverse=bool(reverse))
+
+
+def com_x(sim) -> float:
+    """Centre-of-mass x (m) of the rod in a :class:`magsoft_env.sim.Simulator`."""
+    sim.centerline()  # brings positions up to date with the current state
+    m = sim.rod.disc.mass
+    return float(m @ sim.data.xipos[sim.rod.body_ids, 0] / m.sum())
+
+
+def direction_of(speed: float, *, threshold: float = 1e-5) -> str:
+    """``"left"``, ``"right"`` or ``"none"`` for a speed (m/s) along +x; ``threshold`` in m/s."""
+    if speed > threshold:
+        return "right"
+    if speed < -threshold:
+        return "left"
+    return "none"
+
+
+def run_gait(
+    preset: GaitPreset, seconds: float = 4.0, *, segments: int = GAIT_SEGMENTS, timestep: float = GAIT_TIMESTEP,
+    warmup_cycles: float = 1.0, sample_dt: float = 0.01,
+) -> GaitResult:
+    """Run a gait on the floor and measure the centre-of-mass speed.
+
+    Parameters
+    ----------
+    preset : GaitPreset
+    seconds : float
+        Simulated time (s), > 0.
+    segments : int
+        Rod segments.
+    timestep : float
+        Simulation step (s); 0.1 ms converges the floor contact (docs/sim.md).
+    warmup_cycles : float
+        Field periods excluded from the speed (start-up transient); the displacement covers
+        the whole run.
+    sample_dt : float
+        Recording interval (s).
+
+    Returns
+    -------
+    GaitResult
+        ``success`` False (and the partial record) when the rod became unstable.
+    """
+    import time as _time
+
+    from .sim import SimulationError, Simulator
+
+    if not isinstance(preset, GaitPreset):
+        raise ValueError(f"preset must be a GaitPreset (see gait_preset), got {type(preset).__name__}.")
+    seconds = positive("seconds", seconds, unit="s")
+    warmup_cycles = nonnegative("warmup_cycles", warmup_cycles)
+    sample_dt = positive("sample_dt", sample_dt, unit="s")
+    t0 = _time.perf_counter()
+    sim = Simulator(preset.beam, preset.rod_options(segments=segments, timestep=timestep))
+    sim.set_waveform(preset.wave.waveform())
+    every = max(1, int(round(sample_dt / sim.timestep)))
+    nsteps = int(round(seconds / sim.timestep))
+    ts, xs = [0.0], [com_x(sim)]
+    zmax, rot = float(np.max(sim.centerline()[1])), float(np.max(np.abs(sim.angles())))
+    ok, msg, done = True, "ok", 0
+    while done < nsteps:
+        k = min(every, nsteps - done)
+        try:
+            sim.step(k)
+        except SimulationError as err:
+            ok, msg = False, str(err)
+            break
+        done += k
+        ts.append(sim.time)
+        xs.append(com_x(sim))
+        zmax = max(zmax, float(np.max(sim.centerline()[1])))
+        rot = max(rot, float(np.max(np.abs(sim.angles()))))
+    t, x = np.asarray(ts), np.asarray(xs)
+    warm = min(warmup_cycles / preset.wave.frequency, 0.5 * t[-1])
+    i0 = int(np.searchsorted(t, warm))
+    speed = (x[-1] - x[i0]) / (t[-1] - t[i0]) if t[-1] > t[i0] else 0.0
+    return GaitResult(
+        name=preset.name + (" (reverse)" if preset.reverse else ""), seconds=float(t[-1]), warmup=float(t[i0]),
+        displacement=float(x[-1] - x[0]), speed=float(speed), direction=direction_of(speed),
+        max_height=zmax, max_link_rotation=rot, wall_time=_time.perf_counter() - t0, time=t, com_x=x,
+        success=ok, message=msg,
+    )
+
+
+__all__ = ["GaitPreset", "GaitResult", "Waveparams", "com_x", "direction_of", "gait_preset", "list_gaits",
+           "run_gait"]

@@ -1,0 +1,98 @@
+"""Choose MuJoCo's headless OpenGL backend (EGL, then OSMesa) before mujoco is imported."""
+
+from __future__ import annotations
+
+import ctypes.util
+import os
+import subprocess
+import sys
+
+#: Backends tried in order, with the Debian packages each needs.
+GL_BACKENDS = ("egl", "osmesa")
+GL_PACKAGES = {"egl": "libegl1 and libgl1-mesa-dri", "osmesa": "libosmesa6"}
+_LIBRARIES = {"egl": "EGL", "osmesa": "OSMesa"}
+_PROBE = (
+    "import mujoco; c = mujoco.GLContext(16, 16); c.make_current(); c.free()"
+)
+
+
+class RenderBackendError(RuntimeError):
+    """No headless OpenGL backend could start; the message names the packages to install."""
+
+
+def _message(errors: dict[str, str]) -> str:
+    lines = [f"  MUJOCO_GL={b}: {errors[b]}" for b in errors]
+    return (
+        "MuJoCo could not start a headless OpenGL context.\n" + "\n".join(lines) + "\n"
+        f"Install EGL (Debian/Ubuntu: apt-get install {GL_PACKAGES['egl']}) or OSMesa "
+        f"(apt-get install {GL_PACKAGES['osmesa']}), then retry; or set MUJOCO_GL yourself "
+        "(e.g. MUJOCO_GL=glfw with a display) before Python starts."
+    )
+
+
+def preselect_gl_backend() -> str:
+    """Set ``MUJOCO_GL`` (and ``PYOPENGL_PLATFORM``) to a headless backend whose library exists,
+    unless the user chose one or mujoco is already imported. Cheap: no context is created.
+
+    Returns the backend now in ``MUJOCO_GL`` (``""`` if none).
+    """
+    if os.environ.get("MUJOCO_GL") or "mujoco" in sys.modules:
+        return os.environ.get("MUJOCO_GL", "")
+    for b in GL_BACKENDS:
+        if ctypes.util.find_library(_LIBRARIES[b]):
+            os.environ["MUJOCO_GL"] = b
+            os.environ.setdefault("PYOPENGL_PLATFORM", b)
+            return b
+    return ""
+
+
+def probe_gl_backend(backend: str, *, timeout: float = 60.0) -> str:
+    """Try to create a MuJoCo GL context with ``backend`` in a subprocess; ``""`` on success,
+    else the error text."""
+    env = {**os.environ, "MUJOCO_GL": backend, "PYOPENGL_PLATFORM": backend}
+    try:
+        r = subprocess.run([sys.executable, "-c", _PROBE], env=env, capture_output=True, text=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return f"timed out after {timeout:g} s"
+    if r.returncode == 0:
+        return ""
+    tail = (r.stderr or r.stdout).strip().splitlines()
+    return tail[-1] if tail else f"exit status {r.returncode}"
+
+
+def select_gl_backend() -> str:
+    """Pick a working headless backend before mujoco is imported: ``MUJOCO_GL`` if set,
+    else ``egl``, else ``osmesa`` (each probed in a subprocess).
+
+    Returns
+    -------
+    str
+        The backend now in ``MUJOCO_GL``.
+
+    Raises
+    ------
+    RenderBackendError
+        When neither starts; the message names the Debian packages (``libegl1`` /
+        ``libgl1-mesa-dri`` for EGL, ``libosmesa6`` for OSMesa).
+    """
+    chosen = os.environ.get("MUJOCO_GL", "")
+    if chosen:
+        return chosen
+    if "mujoco" in sys.modules:
+        # too late to choose for this process: mujoco took its default at import
+        return ""
+    errors = {}
+    for b in GL_BACKENDS:
+        err = probe_gl_backend(b)
+        if not err:
+            os.environ["MUJOCO_GL"] = b
+            os.environ.setdefault("PYOPENGL_PLATFORM", b)
+            return b
+        errors[b] = err
+    raise RenderBackendError(_message(errors))
+
+
+def context_error(exc: BaseException) -> RenderBackendError:
+    """A :class:`RenderBackendError` explaining a failed ``mujoco.Renderer``."""
+    b = os.environ.get("MUJOCO_GL", "") or "(unset: mujoco's default, glfw, which needs a display)"
+    return RenderBackendError(_message({b: f"{type(exc).__name__}: {exc}"}))
