@@ -27,7 +27,7 @@ DEFAULT_SIM_DT = 5e-4
 #: The paper's channel ceiling (m): the crawl-mode height limit by default.
 DEFAULT_MAX_HEIGHT = 7.6e-3
 #: Largest |tangent angle| of any piece in crawl mode "rotation" (rad): beyond it the beam tumbles.
-DEFAULT_MAX_LINK_ROTATION = math.pi / 2
+DEFAULT_MAX_LINK_ROTATION = 2.0 * math.pi / 3.0
 #: Observation bounds (observations are clipped to them): angular speed (rad/s), COM speed (m/s).
 OBS_MAX_ANGULAR_VELOCITY = 1e3
 OBS_MAX_VELOCITY = 10.0
@@ -97,8 +97,10 @@ class MagSoftCrawlEnv(gym.Env):
       along the target direction over the step, per second (default weight 1000 s/m: the term
       reads in mm/s).
     - ``field_cost = -field_cost_weight * mean_t (B_x^2 + B_z^2) / field_limit^2``.
-    - ``crawl_penalty = -crawl_penalty`` on the step that breaks the crawl limit, else 0; that
-      step's forward term is 0 (one flip would otherwise pay).
+    - ``crawl_penalty = -(crawl_penalty + max(0, forward reward earned so far this episode))``
+      on the step that breaks the crawl limit, else 0; that step's forward term is 0. Breaking
+      the limit thus forfeits the episode's progress: a lurch into a tumble moves the centre
+      of mass fast for a few steps and must never pay.
 
     ## Starting State
 
@@ -128,7 +130,7 @@ class MagSoftCrawlEnv(gym.Env):
     | ``forward_reward_weight`` | 1000 | (s/m) |
     | ``field_cost_weight`` | 0.1 | weight of the normalized field power |
     | ``crawl_mode`` | ``"rotation"`` | ``"rotation"``, ``"height"`` or ``"none"`` |
-    | ``max_link_rotation`` | pi/2 | crawl-mode rotation limit (rad) |
+    | ``max_link_rotation`` | 2 pi / 3 (120 deg) | crawl-mode rotation limit (rad) |
     | ``max_height`` | 7.6e-3 | crawl-mode height limit (m) |
     | ``crawl_penalty`` | 10 | reward lost when the crawl limit is broken |
     | ``frequency_range`` | (0.5, 4) | waveform-mode frequencies (Hz) |
@@ -232,6 +234,7 @@ class MagSoftCrawlEnv(gym.Env):
         self._com = np.zeros(2)
         self._com_vel = np.zeros(2)
         self._broken = False
+        self._episode_forward = 0.0
 
     # ------------------------------------------------------------------ physics readouts
     def com_position(self) -> np.ndarray:
@@ -290,6 +293,7 @@ class MagSoftCrawlEnv(gym.Env):
         self._com = self.com_position()
         self._com_vel = np.zeros(2)
         self._broken = False
+        self._episode_forward = 0.0
         self._last_obs = self._get_obs()
         return self._last_obs, self._info(0.0)
 
@@ -330,7 +334,7 @@ class MagSoftCrawlEnv(gym.Env):
             self._broken = True
             info = self._info(0.0)
             info.update(truncation_reason=str(err), instability=err.quantity)
-            return self._last_obs, 0.0, False, True, info
+            return self._last_obs.copy(), 0.0, False, True, info
         com = self.com_position()
         self._com_vel = (com - self._com) / duration
         self._com = com
@@ -338,7 +342,10 @@ class MagSoftCrawlEnv(gym.Env):
         # a step that breaks the crawl limit earns no forward reward (else one flip pays)
         forward = 0.0 if violation else self.forward_reward_weight * self.target_direction * self._com_vel[0]
         field_cost = -self.field_cost_weight * power
-        crawl = -self.crawl_penalty if violation else 0.0
+        # breaking the limit also forfeits the episode's forward reward: a lurch into a tumble
+        # moves the centre of mass fast for a few steps, which must never pay
+        crawl = -(self.crawl_penalty + max(self._episode_forward, 0.0)) if violation else 0.0
+        self._episode_forward += forward
         success = self._success_reward()
         reward = forward + field_cost + crawl + success
         obs = self._get_obs()
@@ -346,7 +353,7 @@ class MagSoftCrawlEnv(gym.Env):
             self._broken = True
             info = self._info(0.0)
             info.update(truncation_reason="non-finite observation", instability="observation")
-            return self._last_obs, 0.0, False, True, info
+            return self._last_obs.copy(), 0.0, False, True, info
         self._last_obs = obs
         info = self._info(float(reward), forward=forward, field=field_cost, crawl=crawl, success=success)
         if violation:

@@ -232,7 +232,7 @@ class MagSoftShapeEnv(gym.Env):
             self._broken = True
             info = self._info()
             info.update(truncation_reason=str(err), instability=err.quantity)
-            return self._last_obs, 0.0, False, True, info
+            return self._last_obs.copy(), 0.0, False, True, info
         obs = self._get_obs()
         tip = self.tip_pose()
         err = float(np.hypot(*(tip[:2] - self._target[:2])))

@@ -1,0 +1,216 @@
+"""Environment contract: registration, check_env, determinism, finiteness, reward terms, instability."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import magsoft_env  # noqa: F401  (registers the ids)
+from magsoft_env.envs import ENV_SPECS, register_all
+
+IDS = list(ENV_SPECS)
+# small rods keep the contract tests fast; the physics does not change the contract
+FAST = {"segments": 6}
+
+
+def make(env_id, **kw):
+    return gym.make(env_id, **{**FAST, **kw})
+
+
+def test_import_does_not_load_mujoco_torch_or_gl():
+    code = (
+        "import sys, magsoft_env, gymnasium\n"
+        "assert 'MagSoftCrawl-v0' in gymnasium.registry\n"
+        "bad = [m for m in ('mujoco', 'torch', 'stable_baselines3', 'OpenGL') if m in sys.modules]\n"
+        "print(bad)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
+
+
+def test_register_all_is_idempotent_and_sets_time_limits():
+    register_all()
+    register_all()
+    for env_id, (entry, steps, _) in ENV_SPECS.items():
+        spec = gym.spec(env_id)
+        assert spec.entry_point == entry
+        assert spec.max_episode_steps == steps
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_check_env_passes_without_warnings(env_id):
+    env = make(env_id)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(env.unwrapped, skip_render_check=True)
+    env.close()
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_same_seed_same_trajectory(env_id):
+    def rollout():
+        env = make(env_id)
+        env.action_space.seed(7)
+        obs, _ = env.reset(seed=3)
+        traj = [obs]
+        for _ in range(4):
+            obs, r, term, trunc, _ = env.step(0.1 * env.action_space.sample())
+            traj.append(obs)
+            if term or trunc:
+                break
+        env.close()
+        return np.array(traj)
+
+    a, b = rollout(), rollout()
+    assert a.shape == b.shape
+    np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_observations_finite_and_reward_terms_add_up(env_id):
+    kw = {"crawl_mode": "none"} if env_id != "MagSoftShape-v0" else {}
+    env = make(env_id, **kw)
+    env.action_space.seed(0)
+    obs, _ = env.reset(seed=0)
+    for _ in range(6):
+        obs, r, term, trunc, info = env.step(env.action_space.sample())
+        assert obs.dtype == np.float32
+        assert np.all(np.isfinite(obs))
+        assert env.observation_space.contains(obs)
+        terms = sum(v for k, v in info.items() if k.startswith("reward_"))
+        assert r == pytest.approx(terms, rel=1e-12, abs=1e-12)
+        if term or trunc:
+            obs, _ = env.reset()
+    env.close()
+
+
+def test_different_seeds_give_different_starts():
+    env = make("MagSoftCrawl-v0")
+    a, _ = env.reset(seed=1)
+    b, _ = env.reset(seed=2)
+    assert not np.array_equal(a, b)
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_forced_instability_truncates_with_reason(env_id):
+    env = make(env_id)
+    env.reset(seed=0)
+    env.unwrapped.sim.data.qvel[:] = np.nan
+    obs, r, term, trunc, info = env.step(np.zeros(env.action_space.shape, dtype=np.float32))
+    assert trunc and not term
+    assert "unstable" in info["truncation_reason"]
+    assert np.all(np.isfinite(obs))
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step(np.zeros(env.action_space.shape, dtype=np.float32))
+    env.reset(seed=0)  # usable again after reset
+    env.step(np.zeros(env.action_space.shape, dtype=np.float32))
+
+
+def test_crawl_limit_terminates_with_penalty_and_no_forward_reward():
+    env = make("MagSoftCrawl-v0")
+    env.reset(seed=0)
+    for _ in range(50):  # full field along z flips the beam
+        obs, r, term, trunc, info = env.step(np.array([0.0, 1.0], dtype=np.float32))
+        if term:
+            break
+    assert term
+    assert "link rotation" in info["crawl_violation"]
+    assert info["reward_forward"] == 0.0
+    assert info["reward_crawl"] <= -10.0  # the penalty plus the forward reward earned before
+
+
+def test_crawl_violation_forfeits_the_episode_forward_reward():
+    env = make("MagSoftCrawl-v0")
+    env.reset(seed=0)
+    earned, total = 0.0, 0.0
+    for _ in range(50):
+        _, r, term, _, info = env.step(np.array([0.0, 1.0], dtype=np.float32))
+        total += r
+        if term:
+            break
+        earned += info["reward_forward"]
+    assert term
+    assert info["reward_crawl"] == pytest.approx(-10.0 - max(earned, 0.0))
+    assert total <= -10.0 + 1e-9  # a tumble never pays
+
+
+def test_height_mode_and_slew_rate_limit():
+    env = make("MagSoftCrawl-v0", crawl_mode="height", slew_rate=0.05)  # 50 mT/s: 1 mT per 20 ms step
+    env.reset(seed=0)
+    _, _, _, _, info = env.step(np.array([1.0, -1.0], dtype=np.float32))
+    np.testing.assert_allclose(info["field"], [1e-3, -1e-3], rtol=1e-9)
+    _, _, _, _, info = env.step(np.array([1.0, -1.0], dtype=np.float32))
+    np.testing.assert_allclose(info["field"], [2e-3, -2e-3], rtol=1e-9)
+
+
+def test_waveform_action_mapping_round_trip():
+    env = make("MagSoftCrawlWaveform-v0").unwrapped
+    a = np.array([0.3, -0.5, 0.25, 0.1], dtype=np.float32)
+    w = env.waveparams_of_action(a)
+    assert w.amplitude_x == pytest.approx(0.3 * 0.02)
+    assert w.phase == pytest.approx(0.25 * np.pi)
+    np.testing.assert_allclose(env.action_of_waveparams(w), a, atol=1e-6)
+
+
+def test_waveform_step_lasts_one_period():
+    env = make("MagSoftCrawlWaveform-v0")
+    env.reset(seed=0)
+    a = np.array([0.0, 0.05, 0.0, 1.0], dtype=np.float32)  # f = 4 Hz
+    _, _, _, _, info = env.step(a)
+    assert info["time"] == pytest.approx(0.25, abs=1e-9)
+
+
+def test_shape_target_option_and_success_flag():
+    env = make("MagSoftShape-v0")
+    L = env.unwrapped.beam.length
+    _, info = env.reset(seed=0, options={"target": (0.5 * L, -0.5 * L, -1.0)})
+    np.testing.assert_allclose(info["target"], [0.5 * L, -0.5 * L, -1.0])
+    assert not info["is_success"]
+    with pytest.raises(ValueError, match="target"):
+        env.reset(options={"target": (1.0, 2.0)})
+
+
+@pytest.mark.parametrize("mode", ["sync", "async"])
+def test_vector_envs(mode):
+    envs = gym.make_vec("MagSoftCrawl-v0", num_envs=2, vectorization_mode=mode, **FAST)
+    obs, _ = envs.reset(seed=[0, 1])
+    assert obs.shape == (2, envs.single_observation_space.shape[0])
+    for _ in range(3):
+        obs, r, term, trunc, info = envs.step(0.05 * np.ones((2, 2), dtype=np.float32))
+    assert np.all(np.isfinite(obs)) and r.shape == (2,)
+    envs.close()
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"field_limit": -0.02}, "field_limit must be > 0"),
+        ({"field_limit": 20.0}, "field_limit must be <= 0.1 T"),
+        ({"action_mode": "torque"}, "action_mode must be one of"),
+        ({"crawl_mode": "rotaton"}, "Did you mean"),
+        ({"robot": "paper-5d"}, "Did you mean"),
+        ({"target_direction": 2}, "target_direction must be"),
+        ({"slew_rate": 0.0}, "slew_rate must be > 0"),
+        ({"frequency_range": (4.0, 1.0)}, "frequency_range"),
+        ({"render_mode": "human"}, "render_mode must be one of"),
+    ],
+)
+def test_bad_arguments_raise_value_errors(kwargs, match):
+    from magsoft_env.envs.crawl import MagSoftCrawlEnv
+
+    with pytest.raises(ValueError, match=match):
+        MagSoftCrawlEnv(**kwargs)
+
+
+def test_open_loop_action_follows_the_gait():
+    env = make("MagSoftCrawl-v0", robot="paper-5c").unwrapped
+    wave = env.gait.wave
+    t = 0.13
+    b = wave.sample([t + 0.01])[0]
+    np.testing.assert_allclose(env.open_loop_action(t) * env.field_limit, b, rtol=1e-6)

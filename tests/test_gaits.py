@@ -1,0 +1,93 @@
+"""Paper gaits (Fig. 5): presets, run_gait, the magsoft gait command."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from magsoft_env.cli import main
+from magsoft_env.gaits import Waveparams, direction_of, gait_preset, list_gaits, run_gait
+
+
+def test_presets_follow_the_paper_descriptions():
+    assert list_gaits() == ("paper-5a", "paper-5b", "paper-5c")
+    a = gait_preset("paper-5a").beam
+    L = a.length
+    # 10 % left half, 20 % right half; symmetric polyline magnetization
+    np.testing.assert_allclose(a.phi([0.1 * L, 0.9 * L]), [0.1, 0.2])
+    np.testing.assert_allclose(a.beta(0.25 * L), -a.beta(0.75 * L))
+    b = gait_preset("paper-5b").beam
+    betas = b.beta(np.array([1, 3, 5]) * b.length / 6)
+    assert len(set(np.round(betas, 9))) == 3 and abs(betas[-1]) == max(abs(betas))  # largest slope on the right
+    c = gait_preset("paper-5c")
+    s = np.linspace(0, c.beam.length, 9)
+    np.testing.assert_allclose(c.beam.beta(s), -c.beam.beta(s[::-1]), atol=1e-6)  # cosine jig: odd about the middle
+    assert c.wave.amplitude_x != 0 and c.wave.amplitude_z != 0 and c.wave.phase != 0
+
+
+def test_reverse_inverts_bx_only():
+    w, r = gait_preset("paper-5c").wave, gait_preset("paper-5c", reverse=True).wave
+    assert r.amplitude_x == -w.amplitude_x
+    assert (r.amplitude_z, r.frequency, r.phase) == (w.amplitude_z, w.frequency, w.phase)
+
+
+def test_unknown_preset_suggests_the_closest():
+    with pytest.raises(ValueError, match="Did you mean 'paper-5c'"):
+        gait_preset("paper-5C")
+
+
+def test_waveparams_sample_matches_phase_shifted_waveform():
+    w = Waveparams(1e-3, 2e-3, 2.0, math.pi / 4)
+    t = np.linspace(0.0, 1.0, 11)
+    np.testing.assert_allclose(w.sample(t), w.waveform().sample(t), atol=1e-15)
+
+
+def test_direction_of():
+    assert [direction_of(v) for v in (1e-3, -1e-3, 1e-7)] == ["right", "left", "none"]
+
+
+def test_run_gait_validates_input():
+    p = gait_preset("paper-5a")
+    with pytest.raises(ValueError, match="seconds must be > 0"):
+        run_gait(p, 0.0)
+    with pytest.raises(ValueError, match="preset must be a GaitPreset"):
+        run_gait("paper-5a", 1.0)
+
+
+def test_run_gait_records_a_consistent_result():
+    r = run_gait(gait_preset("paper-5b"), 0.6, segments=8, timestep=5e-4)
+    assert r.success
+    assert r.seconds == pytest.approx(0.6)
+    assert r.displacement == pytest.approx(r.com_x[-1] - r.com_x[0])
+    assert r.warmup == pytest.approx(0.3, abs=0.011)  # one period (0.5 s) is capped at half the run
+    assert np.isfinite(r.speed) and r.max_height > 0
+
+
+def test_5c_reverses_with_bx():
+    # the paper's dual-direction crawler: inverting B_x reverses the motion (coarse step: fast)
+    fwd = run_gait(gait_preset("paper-5c"), 2.0, timestep=5e-4)
+    rev = run_gait(gait_preset("paper-5c", reverse=True), 2.0, timestep=5e-4)
+    assert fwd.success and rev.success
+    assert np.sign(fwd.speed) == -np.sign(rev.speed)
+    assert min(abs(fwd.speed), abs(rev.speed)) > 0.1e-3  # m/s: both crawl
+
+
+def test_gait_cli_json(capsys):
+    rc = main(["gait", "--preset", "paper-5c", "--reverse", "--seconds", "0.6", "--timestep-ms", "0.5",
+               "--segments", "8", "--json"])
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    assert {"displacement_mm", "speed_mm_s", "direction", "paper_direction"} <= set(out)
+    assert out["field_mT"]["amplitude_x"] > 0  # reversed: B_x inverted from the preset's -1 mT
+    assert out["direction"] in ("left", "right", "none")
+
+
+def test_gait_cli_text_and_bad_input(capsys):
+    assert main(["gait", "--preset", "paper-5a", "--seconds", "0.2", "--timestep-ms", "0.5", "--segments", "6"]) == 0
+    text = capsys.readouterr().out
+    assert "mm/s" in text and "paper: left, -0.85 mm/s" in text
+    assert main(["gait", "--preset", "paper-5a", "--seconds", "-1"]) == 2
+    assert "--seconds must be > 0" in capsys.readouterr().err

@@ -1,0 +1,90 @@
+"""Rendering and videos: backend selection, frames, MP4/GIF files (GL runs in a subprocess)."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from magsoft_env.render import backend
+
+
+def test_backend_error_names_the_debian_packages(monkeypatch):
+    monkeypatch.delenv("MUJOCO_GL", raising=False)
+    monkeypatch.delitem(sys.modules, "mujoco", raising=False)
+    monkeypatch.setattr(backend, "probe_gl_backend", lambda b: f"cannot open {b}")
+    with pytest.raises(backend.RenderBackendError) as err:
+        backend.select_gl_backend()
+    msg = str(err.value)
+    assert "libegl1" in msg and "libgl1-mesa-dri" in msg and "libosmesa6" in msg
+    assert "MUJOCO_GL=egl: cannot open egl" in msg and "MUJOCO_GL=osmesa" in msg
+
+
+def test_user_choice_of_backend_is_respected(monkeypatch):
+    monkeypatch.setenv("MUJOCO_GL", "osmesa")
+    monkeypatch.setattr(backend, "probe_gl_backend", lambda b: pytest.fail("must not probe"))
+    assert backend.select_gl_backend() == "osmesa"
+
+
+def test_video_path_must_be_mp4_or_gif(tmp_path):
+    from magsoft_env.render.video import write_video
+
+    with pytest.raises(ValueError, match="must end in one of"):
+        write_video([np.zeros((8, 8, 3), np.uint8)], tmp_path / "a.avi")
+    with pytest.raises(ValueError, match="at least one frame"):
+        write_video([], tmp_path / "a.gif")
+
+
+_SCRIPT = r"""
+import json, sys
+import numpy as np
+import imageio.v2 as iio
+from magsoft_env.render.video import render_gait
+from magsoft_env.gaits import gait_preset
+import gymnasium as gym
+import magsoft_env
+out = sys.argv[1]
+frames, s = render_gait(gait_preset("paper-5c"), 0.4, out + "/g.mp4", fps=10, width=160, height=96,
+                        timestep=5e-4, segments=8)
+mp4 = iio.mimread(out + "/g.mp4")
+frames2, _ = render_gait(gait_preset("paper-5a"), 0.2, out + "/g.gif", fps=10, width=96, height=64,
+                         timestep=5e-4, segments=6)
+gif = iio.mimread(out + "/g.gif")
+diffs = [float(np.abs(frames[i + 1].astype(int) - frames[i]).mean()) for i in range(len(frames) - 1)]
+env = gym.make("MagSoftShape-v0", render_mode="rgb_array", segments=6, width=64, height=48)
+env.reset(seed=0)
+env.step(np.array([0.2, 0.5], np.float32))
+img = env.render()
+env2 = gym.make("MagSoftCrawl-v0", render_mode="rgb_array", segments=6, width=64, height=48)
+env2.reset(seed=0)
+img2 = env2.render()
+print(json.dumps({"n": len(frames), "mp4": len(mp4), "shape": list(mp4[0].shape), "gif": len(gif),
+                  "min_diff": min(diffs), "env_shape": list(img.shape), "env_dtype": str(img.dtype),
+                  "env2_shape": list(img2.shape), "message": s["message"]}))
+"""
+
+
+def _run_gl(tmp_path):
+    env = {**os.environ}
+    env.setdefault("MUJOCO_GL", "egl")
+    r = subprocess.run([sys.executable, "-c", _SCRIPT, str(tmp_path)], capture_output=True, text=True, env=env,
+                       timeout=300)
+    if r.returncode != 0 and ("GL" in r.stderr or "EGL" in r.stderr) and "Error" in r.stderr.splitlines()[-1]:
+        pytest.skip(f"no headless OpenGL here: {r.stderr.strip().splitlines()[-1]}")
+    assert r.returncode == 0, r.stderr
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+def test_videos_have_the_expected_frames_and_they_change(tmp_path):
+    res = _run_gl(tmp_path)
+    assert res["message"] == "ok"
+    assert res["n"] == 5 and res["mp4"] == 5  # 0.4 s at 10 fps, plus the first frame
+    assert res["shape"] == [96, 160, 3]
+    assert res["gif"] == 3
+    assert res["min_diff"] > 0.0  # every frame differs from the one before
+    assert res["env_shape"] == [48, 64, 3] and res["env_dtype"] == "uint8"
+    assert res["env2_shape"] == [48, 64, 3]
