@@ -35,6 +35,9 @@ _WALL = 1e-3  # channel wall thickness (m)
 _HINGE_AXIS = (0.0, -1.0, 0.0)
 _ROD_CONTYPE, _ROD_CONAFFINITY = 1, 2  # rod pieces touch the scene, never each other
 _SCENE_CONTYPE, _SCENE_CONAFFINITY = 2, 1
+BASES = ("first", "middle")
+CONTACT_GEOMS = ("capsule", "sphere")
+CONES = {"pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL, "elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC}
 
 
 @dataclass(frozen=True)
@@ -67,8 +70,15 @@ class RodOptions:
     friction : float
         Sliding friction coefficient between rod and scene (floor scenes).
     contact_timeconst : float or None
-        Contact ``solref`` time constant (s); ``None`` gives ``2 * timestep``, the stiffest
-        that MuJoCo resolves.
+        Contact ``solref`` time constant (s). ``None`` (default): the material's own
+        through-thickness time ``h sqrt(rho / E)`` (a compression wave crossing the beam's
+        thickness; the smallest over the beam, about 0.14 ms for the paper's 1.13 mm phi = 0.2
+        beam), so the contact model does not change with the timestep. Before version 0.2 the
+        default was ``2 * timestep``; pass that explicitly to get it back.
+    contact_refsafe : bool
+        Keep MuJoCo's ``refsafe`` (which raises every contact time constant to at least
+        ``2 * timestep``, so the contact softens as the step grows). Off by default: the
+        contact time constant is then the one asked for at every timestep.
     contact_dampratio : float
         Contact ``solref`` damping ratio.
     feature_x : float or None
@@ -78,6 +88,25 @@ class RodOptions:
     grading : float
         Last cell length / first cell length, in [0.1, 10]; 1 gives equal cells, > 1 finer
         cells at the clamp (more accurate cantilevers in strong fields, see docs/sim.md).
+    base : {"middle", "first"}
+        Floor scenes: which piece carries the planar base joint (the root of the kinematic
+        tree). ``middle`` (default) is the least biased with soft contact (DESIGN.md section 5);
+        ``first`` is the base half-cell. The cantilever always clamps the first piece.
+    contact_geom : {"capsule", "sphere"}
+        Collision shape of the rod. ``capsule``: one capsule per piece (two contacts per piece
+        lying flat). ``sphere``: a sphere of radius h/2 at each centerline point (base end,
+        every hinge, tip), one contact each lying flat: about half the contact rows. Spheres
+        leave gaps of ``ds - h`` between them; use capsules for sharp obstacles.
+    cone : {"pyramidal", "elliptic"}
+        Friction cone (MuJoCo ``opt.cone``).
+    noslip_iterations : int
+        MuJoCo no-slip solver iterations (0: off).
+    solver_iterations : int
+        Main constraint-solver iterations (MuJoCo ``opt.iterations``), >= 1.
+    solver_tolerance : float
+        Main constraint-solver tolerance (MuJoCo ``opt.tolerance``), >= 0.
+    contact_impedance : (float, float) or None
+        Contact ``solimp`` (d_min, d_max), each in (0, 1); ``None``: MuJoCo's (0.9, 0.95).
     """
 
     segments: int = 20
@@ -90,9 +119,17 @@ class RodOptions:
     friction: float = 0.5
     contact_timeconst: float | None = None
     contact_dampratio: float = 1.0
+    contact_refsafe: bool = False
     feature_x: float | None = None
     render: bool = False
     grading: float = 1.0
+    base: str = "middle"
+    contact_geom: str = "sphere"
+    cone: str = "elliptic"
+    noslip_iterations: int = 0
+    solver_iterations: int = 100
+    solver_tolerance: float = 1e-8
+    contact_impedance: tuple | None = None
 
     def __post_init__(self):
         seg = self.segments
@@ -109,6 +146,8 @@ class RodOptions:
         finite_number("RodOptions.clamp_angle", self.clamp_angle, unit="rad")
         nonnegative("RodOptions.retardation_time", self.retardation_time, unit="s")
         nonnegative("RodOptions.friction", self.friction)
+        if not isinstance(self.contact_refsafe, (bool, np.bool_)):
+            raise ValueError(f"RodOptions.contact_refsafe must be a bool, got {self.contact_refsafe!r}.")
         if self.contact_timeconst is not None:
             positive("RodOptions.contact_timeconst", self.contact_timeconst, unit="s")
         positive("RodOptions.contact_dampratio", self.contact_dampratio)
@@ -117,10 +156,32 @@ class RodOptions:
         g = finite_number("RodOptions.grading", self.grading)
         if not 0.1 <= g <= 10.0:
             raise ValueError(f"RodOptions.grading must lie in [0.1, 10], got {self.grading!r}.")
+        choice("RodOptions.base", self.base, BASES)
+        choice("RodOptions.contact_geom", self.contact_geom, CONTACT_GEOMS)
+        choice("RodOptions.cone", self.cone, CONES)
+        for name, lo in (("noslip_iterations", 0), ("solver_iterations", 1)):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
+                raise ValueError(f"RodOptions.{name} must be an integer >= {lo}, got {v!r}.")
+        nonnegative("RodOptions.solver_tolerance", self.solver_tolerance)
+        if self.contact_impedance is not None:
+            imp = self.contact_impedance
+            if (not isinstance(imp, (tuple, list)) or len(imp) != 2
+                    or not all(isinstance(v, (int, float)) and 0.0 < v < 1.0 for v in imp) or imp[0] > imp[1]):
+                raise ValueError(
+                    "RodOptions.contact_impedance must be (d_min, d_max) with 0 < d_min <= d_max < 1, "
+                    f"got {imp!r}."
+                )
+            object.__setattr__(self, "contact_impedance", (float(imp[0]), float(imp[1])))
 
     @property
     def has_contact(self) -> bool:
         return self.scene != "cantilever"
+
+    @property
+    def base_piece(self) -> int:
+        """Index of the piece that carries the base (clamp or planar base joint)."""
+        return self.segments // 2 if self.has_contact and self.base == "middle" else 0
 
 
 @dataclass(frozen=True)
@@ -141,7 +202,8 @@ class RodModel:
     hinge_dof : ndarray, shape (N,)
         dof address of each bending hinge.
     base_qpos : ndarray, shape (3,) or (0,)
-        qpos addresses of the planar base joints (slide x, slide z, hinge) in floor scenes.
+        qpos addresses of the planar base joints (slide x, slide z, hinge) in floor scenes;
+        they move the left end of the base piece ``options.base_piece``.
     """
 
     model: mujoco.MjModel
@@ -152,6 +214,18 @@ class RodModel:
     hinge_qpos: np.ndarray
     hinge_dof: np.ndarray
     base_qpos: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+
+
+def material_contact_timeconst(beam: Beam) -> float:
+    """The beam's through-thickness time ``h sqrt(rho / E)`` (s), smallest along the beam.
+
+    The time a compression wave takes to cross the thickness ``h``: a contact stiffness per
+    cell of about ``E w ds / h`` on a cell mass ``rho w h ds`` has this time constant, so it is
+    the default contact ``solref`` time constant of floor scenes.
+    """
+    s = beam._probe_points()
+    rho = beam.mass_per_length(s) / beam.area
+    return float(np.min(beam.thickness * np.sqrt(rho / beam.youngs_modulus(s))))
 
 
 def _quat_y(theta: float) -> list[float]:
@@ -180,11 +254,27 @@ def build_spec(beam: Beam, options: RodOptions) -> tuple[mujoco.MjSpec, RodDiscr
 
     h, w = beam.thickness, beam.width
     radius = 0.5 * h
-    tc = o.contact_timeconst if o.contact_timeconst is not None else 2.0 * o.timestep
+    tc = o.contact_timeconst if o.contact_timeconst is not None else material_contact_timeconst(beam)
+    if o.has_contact and not o.contact_refsafe:
+        spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_REFSAFE
     world = spec.worldbody
 
     if o.has_contact:
         _add_scene(spec, beam, o, tc)
+
+    spec.option.cone = CONES[o.cone]
+    spec.option.noslip_iterations = int(o.noslip_iterations)
+    spec.option.iterations = int(o.solver_iterations)
+    spec.option.tolerance = float(o.solver_tolerance)
+    spheres = o.has_contact and o.contact_geom == "sphere"
+
+    def collider(g):
+        g.contype, g.conaffinity = (_ROD_CONTYPE, _ROD_CONAFFINITY) if o.has_contact else (0, 0)
+        g.friction = [o.friction, 0.005, 0.0001]
+        g.solref = [tc, o.contact_dampratio]
+        if o.contact_impedance is not None:
+            g.solimp = [o.contact_impedance[0], o.contact_impedance[1], 0.001, 0.5, 2.0]
+        g.group = 3
 
     def add_piece(parent, i, pos, quat=None):
         body = parent.add_body(name=f"piece{i}", pos=pos)
@@ -195,14 +285,18 @@ def build_spec(beam: Beam, options: RodOptions) -> tuple[mujoco.MjSpec, RodDiscr
         body.ipos = [float(disc.com[i]), 0.0, 0.0]
         body.inertia = [float(v) for v in disc.inertia[i]]
         length = float(disc.piece_length[i])
-        g = body.add_geom(
-            name=f"capsule{i}", type=mujoco.mjtGeom.mjGEOM_CAPSULE, size=[radius, 0, 0],
-            fromto=[0, 0, 0, length, 0, 0],
-        )
-        g.contype, g.conaffinity = (_ROD_CONTYPE, _ROD_CONAFFINITY) if o.has_contact else (0, 0)
-        g.friction = [o.friction, 0.005, 0.0001]
-        g.solref = [tc, o.contact_dampratio]
-        g.group = 3
+        if spheres:
+            ends = [0.0, length] if i == o.segments else [0.0]
+            for k, x in enumerate(ends):
+                collider(body.add_geom(
+                    name=f"sphere{i}" + ("_tip" if k else ""), type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                    size=[radius, 0, 0], pos=[x, 0, 0],
+                ))
+        else:
+            collider(body.add_geom(
+                name=f"capsule{i}", type=mujoco.mjtGeom.mjGEOM_CAPSULE, size=[radius, 0, 0],
+                fromto=[0, 0, 0, length, 0, 0],
+            ))
         if o.render:
             v = body.add_geom(
                 name=f"box{i}", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.5 * length, 0.5 * w, 0.5 * h],
@@ -212,22 +306,36 @@ def build_spec(beam: Beam, options: RodOptions) -> tuple[mujoco.MjSpec, RodDiscr
             v.group = 1
         return body
 
+    def add_hinge(body, j, pos, axis):
+        # hinge j joins pieces j and j + 1; its angle is theta_{j+1} - theta_j either way round
+        k = float(disc.stiffness[j])
+        body.add_joint(
+            name=f"hinge{j}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=axis, pos=pos,
+            stiffness=[k, 0.0, 0.0], damping=[o.retardation_time * k, 0.0, 0.0],
+        )
+
+    b = o.base_piece
     if o.scene == "cantilever":
         base = add_piece(world, 0, [0.0, 0.0, 0.0], _quat_y(o.clamp_angle))
     else:
-        base = add_piece(world, 0, [0.0, 0.0, radius], _quat_y(o.clamp_angle))
+        # the base piece's left end starts where arc length s_b lies on the straight beam
+        s_b = float(np.sum(disc.piece_length[:b]))
+        ca, sa = math.cos(o.clamp_angle), math.sin(o.clamp_angle)
+        base = add_piece(world, b, [s_b * ca, 0.0, radius + s_b * sa], _quat_y(o.clamp_angle))
         base.add_joint(name="base_x", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[1, 0, 0])
         base.add_joint(name="base_z", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, 1])
         base.add_joint(name="base_theta", type=mujoco.mjtJoint.mjJNT_HINGE, axis=list(_HINGE_AXIS))
 
     parent = base
-    for i in range(1, o.segments + 1):
+    for i in range(b - 1, -1, -1):  # pieces left of the base, children toward s = 0
+        length = float(disc.piece_length[i])
+        body = add_piece(parent, i, [-length, 0.0, 0.0])
+        add_hinge(body, i, [length, 0.0, 0.0], [-a for a in _HINGE_AXIS])
+        parent = body
+    parent = base
+    for i in range(b + 1, o.segments + 1):
         body = add_piece(parent, i, [float(disc.piece_length[i - 1]), 0.0, 0.0])
-        k = float(disc.stiffness[i - 1])
-        body.add_joint(
-            name=f"hinge{i - 1}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=list(_HINGE_AXIS),
-            stiffness=[k, 0.0, 0.0], damping=[o.retardation_time * k, 0.0, 0.0],
-        )
+        add_hinge(body, i - 1, [0.0, 0.0, 0.0], list(_HINGE_AXIS))
         parent = body
 
     if o.render:
@@ -246,6 +354,8 @@ def _add_scene(spec, beam: Beam, o: RodOptions, tc: float) -> None:
         g.contype, g.conaffinity = _SCENE_CONTYPE, _SCENE_CONAFFINITY
         g.friction = [o.friction, 0.005, 0.0001]
         g.solref = [tc, o.contact_dampratio]
+        if o.contact_impedance is not None:
+            g.solimp = [o.contact_impedance[0], o.contact_impedance[1], 0.001, 0.5, 2.0]
         return g
 
     half = 10.0 * beam.length

@@ -153,8 +153,11 @@ class Simulator:
         self._hinge_qpos = self.rod.hinge_qpos
         self._tip_len = float(disc.piece_length[-1])
         self._two_stage = self.model.opt.integrator != mujoco.mjtIntegrator.mjINT_RK4
-        self._b0, self._b1 = int(self._bodies[0]), int(self._bodies[-1]) + 1
-        if not np.array_equal(self._bodies, np.arange(self._b0, self._b1)):
+        # pieces in body-id order (the tree is numbered from the base piece outward), so the
+        # couples go into one contiguous block of xfrc_applied
+        self._order = np.argsort(self._bodies)
+        self._b0, self._b1 = int(self._bodies.min()), int(self._bodies.max()) + 1
+        if self._b1 - self._b0 != len(self._bodies):
             raise RuntimeError("rod bodies must have consecutive ids")  # guaranteed by build_model
         self._coef = np.zeros((len(self._bodies), 9))
         #: Extra constant wrench per piece, world frame, shape (N + 1, 6): force (N) at the
@@ -230,11 +233,15 @@ class Simulator:
     # ------------------------------------------------------------------ stepping
     def _set_coefficients(self) -> None:
         # planar fast path: every piece turns about y, so tau = (R m) x B has only a y part,
-        # tau_y = B_x (R m)_z - B_z (R m)_x, linear in the row-major xmat entries 0, 2, 6, 8
+        # tau_y = B_x (R m)_z - B_z (R m)_x, linear in the row-major xmat entries 0, 2, 6, 8;
+        # _cx / _cz hold the (R m)_x and (R m)_z rows, so coef = B_x _cz - B_z _cx
+        if not hasattr(self, "_cx"):
+            mx, mz = self._m_body[self._order, 0], self._m_body[self._order, 2]
+            self._cx = np.zeros((len(self._bodies), 9))
+            self._cz = np.zeros((len(self._bodies), 9))
+            self._cx[:, 0], self._cx[:, 2], self._cz[:, 6], self._cz[:, 8] = mx, mz, mx, mz
         bx, bz = self._B3[0], self._B3[2]
-        mx, mz = self._m_body[:, 0], self._m_body[:, 2]
-        c = self._coef
-        c[:, 0], c[:, 2], c[:, 6], c[:, 8] = -bz * mx, -bz * mz, bx * mx, bx * mz
+        np.subtract(bx * self._cz, bz * self._cx, out=self._coef)
 
     def _apply_torques(self, field=None) -> None:
         d = self.data
@@ -244,7 +251,7 @@ class Simulator:
         b0, b1 = self._b0, self._b1
         tau_y = np.einsum("ij,ij->i", d.xmat[b0:b1], self._coef)
         if self._has_external:
-            d.xfrc_applied[b0:b1] = self.external_wrench
+            d.xfrc_applied[b0:b1] = self.external_wrench[self._order]
             d.xfrc_applied[b0:b1, 4] += tau_y
         else:
             d.xfrc_applied[b0:b1, 4] = tau_y
@@ -277,27 +284,73 @@ class Simulator:
         warned = self._warning_text
         mujoco.set_mju_user_warning(warned.append)
         try:
-            hold = self.torque_every
-            for k in range(n):
-                f = None if fields is None else fields[k]
-                if hold > 1 and self.nstep % hold:
-                    mujoco.mj_step(m, d)  # couples held from the last update
-                elif two:
-                    mujoco.mj_step1(m, d)
-                    self._apply_torques(f)
-                    mujoco.mj_step2(m, d)
-                else:
-                    self._apply_torques(f)
-                    mujoco.mj_step(m, d)
-                self.nstep += 1
-                self._stale = True
-                if warned:  # MuJoCo reported a bad state in this step: stop here
-                    break
-                if self.nstep % self.check_every == 0:
-                    self._check(energy=True)
+            if self._has_external or not two:
+                self._step_general(n, fields, two)
+            else:
+                self._step_fast(n, fields)
         finally:
             mujoco.set_mju_user_warning(prev)
         self._check(energy=False)
+
+    def _step_general(self, n: int, fields, two: bool) -> None:
+        m, d = self.model, self.data
+        hold, warned = self.torque_every, self._warning_text
+        for k in range(n):
+            f = None if fields is None else fields[k]
+            if hold > 1 and self.nstep % hold:
+                mujoco.mj_step(m, d)  # couples held from the last update
+            elif two:
+                mujoco.mj_step1(m, d)
+                self._apply_torques(f)
+                mujoco.mj_step2(m, d)
+            else:
+                self._apply_torques(f)
+                mujoco.mj_step(m, d)
+            self.nstep += 1
+            self._stale = True
+            if warned:  # MuJoCo reported a bad state in this step: stop here
+                break
+            if self.nstep % self.check_every == 0:
+                self._check(energy=True)
+
+    def _step_fast(self, n: int, fields) -> None:
+        # the same as _step_general for the common case (two-stage integrator, no external
+        # wrench), with the per-step Python work cut to one einsum into a cached view:
+        # coefficients for every step of this call are formed at once (linear in B)
+        m, d = self.model, self.data
+        b0, b1 = self._b0, self._b1
+        xmat = d.xmat[b0:b1]
+        tau = d.xfrc_applied[b0:b1, 4]
+        coef = self._coef
+        if fields is not None:
+            coefs = fields[:, 0, None, None] * self._cz - fields[:, 1, None, None] * self._cx
+        hold, warned, step1, step2, einsum = self.torque_every, self._warning_text, mujoco.mj_step1, \
+            mujoco.mj_step2, np.einsum
+        check_every, nstep = self.check_every, self.nstep
+        k = 0
+        try:
+            for k in range(n):
+                if fields is not None:
+                    coef = coefs[k]
+                if hold > 1 and nstep % hold:
+                    mujoco.mj_step(m, d)  # couples held from the last update
+                else:
+                    step1(m, d)
+                    einsum("ij,ij->i", xmat, coef, out=tau)
+                    step2(m, d)
+                nstep += 1
+                if warned:  # MuJoCo reported a bad state in this step: stop here
+                    break
+                if nstep % check_every == 0:
+                    self.nstep = nstep
+                    self._stale = True
+                    self._check(energy=True)
+        finally:
+            self.nstep = nstep
+            self._stale = True
+            if fields is not None and n > 0:
+                self._B3[0], self._B3[2] = fields[min(k, n - 1)]
+                self._set_coefficients()
 
     def _sync(self) -> None:
         # after mj_step the position-dependent quantities (xpos, xmat, qM, contacts) belong to
@@ -464,7 +517,7 @@ class Simulator:
         base = self.options.clamp_angle
         if self.rod.base_qpos.size:
             base += float(self.data.qpos[self.rod.base_qpos[2]])
-        return base + float(np.sum(self.data.qpos[self._hinge_qpos]))
+        return base + float(np.sum(self.data.qpos[self._hinge_qpos[self.options.base_piece:]]))
 
     def contacts(self) -> list[dict]:
         """Active contacts: geom names, position (m), penetration depth (m, >= 0 when touching)."""
