@@ -112,3 +112,16 @@ def test_free_direction_and_volume_fraction_stay_in_bounds():
     assert np.all((phi >= 0.1) & (phi <= 0.3))
     assert -math.pi <= res.field.angle <= math.pi
     assert res.rms_error < 0.005 * res.beam.length
+
+
+def test_clamp_angle_from_target_start():
+    from magsoft_env.design.letters import letter_target
+
+    target = letter_target("U")
+    res = ms.design_profile(target, BEAM, field_bounds=(1e-3, 20e-3), clamp_angle=None, n_points=20, n_starts=1,
+                            max_nfev=3)
+    assert res.settings["clamp_angle_rad"] == pytest.approx(-math.pi / 2, abs=0.02)
+    d = res.predicted_xz[1] - res.predicted_xz[0]
+    assert math.atan2(d[1], d[0]) == pytest.approx(-math.pi / 2, abs=0.05)  # the beam leaves the clamp downward
+    with pytest.raises(ValueError, match="clamp_angle"):
+        ms.design_profile(target, BEAM, field_bounds=(1e-3, 20e-3), clamp_angle=float("nan"))

@@ -29,7 +29,8 @@ def mujoco_check(result, *, segments: int = 20) -> dict:
             f"coupling='rotated', extensible=False, got coupling={st.get('coupling')!r}, "
             f"extensible={st.get('extensible')!r}."
         )
-    sim = mujoco_equilibrium(result.beam, result.field, gravity=st["gravity_m_s2"], segments=int(segments))
+    sim = mujoco_equilibrium(result.beam, result.field, gravity=st["gravity_m_s2"], segments=int(segments),
+                             clamp_angle=st["clamp_angle_rad"])
     xz = np.column_stack([sim.x, sim.z])
     d_an = point_to_polyline(xz, result.predicted_xz)
     d_tg = point_to_polyline(result.target_xz, xz)

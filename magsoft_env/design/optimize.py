@@ -155,6 +155,7 @@ def design_profile(
     max_nfev: int = 60,
     global_stage: bool = False,
     gravity: float = 9.81,
+    clamp_angle: float | None = 0.0,
     coupling: str = "rotated",
     extensible: bool = False,
     progress: bool = False,
@@ -213,6 +214,9 @@ def design_profile(
         Run differential evolution when the local starts miss ``rms_tol``.
     gravity, coupling, extensible
         Passed to :func:`magsoft_env.solve_equilibrium`.
+    clamp_angle : float or None
+        Tangent angle (rad) of the beam at the clamp; 0 (along +x) by default. None takes the
+        target's initial tangent (for strokes that start downward, like the letters J and U).
     progress : bool
         Show a tqdm progress bar over the starts.
 
@@ -264,6 +268,9 @@ def design_profile(
     if not isinstance(extensible, (bool, np.bool_)):
         raise ValueError(f"extensible must be True or False, got {extensible!r}.")
     target = prepare_target(target_xz, n_points)
+    if clamp_angle is None:
+        clamp_angle = float(tangent_angle(target)[1][0])
+    th0 = finite_number("clamp_angle", clamp_angle, unit="rad")
     raw_length = curve_length(np.asarray(target_xz, dtype=float))
     if match_length:
         beam = beam.replace(length=raw_length)
@@ -271,7 +278,7 @@ def design_profile(
 
     problem = _Problem(
         target=target, beam=beam, family=fam, b_range=(b_lo, b_hi), direction=direction, vf=vf,
-        gravity=g, coupling=coupling, extensible=bool(extensible),
+        gravity=g, coupling=coupling, extensible=bool(extensible), clamp_angle=th0,
     )
     lo, hi = problem.bounds(p_lo, p_hi)
     with single_threaded_blas():  # ~100 x 100 systems: threads only cost time
@@ -320,7 +327,18 @@ def design_profile(
         d_beam, d_field = problem.beam_for(x_best), problem.field(x_best)
         from ..theory import solve_equilibrium
 
-        eq = solve_equilibrium(d_beam, d_field, gravity=g, coupling=coupling, extensible=bool(extensible))
+        eq = solve_equilibrium(d_beam, d_field, gravity=g, coupling=coupling, extensible=bool(extensible),
+                                clamp_angle=th0)
+        note = ""
+        if not eq.success:
+            # the default (finer) settings can stall where the optimizer's converged: keep the latter, say so
+            eq = solve_equilibrium(d_beam, d_field, gravity=g, coupling=coupling, extensible=bool(extensible),
+                                    clamp_angle=th0, options=problem.options)
+            note = (" The final equilibrium used the optimizer's solver settings (resolution 1e-6 rad): the "
+                    f"default settings failed ({eq.message if not eq.success else 'continuation stalled'}).")
+        if eq.success and eq.snap_through:
+            note += (" Along the field ramp the beam snaps through (a fold of the equilibrium path) before it "
+                     "reaches the designed shape; see the ramp figure.")
         if eq.success:
             _, xs, zs, _ = eq.sample(_CENTRELINE_SAMPLES)
             pred = np.column_stack([xs, zs])
@@ -338,7 +356,7 @@ def design_profile(
             status = 2
         else:
             status = 1
-        message = f"{STATUS_MESSAGES[status]} (optimizer: {ls_best.message})"
+        message = f"{STATUS_MESSAGES[status]} (optimizer: {ls_best.message}){note}"
         return DesignResult(
             success=status in (0, 1), status=status, message=message, beam=d_beam, field=d_field, family=fam,
             params=np.asarray(x_best[: fam.size]).copy(), rms_error=rms_error, max_error=max_error,
@@ -348,7 +366,8 @@ def design_profile(
                 "field_bounds_T": [b_lo, b_hi], "beta_bounds_rad": [p_lo, p_hi], "field_direction": direction,
                 "volume_fraction_bounds": list(vf) if vf else None, "n_points": n_points, "n_starts": n_starts,
                 "seed": seed, "rms_tol": rms_tol, "max_nfev": max_nfev, "global_stage": bool(global_stage),
-                "gravity_m_s2": g, "coupling": coupling, "extensible": bool(extensible), "family": fam.kind,
+                "gravity_m_s2": g, "clamp_angle_rad": th0, "coupling": coupling, "extensible": bool(extensible),
+                "family": fam.kind,
                 "size": fam.size, "target_length_m": raw_length,
             },
         )
@@ -357,13 +376,14 @@ def design_profile(
 class _Problem:
     """Design variables x = [profile params (rad), B / B_max, (alpha, rad), (volume fraction)] and residuals."""
 
-    def __init__(self, *, target, beam, family, b_range, direction, vf, gravity, coupling, extensible):
+    def __init__(self, *, target, beam, family, b_range, direction, vf, gravity, coupling, extensible, clamp_angle):
         from ..theory import SolverOptions
 
         self.target, self.beam, self.family = target, beam, family
         self.b_lo, self.b_hi = b_range
         self.direction, self.vf = direction, vf
         self.gravity, self.coupling, self.extensible = gravity, coupling, extensible
+        self.clamp_angle = clamp_angle
         self.n = len(target)
         # looser than the default: ~1e-6 rad resolution is far below the fit errors that matter
         if family.kind == "piecewise_linear":  # one spectral domain per knot interval: few nodes each
@@ -432,6 +452,7 @@ class _Problem:
         try:
             eq = solve_equilibrium(
                 self.beam_for(x), self.field(x), gravity=self.gravity, coupling=self.coupling,
+                clamp_angle=self.clamp_angle,
                 extensible=self.extensible, options=self.options,
             )
         except ValueError:

@@ -71,7 +71,7 @@ def write_design(result, out, *, name: str = "design", ramp_steps: int = 8, figu
     fields = [(result.field.Bx * t, result.field.Bz * t) for t in np.linspace(0.0, 1.0, ramp_steps + 1)[1:]]
     with single_threaded_blas():
         path = solve_path(result.beam, fields, gravity=st["gravity_m_s2"], coupling=st["coupling"],
-                          extensible=st["extensible"])
+                          extensible=st["extensible"], clamp_angle=st["clamp_angle_rad"])
     rows = []
     for r in path:
         if r.success:
@@ -93,7 +93,9 @@ def fit_figure(result, path, *, title: str = ""):
     fig, axes = _figure(1, 3, size=(14.0, 4.4))
     ax = axes[0, 0]
     t, p = result.target_xz * MM, result.predicted_xz * MM
-    ax.plot([0, result.beam.length * MM], [0, 0], color="0.6", ls="--", lw=1.0, label="undeformed")
+    th0 = result.settings.get("clamp_angle_rad", 0.0)
+    end = result.beam.length * MM * np.array([math.cos(th0), math.sin(th0)])
+    ax.plot([0, end[0]], [0, end[1]], color="0.6", ls="--", lw=1.0, label="undeformed")
     ax.plot(t[:, 0], t[:, 1], "o", ms=3.5, mfc="none", color="tab:blue", label="target")
     ax.plot(p[:, 0], p[:, 1], "-", color="tab:green", lw=1.8,
             label=f"prediction, |B| = {result.field.magnitude * MT:.3g} mT")
@@ -124,7 +126,9 @@ def ramp_figure(result, path_results, path):
 
     fig, axes = _figure(1, 1, size=(6.0, 5.0))
     ax = axes[0, 0]
-    draw_path_shapes(ax, path_results, length=result.beam.length, max_shapes=8)
+    th0 = result.settings.get("clamp_angle_rad", 0.0)
+    ref = (np.array([0.0, result.beam.length * math.cos(th0)]), np.array([0.0, result.beam.length * math.sin(th0)]))
+    draw_path_shapes(ax, path_results, length=result.beam.length, max_shapes=8, reference=ref)
     t = result.target_xz * MM
     ax.plot(t[:, 0], t[:, 1], "o", ms=3, mfc="none", color="tab:red", label="target")
     ax.legend(fontsize=6)
