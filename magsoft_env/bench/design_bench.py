@@ -75,7 +75,7 @@ def run(objects, *, field_max_mT: float, family: str, starts: int, seed: int, co
 
 COLUMNS = [
     ("object", "object", ""), ("L_mm", "L (mm)", ".2f"), ("rms_mm", "RMS (mm)", ".4f"), ("rms_pct", "RMS (% L)", ".3f"),
-    ("max_mm", "max (mm)", ".4f"), ("max_pct", "max (% L)", ".3f"), ("B_mT", "|B| (mT)", ".2f"),
+    ("max_mm", "max (mm)", ".4f"), ("max_pct", "max (% L)", ".3f"), ("B_mT", "B (mT)", ".2f"),
     ("starts", "starts", "d"), ("solves", "solves", "d"), ("time_s", "time (s)", ".2f"), ("success", "success", ""),
     ("baseline_rms_mm", "unoptimized RMS (mm)", ".3f"), ("baseline_rms_pct", "unoptimized RMS (% L)", ".2f"),
 ]
