@@ -272,6 +272,15 @@ def test_waveform_drives_simulator(beam):
         ({"friction": -1.0}, "friction"),
         ({"contact_timeconst": 0.0}, "contact_timeconst"),
         ({"grading": 20.0}, "grading"),
+        ({"base": "left"}, "base"),
+        ({"contact_geom": "box"}, "contact_geom"),
+        ({"cone": "round"}, "cone"),
+        ({"noslip_iterations": -1}, "noslip_iterations"),
+        ({"solver_iterations": 0}, "solver_iterations"),
+        ({"solver_tolerance": -1.0}, "solver_tolerance"),
+        ({"contact_impedance": (0.99, 0.9)}, "contact_impedance"),
+        ({"contact_impedance": (0.9, 1.0)}, "contact_impedance"),
+        ({"contact_refsafe": "yes"}, "contact_refsafe"),
     ],
 )
 def test_rod_options_reject_bad_input(kwargs, name):

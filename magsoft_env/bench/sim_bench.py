@@ -9,9 +9,13 @@ Sections (run all, or pick with ``--only``):
   response of a gravity-loaded cantilever to 13 mT; stable = no SimulationError).
 * ``speed``: microseconds per step, raw ``mj_step`` (baseline) against ``Simulator.step``
   (magnetics included), clamped and on a floor, contact on and off, real-time factor.
-* ``dynamics``: a 20-segment crawler on a floor driven by an oscillating B_z: dynamic error
-  (largest centerline RMS distance / L over the run, and centre-of-mass travel) against a
-  fine-step reference, with real-time factor; also the torque-hold shortcut.
+* ``floor``: a 20-segment crawler on a floor driven by an oscillating B_z: timestep x settings
+  -> crawl distance, its error and the shape error against a fine-step reference of the
+  default contact model, penetration, microseconds per step and real-time factor.
+* ``batch``: ``RodBatch`` (``mujoco.batch``, one thread) against a Python loop of
+  ``Simulator`` objects; the cost of computing the couples in C (site actuators) instead.
+* ``peer``: PyElastica (if installed) on the same magnetic cantilever: time to the same
+  static error (``magsoft_env.bench.sim_peer``).
 
 Usage: ``python -m magsoft_env.bench.sim_bench [--quick] [--only static speed ...]``.
 Timings depend on the machine and its load: compare numbers from one run only.
@@ -118,79 +122,220 @@ def timestep(quick: bool) -> None:
         print(f"{integ:>13} " + " ".join(cells))
 
 
+_CRAWLER = dict(length=25e-3, width=W, thickness=H)
+#: the floor settings before the floor work (version 0.1): capsules, pyramidal cones, base on the
+#: first piece, contact time constant 2 dt with MuJoCo's refsafe
+OLD_FLOOR = dict(contact_geom="capsule", cone="pyramidal", base="first", contact_refsafe=True)
+
+
+def _crawler() -> Beam:
+    return Beam(**_CRAWLER, volume_fraction=PiecewiseConstant([0.1, 0.2]))
+
+
+def _cpu_us_per_step(fn, n: int, repeats: int = 7) -> float:
+    # CPU time of this process (not wall time): less sensitive to other jobs on a shared machine
+    best = math.inf
+    for _ in range(repeats):
+        t0 = time.process_time()
+        fn(n)
+        best = min(best, (time.process_time() - t0) / n * 1e6)
+    return best
+
+
 def speed(quick: bool) -> None:
-    print("\n## speed: us per step (best of 5); baseline raw mj_step on the same model and state")
-    beam = Beam(length=25e-3, width=W, thickness=H, volume_fraction=PiecewiseConstant([0.1, 0.2]))
-    n = 500 if quick else 2000
-    print(f"{'scene':>11} {'N':>3} {'integrator':>12} {'dt s':>7} {'mj_step':>8} {'Simulator':>10} "
-          f"{'RTF (sim)':>10} {'ncon':>5}")
-    # floor cases: the crawler lying on the floor at zero field (contact everywhere)
-    cases = [("cantilever", 20, "discrete", 1e-3), ("cantilever", 20, "euler", 1e-4),
-             ("cantilever", 40, "discrete", 1e-3), ("floor", 20, "discrete", 1e-4),
-             ("floor", 20, "discrete", 5e-4), ("floor", 20, "discrete", 1e-3), ("floor", 20, "implicitfast", 1e-4)]
-    for scene, nseg, integ, dt in cases:
-        field = (0.0, 2e-3) if scene == "cantilever" else (0.0, 0.0)
-        sim = Simulator(beam, RodOptions(scene=scene, segments=nseg, integrator=integ, timestep=dt), field=field)
+    print("\n## speed: us per step (CPU time, best of 7); baseline raw mj_step on the same model and state")
+    print("floor cases: the crawler after 0.3 s of B_z = 2 mT sin(2 pi 2 t) (crawling state)")
+    beam = _crawler()
+    n = 300 if quick else 1000
+    print(f"{'scene':>10} {'N':>3} {'settings':>28} {'dt s':>7} {'mj_step':>8} {'Simulator':>10} "
+          f"{'RTF (sim)':>10} {'ncon':>5} {'nefc':>5}")
+    cases = [("cantilever", 20, {}, 1e-3), ("cantilever", 40, {}, 1e-3),
+             ("floor", 20, {}, 1e-4), ("floor", 20, dict(cone="pyramidal"), 1e-4),
+             ("floor", 20, dict(contact_geom="capsule"), 1e-4), ("floor", 20, dict(base="first"), 1e-4),
+             ("floor", 20, dict(OLD_FLOOR, contact_timeconst=2e-4), 1e-4), ("floor", 20, {}, 1e-3)]
+    for scene, nseg, kw, dt in cases:
+        label = ",".join(f"{k}={v}" for k, v in kw.items() if k != "contact_refsafe") or "defaults"
+        if kw == dict(OLD_FLOOR, contact_timeconst=2e-4):
+            label = "0.1 floor (capsule, pyr, ...)"
+        sim = Simulator(beam, RodOptions(scene=scene, segments=nseg, timestep=dt, **kw), field=(0.0, 2e-3))
         try:
-            sim.step(200)
-            full = _best_us_per_step(sim.step, n)
-            sim.reset()
-            sim.step(200)
-            raw = _best_us_per_step(lambda k, s=sim: [mujoco.mj_step(s.model, s.data) for _ in range(k)], n)
-            sim._check(energy=True)  # the raw loop is unchecked: make sure it timed a sane state
+            if scene == "floor":
+                sim.run(Sine((0.0, 2e-3), 2.0), 0.3)
+            else:
+                sim.step(200)
+            raw_data = mujoco.MjData(sim.model)
+            mujoco.mj_setState(sim.model, raw_data, _state(sim), mujoco.mjtState.mjSTATE_INTEGRATION)
+            full = _cpu_us_per_step(sim.step, n)
+            raw = _cpu_us_per_step(lambda k, s=sim, d=raw_data: mujoco.mj_step(s.model, d, nstep=k), n)
         except SimulationError as err:
-            print(f"{scene:>11} {nseg:>3} {integ:>12} {dt:>7g} unstable: {err.quantity} at step {err.step}")
+            print(f"{scene:>10} {nseg:>3} {label:>28} {dt:>7g} unstable: {err.quantity} at step {err.step}")
             continue
-        print(f"{scene:>11} {nseg:>3} {integ:>12} {dt:>7g} {raw:>8.1f} {full:>10.1f} {dt * 1e6 / full:>10.1f} "
-              f"{sim.ncon:>5}")
-    # contact on/off on the same floor model
-    sim = Simulator(beam, RodOptions(scene="floor", timestep=5e-4))
-    sim.step(200)
-    on = _best_us_per_step(lambda k: [mujoco.mj_step(sim.model, sim.data) for _ in range(k)], n)
+        print(f"{scene:>10} {nseg:>3} {label:>28} {dt:>7g} {raw:>8.1f} {full:>10.1f} {dt * 1e6 / full:>10.1f} "
+              f"{raw_data.ncon:>5} {raw_data.nefc:>5}")
+    sim = Simulator(beam, RodOptions(scene="floor"))
+    sim.run(Sine((0.0, 2e-3), 2.0), 0.3)
+    on = _cpu_us_per_step(lambda k: mujoco.mj_step(sim.model, sim.data, nstep=k), n)
     ncon = sim.data.ncon
     sim.model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
-    off = _best_us_per_step(lambda k: [mujoco.mj_step(sim.model, sim.data) for _ in range(k)], n)
-    print(f"floor N=20 discrete 5e-4, lying at zero field: mj_step contact on {on:.1f} us "
-          f"({ncon} contacts), contact off {off:.1f} us")
+    off = _cpu_us_per_step(lambda k: mujoco.mj_step(sim.model, sim.data, nstep=k), n)
+    print(f"floor defaults, dt 1e-4, crawling: mj_step contact on {on:.1f} us ({ncon} contacts), "
+          f"contact off {off:.1f} us")
 
 
-def _crawl(beam, dt, duration, integrator="discrete", torque_every=1):
-    wf = Sine((0.0, 2e-3), 2.0)
-    sim = Simulator(beam, RodOptions(scene="floor", timestep=dt, integrator=integrator), torque_every=torque_every)
+def _state(sim) -> np.ndarray:
+    st = np.empty(mujoco.mj_stateSize(sim.model, mujoco.mjtState.mjSTATE_INTEGRATION))
+    mujoco.mj_getState(sim.model, sim.data, st, mujoco.mjtState.mjSTATE_INTEGRATION)
+    return st
+
+
+def _crawl(beam, duration, *, torque_every=1, **options):
+    """Crawl under B_z = 2 mT sin(2 pi 2 t): trajectory (every 10 ms), CPU s, max penetration (m)."""
+    sim = Simulator(beam, RodOptions(scene="floor", **options), torque_every=torque_every)
+    dt = sim.timestep
     every = max(1, int(round(0.01 / dt)))
-    t0 = time.perf_counter()
-    tr = sim.run(wf, duration, record_every=every)
-    return tr, time.perf_counter() - t0
+    sim.set_waveform(Sine((0.0, 2e-3), 2.0))
+    ts, xs, zs, pen = [], [], [], 0.0
+    cpu = 0.0
+    nsteps = int(round(duration / dt))
+    done = 0
+    while True:
+        x, z = sim.centerline()  # also brings the contacts up to date
+        d = sim.data
+        if d.ncon:
+            pen = max(pen, float(-d.contact.dist[: d.ncon].min()))
+        ts.append(sim.time)
+        xs.append(x)
+        zs.append(z)
+        if done >= nsteps:
+            break
+        k = min(every, nsteps - done)
+        t0 = time.process_time()
+        sim.step(k)
+        cpu += time.process_time() - t0
+        done += k
+    return np.array(ts), np.array(xs), np.array(zs), cpu, pen
 
 
-def dynamics(quick: bool) -> None:
-    print("\n## dynamics: crawler on a floor (L = 25 mm, phi 10 %/20 % halves, N = 20, B_z = 2 mT sin(2 pi 2 t))")
-    beam = Beam(length=25e-3, width=W, thickness=H, volume_fraction=PiecewiseConstant([0.1, 0.2]))
+def floor(quick: bool) -> None:
+    print("\n## floor: crawler (L = 25 mm, phi 10 %/20 % halves, N = 20) on a floor, B_z = 2 mT sin(2 pi 2 t)")
+    beam = _crawler()
     duration = 0.5 if quick else 2.0
-    ref_dt = 5e-5 if quick else 2e-5
-    ref, t_ref = _crawl(beam, ref_dt, duration)
-    print(f"reference: discrete, dt = {ref_dt:g} s ({t_ref:.1f} s wall); "
-          "error = max over time of the centerline RMS distance / L; com = centre-of-mass x travel")
-    com_ref = (ref.x[-1].mean() - ref.x[0].mean()) * 1e3
-    print(f"{'integrator':>12} {'dt s':>7} {'hold':>4} {'err/L %':>8} {'com mm':>7} {'ref com mm':>10} "
+    ref_dt = 2.5e-5 if quick else 1.25e-5
+    from magsoft_env.sim.model import material_contact_timeconst
+
+    tc = material_contact_timeconst(beam)
+    t_ref, x_ref, z_ref, cpu_ref, pen_ref = _crawl(beam, duration, timestep=ref_dt)
+    com_ref = (x_ref[-1].mean() - x_ref[0].mean()) * 1e3
+    print(f"reference: defaults (spheres, elliptic cones, base on the middle piece, contact time constant "
+          f"{tc * 1e3:.3f} ms from the material, refsafe off) at dt = {ref_dt:g} s: crawl {com_ref:.3f} mm in "
+          f"{duration:g} s, max penetration {pen_ref * 1e6:.1f} um, {cpu_ref:.1f} CPU s")
+    print("crawl = centre-of-mass x travel; d crawl = its error vs the reference; shape err = max over time of the "
+          "centerline RMS distance / L vs the reference; us/step and RTF end to end (Simulator.step, magnetics "
+          "and checks included, CPU time)")
+    print(f"{'settings':>34} {'dt s':>7} {'crawl mm':>9} {'d crawl %':>9} {'shape err/L %':>13} {'pen um':>7} "
           f"{'us/step':>8} {'RTF':>6}")
-    cases = [("discrete", 1e-3, 1), ("discrete", 5e-4, 1), ("discrete", 2e-4, 1), ("discrete", 1e-4, 1),
-             ("discrete", 1e-4, 5), ("implicitfast", 1e-4, 1)]
-    for integ, dt, hold in cases:
+    dts = (2.5e-5, 5e-5, 1e-4, 2e-4, 5e-4, 1e-3)
+    cases = [("defaults", {}, dt) for dt in dts if dt != ref_dt]
+    cases += [
+        ("defaults, torque hold 5", dict(torque_every=5), 1e-4),
+        ("pyramidal cones", dict(cone="pyramidal"), 1e-4),
+        ("capsules", dict(contact_geom="capsule"), 1e-4),
+        ("base on the first piece", dict(base="first"), 1e-4),
+        ("soft contact tc 1 ms", dict(contact_timeconst=1e-3), 1e-4),
+        ("soft contact tc 1 ms", dict(contact_timeconst=1e-3), 5e-4),
+        ("soft contact tc 2 ms", dict(contact_timeconst=2e-3), 1e-3),
+        ("0.1 floor (tc = 2 dt)", dict(OLD_FLOOR, contact_timeconst=2e-4), 1e-4),
+        ("0.1 floor (tc = 2 dt)", dict(OLD_FLOOR, contact_timeconst=2e-3), 1e-3),
+    ]
+    for label, kw, dt in cases:
         try:
-            tr, wall = _crawl(beam, dt, duration, integ, hold)
+            t, x, z, cpu, pen = _crawl(beam, duration, timestep=dt, **kw)
         except SimulationError as err:
-            print(f"{integ:>12} {dt:>7g} {hold:>4} unstable: {err.quantity} at step {err.step}")
+            print(f"{label:>34} {dt:>7g} unstable: {err.quantity} at step {err.step}")
             continue
-        m = min(len(tr.time), len(ref.time))  # both record every 10 ms
-        err = np.sqrt(((tr.x[:m] - ref.x[:m]) ** 2 + (tr.z[:m] - ref.z[:m]) ** 2).mean(axis=1)).max() / beam.length
-        com = (tr.x[-1].mean() - tr.x[0].mean()) * 1e3
-        us = wall / (duration / dt) * 1e6
-        print(f"{integ:>12} {dt:>7g} {hold:>4} {100 * err:>8.2f} {com:>7.3f} {com_ref:>10.3f} {us:>8.1f} "
-              f"{duration / wall:>6.1f}")
+        m = min(len(t), len(t_ref))  # both sampled every 10 ms
+        err = np.sqrt(((x[:m] - x_ref[:m]) ** 2 + (z[:m] - z_ref[:m]) ** 2).mean(axis=1)).max() / beam.length
+        com = (x[-1].mean() - x[0].mean()) * 1e3
+        us = cpu / (duration / dt) * 1e6
+        print(f"{label:>34} {dt:>7g} {com:>9.3f} {100 * (com - com_ref) / com_ref:>+9.1f} {100 * err:>13.2f} "
+              f"{pen * 1e6:>7.1f} {us:>8.1f} {dt * 1e6 / us:>6.1f}")
 
 
-SECTIONS = {"static": static, "timestep": timestep, "speed": speed, "dynamics": dynamics}
+def batch(quick: bool) -> None:
+    print("\n## batch: many crawlers, one thread; baseline a Python loop over Simulator objects")
+    from magsoft_env.sim import RodBatch
+
+    beam = _crawler()
+    nsteps = 200 if quick else 1000
+    wf = Sine((0.0, 2e-3), 2.0)
+    print(f"{'nsim':>5} {'loop us/rod-step':>17} {'RodBatch us/rod-step':>21} {'speed-up':>9} {'max |dq|':>9}")
+    for nsim in (1, 8, 32):
+        sims = [Simulator(beam, RodOptions(scene="floor")) for _ in range(nsim)]
+        rb = RodBatch(beam, RodOptions(scene="floor"), nsim=nsim, nthread=1)
+        rb.set_waveforms([wf] * nsim)
+        for s in sims:
+            s.set_waveform(wf)
+        loop = bat = math.inf
+        for _ in range(3):
+            t0 = time.process_time()
+            for s in sims:
+                s.step(nsteps)
+            loop = min(loop, time.process_time() - t0)
+            t0 = time.process_time()
+            rb.step(nsteps)
+            bat = min(bat, time.process_time() - t0)
+        dq = max(float(np.abs(rb.qpos[i] - s.data.qpos).max()) for i, s in enumerate(sims))
+        k = nsteps * nsim
+        print(f"{nsim:>5} {loop / k * 1e6:>17.1f} {bat / k * 1e6:>21.1f} {loop / bat:>9.2f} {dq:>9.1e}")
+    # torques computed in C instead (what mujoco.rollout needs: no Python between steps)
+    sim = Simulator(beam, RodOptions(scene="floor"))
+    m_act = _actuator_model(sim)
+    d_act = mujoco.MjData(m_act)
+    sim.set_field((0.0, 2e-3))
+    d_act.ctrl[0::2], d_act.ctrl[1::2] = 0.0, 2e-3
+    n = 300 if quick else 1000
+    plain = _cpu_us_per_step(lambda k: mujoco.mj_step(sim.model, sim.data, nstep=k), n)
+    act = _cpu_us_per_step(lambda k: mujoco.mj_step(m_act, d_act, nstep=k), n)
+    full = _cpu_us_per_step(sim.step, n)
+    print(f"couples as {m_act.nu} site actuators (force pairs along B at two sites per piece, refsite in the world): "
+          f"mj_step {act:.1f} us vs {plain:.1f} us without magnetics and {full:.1f} us for Simulator.step")
+
+
+def _actuator_model(sim) -> mujoco.MjModel:
+    """The simulator's rod with each magnetic couple as two world-frame force pairs (site actuators).
+
+    A couple ``(R m) x B`` equals a force ``(|m| / l) B`` at ``p + l R m_hat`` and its opposite
+    at ``p``; ``ctrl`` holds ``(B_x, B_z, B_x, B_z)`` per piece (T).
+    """
+    from magsoft_env.sim import build_spec
+
+    spec, disc = build_spec(sim.beam, sim.options)
+    spec.worldbody.add_site(name="field_frame")
+    for i in range(sim.options.segments + 1):
+        body = spec.body(f"piece{i}")
+        m = disc.moment[i]
+        mag, ell = float(np.hypot(*m)), float(disc.piece_length[i])
+        u = m / mag
+        body.add_site(name=f"ma{i}", pos=[0.0, 0.0, 0.0])
+        body.add_site(name=f"mb{i}", pos=[ell * u[0], 0.0, ell * u[1]])
+        for site, sign in ((f"mb{i}", 1.0), (f"ma{i}", -1.0)):
+            for comp in (0, 2):
+                a = spec.add_actuator(name=f"{site}_{comp}", target=site, trntype=mujoco.mjtTrn.mjTRN_SITE,
+                                      refsite="field_frame")
+                gear = [0.0] * 6
+                gear[comp] = sign
+                a.gear = gear
+                a.gainprm[0] = mag / ell
+    return spec.compile()
+
+
+def peer(quick: bool) -> None:
+    from magsoft_env.bench import sim_peer
+
+    sim_peer.main(quick)
+
+
+SECTIONS = {"static": static, "timestep": timestep, "speed": speed, "floor": floor, "batch": batch, "peer": peer}
 
 
 def main(argv=None) -> int:

@@ -3,10 +3,12 @@
 Importing this package imports mujoco (no renderer, no gymnasium, no torch).
 
 Main entry points: :class:`Simulator` (dynamics, waveforms, settling, readouts),
+:class:`RodBatch` (many rods stepped together with ``mujoco.batch``),
 :func:`mujoco_equilibrium` and :func:`mujoco_path` (statics along a loading path),
 :func:`build_model` / :class:`RodOptions` (the MjSpec builder), :mod:`.waveforms`.
 """
 
+from .batch import RodBatch
 from .discretize import RodDiscretization, discretize
 from .equilibrium import SimEquilibrium, mujoco_equilibrium, mujoco_path
 from .model import CHANNEL_SIZE, INTEGRATORS, OBSTACLE_SIZE, SCENES, RodModel, RodOptions, build_model, build_spec
@@ -15,7 +17,7 @@ from .waveforms import Hold, PhaseShifted, Ramp, Sequence, Sine, Square, Wavefor
 
 __all__ = [
     "CHANNEL_SIZE", "INTEGRATORS", "OBSTACLE_SIZE", "SCENES", "Hold", "PhaseShifted", "Ramp", "RodDiscretization",
-    "RodModel", "RodOptions", "SettleResult", "Sequence", "SimEquilibrium", "SimulationError", "Simulator", "Sine",
+    "RodBatch", "RodModel", "RodOptions", "SettleResult", "Sequence", "SimEquilibrium", "SimulationError", "Simulator", "Sine",
     "Square", "Trajectory", "Waveform", "as_waveform", "build_model", "build_spec", "discretize",
     "mujoco_equilibrium", "mujoco_path",
 ]

@@ -1,0 +1,131 @@
+"""MuJoCo rod on a floor: base placement, colliders, contact model, batch stepping, dt convergence."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from magsoft_env import Beam, PiecewiseConstant
+from magsoft_env.sim import RodBatch, RodOptions, SimulationError, Simulator, Sine, build_model
+from magsoft_env.sim.model import material_contact_timeconst
+
+L = 25e-3
+
+
+@pytest.fixture(scope="module")
+def crawler():
+    return Beam(length=L, width=5e-3, thickness=1.13e-3, volume_fraction=PiecewiseConstant([0.1, 0.2]))
+
+
+@pytest.mark.parametrize("base", ["first", "middle"])
+def test_base_piece_keeps_the_joint_angle_convention(crawler, base):
+    sim = Simulator(crawler, RodOptions(scene="floor", base=base, clamp_angle=0.2))
+    x, z = sim.centerline()  # straight at the start, left end at the origin, lying on the floor
+    np.testing.assert_allclose(x, np.cos(0.2) * sim.arc_length(), atol=1e-12)
+    np.testing.assert_allclose(z - z[0], np.sin(0.2) * sim.arc_length(), atol=1e-12)
+    q = np.random.default_rng(1).normal(0.0, 0.2, 20)
+    sim.data.qpos[sim.rod.hinge_qpos] = q
+    sim.data.qpos[sim.rod.base_qpos[2]] = 0.1
+    mujoco.mj_forward(sim.model, sim.data)
+    theta = sim.angles()
+    np.testing.assert_allclose(np.diff(theta), q, atol=1e-12)  # hinge j = theta_{j+1} - theta_j
+    assert sim.tip_angle() == pytest.approx(theta[-1], abs=1e-12)
+    b = sim.options.base_piece
+    assert b == (10 if base == "middle" else 0)
+    assert theta[b] == pytest.approx(0.3, abs=1e-12)  # the base joint turns the base piece
+
+
+def test_sphere_colliders_make_one_contact_per_point(crawler):
+    lying = {}
+    for geom in ("sphere", "capsule"):
+        sim = Simulator(crawler, RodOptions(scene="floor", contact_geom=geom))
+        sim.step(50)
+        lying[geom] = sim.ncon
+    assert lying["sphere"] == 22  # base end, 20 hinges, tip
+    assert lying["capsule"] == 42  # two per piece
+
+
+def test_contact_time_constant_comes_from_the_material(crawler):
+    tc = material_contact_timeconst(crawler)
+    phi = 0.2  # the stiffer half sets it
+    E = crawler.material.youngs_modulus(phi)
+    rho = crawler.material.density_at(phi)
+    assert tc == pytest.approx(crawler.thickness * np.sqrt(rho / E), rel=1e-9)
+    m = build_model(crawler, RodOptions(scene="floor")).model
+    np.testing.assert_allclose(m.geom_solref[:, 0], tc)
+    assert m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_REFSAFE
+    m2 = build_model(crawler, RodOptions(scene="floor", contact_refsafe=True, contact_timeconst=3e-4)).model
+    assert not m2.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_REFSAFE
+    np.testing.assert_allclose(m2.geom_solref[:, 0], 3e-4)
+
+
+def test_beam_does_not_sink_while_crawling(crawler):
+    sim = Simulator(crawler, RodOptions(scene="floor"))
+    sim.set_waveform(Sine((0.0, 2e-3), 2.0))
+    pen = 0.0
+    for _ in range(25):
+        sim.step(40)
+        pen = max([pen] + [c["penetration"] for c in sim.contacts()])
+    assert 0.0 < pen < 5e-6  # measured ~0.4 um at the defaults (docs/sim.md)
+
+
+def test_fast_step_matches_general_step(crawler):
+    a = Simulator(crawler, RodOptions(scene="floor"))
+    b = Simulator(crawler, RodOptions(scene="floor"))
+    b.external_wrench[3, 0] = 1e-30  # negligible, but takes the general per-step path
+    for s in (a, b):
+        s.set_waveform(Sine((0.0, 2e-3), 2.0))
+        s.step(300)
+    np.testing.assert_allclose(a.data.qpos, b.data.qpos, rtol=0, atol=1e-12)
+    assert a.field == b.field and a.nstep == b.nstep == 300
+
+
+def test_batch_is_bit_identical_to_simulators(crawler):
+    opts = RodOptions(scene="floor")
+    wfs = [Sine((0.0, 2e-3), 2.0), Sine((1e-3, 0.0), 3.0)]
+    rb = RodBatch(crawler, opts, nsim=2)
+    rb.set_waveforms(wfs)
+    rb.step(150)
+    rb.step(50)
+    bx, bz = rb.centerline()
+    for i, wf in enumerate(wfs):
+        s = Simulator(crawler, opts)
+        s.set_waveform(wf)
+        s.step(200)
+        x, z = s.centerline()
+        np.testing.assert_allclose(bx[i], x, atol=1e-12)
+        np.testing.assert_allclose(bz[i], z, atol=1e-12)
+    rb.set_fields([(0.0, 1e-3), (0.0, -1e-3)])
+    rb.step(5)
+    assert rb.qpos.shape == (2, 23)
+
+
+def test_batch_rejects_bad_input(crawler):
+    with pytest.raises(ValueError, match="nsim"):
+        RodBatch(crawler, RodOptions(scene="floor"), nsim=0)
+    rb = RodBatch(crawler, RodOptions(scene="floor"), nsim=2)
+    with pytest.raises(ValueError, match="fields"):
+        rb.set_fields([(0.0, 1e-3)])
+    with pytest.raises(ValueError, match="waveforms"):
+        rb.set_waveforms([Sine((0.0, 1e-3), 1.0)])
+
+
+def test_batch_reports_non_finite_state(crawler):
+    rb = RodBatch(crawler, RodOptions(scene="floor"), nsim=2)
+    rb.qpos[1, 5] = np.nan
+    with pytest.raises(SimulationError, match=r"simulations \[1\]"):
+        rb.step(2)
+
+
+@pytest.mark.slow
+def test_default_floor_timestep_is_converged(crawler):
+    # crawl distance at the default dt (0.1 ms) within 5 % of dt = 25 us (docs/sim.md: +1.7 % over 2 s)
+    travel = {}
+    for dt in (1e-4, 2.5e-5):
+        sim = Simulator(crawler, RodOptions(scene="floor", timestep=dt))
+        x0 = sim.centerline()[0].mean()
+        sim.run(Sine((0.0, 2e-3), 2.0), 1.0, record_every=100)
+        travel[dt] = sim.centerline()[0].mean() - x0
+    assert travel[2.5e-5] > 0.5e-3  # it crawls
+    assert travel[1e-4] == pytest.approx(travel[2.5e-5], rel=0.05)
