@@ -125,3 +125,13 @@ def test_clamp_angle_from_target_start():
     assert math.atan2(d[1], d[0]) == pytest.approx(-math.pi / 2, abs=0.05)  # the beam leaves the clamp downward
     with pytest.raises(ValueError, match="clamp_angle"):
         ms.design_profile(target, BEAM, field_bounds=(1e-3, 20e-3), clamp_angle=float("nan"))
+
+
+@pytest.mark.slow
+def test_global_stage_runs_when_local_starts_miss_the_tolerance():
+    res = ms.design_profile(ms.design.builtin_target("calabash"), BEAM, field_bounds=(1e-3, 20e-3), n_points=25,
+                            n_starts=1, max_nfev=5, rms_tol=0.0, global_stage=True, size=5)
+    stages = [h["stage"] for h in res.history]
+    assert stages == ["local", "global"]
+    # the final solve uses finer solver settings than the optimization: equal to ~1e-4 relative
+    assert res.rms_error <= min(h["rms_m"] for h in res.history) * (1 + 1e-3)
