@@ -174,6 +174,19 @@ class EquilibriumResult:
 
 
 # ----------------------------------------------------------------------------------------
+_BLAS = []
+
+
+def _one_blas_thread():
+    """Context: BLAS on one thread. Multi-threaded OpenBLAS on these ~50 x 50 systems is slower,
+    and on a busy machine its spinning threads slowed one solve by 10-100x (measured)."""
+    if not _BLAS:
+        from threadpoolctl import ThreadpoolController
+
+        _BLAS.append(ThreadpoolController())
+    return _BLAS[0].limit(limits=1, user_api="blas")
+
+
 @lru_cache(maxsize=32)
 def _model_cached(beam, grid, coupling, extensible):
     return BeamModel(beam, grid, coupling=coupling, extensible=extensible)
@@ -575,6 +588,11 @@ def solve_path(
         beam, gravity, support, coupling, extensible, clamp_angle, options
     )
     fields = as_fields(fields)
+    with _one_blas_thread():
+        return _solve_path(beam, fields, g, support, coupling, extensible, th0, options, progress)
+
+
+def _solve_path(beam, fields, g, support, coupling, extensible, th0, options, progress):
     t_start = time.perf_counter()
     solver = _Solver(beam, support=support, coupling=coupling, extensible=extensible, clamp_angle=th0, options=options)
     results: list[EquilibriumResult] = []
@@ -666,15 +684,18 @@ def solve_equilibrium(
     )
     if support != "cantilever":
         raise ValueError(f"start='straight' supports only support='cantilever', got {support!r}.")
-    solver = _Solver(beam, support=support, coupling=coupling, extensible=extensible, clamp_angle=th0, options=options)
-    load = Load(fld.Bx, fld.Bz, g)
-    ok, th, _, its = solver.newton(solver.theta, load, maxiter=100)
-    solver.newton_its += its
-    status = 0
-    if ok:
-        solver.theta, solver.load = th, load
-        tail = solver.refine()
-    else:
-        status, tail = 3, float("nan")
-        solver.load = load
-    return solver.result(ok, status, False, fld, g, tail)
+    with _one_blas_thread():
+        solver = _Solver(
+            beam, support=support, coupling=coupling, extensible=extensible, clamp_angle=th0, options=options
+        )
+        load = Load(fld.Bx, fld.Bz, g)
+        ok, th, _, its = solver.newton(solver.theta, load, maxiter=100)
+        solver.newton_its += its
+        status = 0
+        if ok:
+            solver.theta, solver.load = th, load
+            tail = solver.refine()
+        else:
+            status, tail = 3, float("nan")
+            solver.load = load
+        return solver.result(ok, status, False, fld, g, tail)
