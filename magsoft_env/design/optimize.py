@@ -264,6 +264,8 @@ def design_profile(
     if rms_tol < 0:
         raise ValueError(f"rms_tol must be >= 0 (fraction of L), got {rms_tol!r}.")
     g = finite_number("gravity", gravity, unit="m/s^2")
+    if g < 0:
+        raise ValueError(f"gravity must be >= 0 (m/s^2, acting along -z), got {gravity!r}.")
     coupling = choice("coupling", coupling, ("rotated", "paper"))
     if not isinstance(extensible, (bool, np.bool_)):
         raise ValueError(f"extensible must be True or False, got {extensible!r}.")
@@ -332,10 +334,14 @@ def design_profile(
         note = ""
         if not eq.success:
             # the default (finer) settings can stall where the optimizer's converged: keep the latter, say so
+            first = eq.message
             eq = solve_equilibrium(d_beam, d_field, gravity=g, coupling=coupling, extensible=bool(extensible),
                                     clamp_angle=th0, options=problem.options)
-            note = (" The final equilibrium used the optimizer's solver settings (resolution 1e-6 rad): the "
-                    f"default settings failed ({eq.message if not eq.success else 'continuation stalled'}).")
+            note = (" The final equilibrium used the optimizer's solver settings (resolution 1e-6 rad) because the "
+                    f"default settings failed: {first}")
+        if problem.failed:
+            note += (f" {problem.failed} of {problem.nfev} equilibrium solves failed during the search and counted "
+                     "as an error of L at every point.")
         if eq.success and eq.snap_through:
             note += (" Along the field ramp the beam snaps through (a fold of the equilibrium path) before it "
                      "reaches the designed shape; see the ramp figure.")
@@ -391,6 +397,7 @@ class _Problem:
         else:
             self.options = SolverOptions(resolution_tol=1e-6, tol=1e-10, max_nodes=64)
         self.nfev = 0
+        self.failed = 0
         self._cache: dict[bytes, np.ndarray] = {}
 
     # layout
@@ -458,6 +465,7 @@ class _Problem:
         except ValueError:
             eq = None
         if eq is None or not eq.success:
+            self.failed += 1
             r = np.full(self.n, 1.0 / math.sqrt(self.n))  # as if every point were L away
         else:
             _, xs, zs, _ = eq.sample(_CENTRELINE_SAMPLES)
