@@ -12,6 +12,8 @@ Sections (run all, or pick with ``--only``):
 * ``floor``: a 20-segment crawler on a floor driven by an oscillating B_z: timestep x settings
   -> crawl distance, its error and the shape error against a fine-step reference of the
   default contact model, penetration, microseconds per step and real-time factor.
+* ``contact``: crawl distance against the contact time constant (how much the answer
+  depends on the contact model rather than on the numerics).
 * ``batch``: ``RodBatch`` (``mujoco.batch``, one thread) against a Python loop of
   ``Simulator`` objects; the cost of computing the couples in C (site actuators) instead.
 * ``peer``: PyElastica (if installed) on the same magnetic cantilever: time to the same
@@ -261,6 +263,18 @@ def floor(quick: bool) -> None:
               f"{pen * 1e6:>7.1f} {us:>8.1f} {dt * 1e6 / us:>6.1f}")
 
 
+def contact(quick: bool) -> None:
+    print("\n## contact: crawl distance against the contact time constant (the contact model), each at a "
+          "timestep that resolves it")
+    beam = _crawler()
+    duration = 0.5 if quick else 2.0
+    print(f"{'tc ms':>7} {'dt s':>8} {'crawl mm':>9} {'max pen um':>10}")
+    for tc in (5e-5, 1.42e-4, 5e-4, 1e-3, 2e-3):
+        dt = min(1e-4, tc / 2)
+        _, x, _, _, pen = _crawl(beam, duration, timestep=dt, contact_timeconst=tc)
+        print(f"{tc * 1e3:>7.3f} {dt:>8.3g} {(x[-1].mean() - x[0].mean()) * 1e3:>9.3f} {pen * 1e6:>10.1f}")
+
+
 def batch(quick: bool) -> None:
     print("\n## batch: many crawlers, one thread; baseline a Python loop over Simulator objects")
     from magsoft_env.sim import RodBatch
@@ -335,7 +349,7 @@ def peer(quick: bool) -> None:
     sim_peer.main(quick)
 
 
-SECTIONS = {"static": static, "timestep": timestep, "speed": speed, "floor": floor, "batch": batch, "peer": peer}
+SECTIONS = {"static": static, "timestep": timestep, "speed": speed, "floor": floor, "contact": contact, "batch": batch, "peer": peer}
 
 
 def main(argv=None) -> int:
