@@ -4,6 +4,7 @@ Multi-threaded OpenBLAS on such small systems is slower than one thread, and on 
 its spinning threads can slow a 100 x 100 solve by 100x or more (measured: 7 s instead of 20 ms
 for one equilibrium). This is a stand-in for ``threadpoolctl`` (not a dependency): it finds the
 OpenBLAS libraries numpy and scipy loaded and sets their thread count, restoring it afterwards.
+It uses ``threadpoolctl`` instead when that is installed.
 """
 
 from __future__ import annotations
@@ -49,6 +50,14 @@ def single_threaded_blas(enabled: bool = True):
     """Context manager: OpenBLAS runs on one thread inside the block (no-op if not found)."""
     if not enabled:
         yield
+        return
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:
+        pass
+    else:
+        with threadpool_limits(limits=1, user_api="blas"):
+            yield
         return
     libs = _libraries()
     previous = []
