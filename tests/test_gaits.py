@@ -81,7 +81,7 @@ def test_gait_cli_json(capsys):
     assert rc == 0
     out = json.loads(capsys.readouterr().out)
     assert {"displacement_mm", "speed_mm_s", "direction", "paper_direction"} <= set(out)
-    assert out["field_mT"]["amplitude_x"] > 0  # reversed: B_x inverted from the preset's -1 mT
+    assert out["field_mT"]["amplitude_x"] == -2.0  # reversed: B_x inverted from the preset's +2 mT
     assert out["direction"] in ("left", "right", "none")
 
 

@@ -173,13 +173,12 @@ class MagSoftShapeEnv(gym.Env):
         x, z = self.sim.centerline()
         return np.array([x[-1], z[-1], self.sim.tip_angle()])
 
-    def _get_obs(self) -> np.ndarray:
+    def _get_obs(self, tip: np.ndarray) -> np.ndarray:
         sim = self.sim
         ang = sim.angles()
-        sim.centerline()
         mujoco.mj_comVel(sim.model, sim.data)
         omega = -sim.data.cvel[self._bodies, 1]
-        tip, tgt, L = self.tip_pose(), self._target, self.beam.length
+        tgt, L = self._target, self.beam.length
         obs = np.concatenate([
             ang, omega, tip[:2] / L, [math.sin(tip[2]), math.cos(tip[2])], tgt[:2] / L,
             [math.sin(tgt[2]), math.cos(tgt[2])], self._field / self.field_limit,
@@ -210,8 +209,9 @@ class MagSoftShapeEnv(gym.Env):
         mujoco.mj_forward(self.sim.model, self.sim.data)
         self._field = np.zeros(2)
         self._broken = False
-        self._last_obs = self._get_obs()
-        return self._last_obs, self._info()
+        tip = self.tip_pose()
+        self._last_obs = self._get_obs(tip)
+        return self._last_obs, self._info(tip)
 
     def step(self, action):
         if self._broken:
@@ -230,22 +230,21 @@ class MagSoftShapeEnv(gym.Env):
             self.sim.step(self.n_substeps)
         except SimulationError as err:
             self._broken = True
-            info = self._info()
+            info = self._info(np.full(3, np.nan))
             info.update(truncation_reason=str(err), instability=err.quantity)
             return self._last_obs.copy(), 0.0, False, True, info
-        obs = self._get_obs()
         tip = self.tip_pose()
+        obs = self._get_obs(tip)
         err = float(np.hypot(*(tip[:2] - self._target[:2])))
         position = -self.position_weight * err / self.beam.length
         angle = -self.angle_weight * (1.0 - math.cos(tip[2] - self._target[2]))
         field = -self.field_cost_weight * float(np.sum(self._field**2)) / self.field_limit**2
         reward = position + angle + field
         self._last_obs = obs
-        info = self._info(reward_position=position, reward_angle=angle, reward_field=field, reward=reward)
+        info = self._info(tip, reward_position=position, reward_angle=angle, reward_field=field, reward=reward)
         return obs, float(reward), False, False, info
 
-    def _info(self, **terms) -> dict:
-        tip = self.tip_pose()
+    def _info(self, tip: np.ndarray, **terms) -> dict:
         err = float(np.hypot(*(tip[:2] - self._target[:2])))
         info = {"reward_position": 0.0, "reward_angle": 0.0, "reward_field": 0.0, "reward": 0.0}
         info.update({k: float(v) for k, v in terms.items()})
