@@ -174,6 +174,13 @@ def speed(quick: bool) -> None:
             continue
         print(f"{scene:>10} {nseg:>3} {label:>28} {dt:>7g} {raw:>8.1f} {full:>10.1f} {dt * 1e6 / full:>10.1f} "
               f"{raw_data.ncon:>5} {raw_data.nefc:>5}")
+    for label, kw in (("defaults", {}), ("0.1 floor (capsule, pyr, ...)", dict(OLD_FLOOR, contact_timeconst=2e-4))):
+        sim = Simulator(beam, RodOptions(scene="floor", **kw))
+        sim.step(200)  # lying flat at zero field: every collider touches
+        raw = _cpu_us_per_step(lambda k, s=sim: mujoco.mj_step(s.model, s.data, nstep=k), n)
+        full = _cpu_us_per_step(sim.step, n)
+        print(f"{'floor flat':>10} {20:>3} {label:>28} {1e-4:>7g} {raw:>8.1f} {full:>10.1f} {100 / full:>10.1f} "
+              f"{sim.data.ncon:>5} {sim.data.nefc:>5}")
     sim = Simulator(beam, RodOptions(scene="floor"))
     sim.run(Sine((0.0, 2e-3), 2.0), 0.3)
     on = _cpu_us_per_step(lambda k: mujoco.mj_step(sim.model, sim.data, nstep=k), n)
@@ -240,6 +247,8 @@ def floor(quick: bool) -> None:
     cases = [("defaults", {}, dt) for dt in dts if dt != ref_dt]
     cases += [
         ("defaults, torque hold 5", dict(torque_every=5), 1e-4),
+        ("implicitfast integrator", dict(integrator="implicitfast"), 1e-4),
+        ("euler integrator", dict(integrator="euler"), 1e-4),
         ("pyramidal cones", dict(cone="pyramidal"), 1e-4),
         ("capsules", dict(contact_geom="capsule"), 1e-4),
         ("base on the first piece", dict(base="first"), 1e-4),
@@ -349,7 +358,10 @@ def peer(quick: bool) -> None:
     sim_peer.main(quick)
 
 
-SECTIONS = {"static": static, "timestep": timestep, "speed": speed, "floor": floor, "contact": contact, "batch": batch, "peer": peer}
+SECTIONS = {
+    "static": static, "timestep": timestep, "speed": speed, "floor": floor, "contact": contact, "batch": batch,
+    "peer": peer,
+}
 
 
 def main(argv=None) -> int:

@@ -17,7 +17,7 @@ from .waveforms import Hold, PhaseShifted, Ramp, Sequence, Sine, Square, Wavefor
 
 __all__ = [
     "CHANNEL_SIZE", "INTEGRATORS", "OBSTACLE_SIZE", "SCENES", "Hold", "PhaseShifted", "Ramp", "RodDiscretization",
-    "RodBatch", "RodModel", "RodOptions", "SettleResult", "Sequence", "SimEquilibrium", "SimulationError", "Simulator", "Sine",
-    "Square", "Trajectory", "Waveform", "as_waveform", "build_model", "build_spec", "discretize",
+    "RodBatch", "RodModel", "RodOptions", "SettleResult", "Sequence", "SimEquilibrium", "SimulationError",
+    "Simulator", "Sine", "Square", "Trajectory", "Waveform", "as_waveform", "build_model", "build_spec", "discretize",
     "mujoco_equilibrium", "mujoco_path",
 ]

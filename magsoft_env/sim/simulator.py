@@ -270,7 +270,7 @@ class Simulator:
         SimulationError
             On a non-finite or huge state (MuJoCo warning) or runaway kinetic energy.
         """
-        m, d = self.model, self.data
+        d = self.data
         two = self._two_stage
         n = int(n)
         self._has_external = bool(np.any(self.external_wrench))
