@@ -311,6 +311,8 @@ def batch(quick: bool) -> None:
         k = nsteps * nsim
         print(f"{nsim:>5} {loop / k * 1e6:>17.1f} {bat / k * 1e6:>21.1f} {loop / bat:>9.2f} {dq:>9.1e}")
     # torques computed in C instead (what mujoco.rollout needs: no Python between steps)
+    from mujoco import rollout as mjrollout
+
     sim = Simulator(beam, RodOptions(scene="floor"))
     m_act = _actuator_model(sim)
     d_act = mujoco.MjData(m_act)
@@ -322,6 +324,30 @@ def batch(quick: bool) -> None:
     full = _cpu_us_per_step(sim.step, n)
     print(f"couples as {m_act.nu} site actuators (force pairs along B at two sites per piece, refsite in the world): "
           f"mj_step {act:.1f} us vs {plain:.1f} us without magnetics and {full:.1f} us for Simulator.step")
+    # open loop: the crawl waveform as controls, rolled out in C, against Simulator.run
+    nsim = 8
+    duration = 0.1 if quick else 0.3
+    nst = int(round(duration / sim.timestep))
+    fields = wf.sample(sim.timestep * np.arange(nst))  # B at the start of each step, as Simulator uses
+    ctrl = np.tile(fields, (1, m_act.nu // 2))[None].repeat(nsim, axis=0)
+    d0 = mujoco.MjData(m_act)
+    mujoco.mj_forward(m_act, d0)
+    spec_full = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    x0 = np.empty(mujoco.mj_stateSize(m_act, spec_full))
+    mujoco.mj_getState(m_act, d0, x0, spec_full)
+    t0 = time.process_time()
+    state, _ = mjrollout.rollout(m_act, [mujoco.MjData(m_act)], np.tile(x0, (nsim, 1)), ctrl)
+    t_roll = time.process_time() - t0
+    loop_sims = [Simulator(beam, RodOptions(scene="floor")) for _ in range(nsim)]
+    t0 = time.process_time()
+    for s1 in loop_sims:
+        s1.set_waveform(wf)
+        s1.step(nst)
+    t_loop = time.process_time() - t0
+    qpos_roll = state[0, -1, 1 : 1 + m_act.nq]  # FULLPHYSICS rows: time, qpos, qvel, ...
+    print(f"open loop, {nsim} crawlers x {duration:g} s: mujoco.rollout (actuator couples) "
+          f"{t_roll / (nsim * nst) * 1e6:.1f} us/rod-step vs Simulator loop {t_loop / (nsim * nst) * 1e6:.1f}; "
+          f"max |qpos difference| {np.abs(qpos_roll - s1.data.qpos).max():.1e}")
 
 
 def _actuator_model(sim) -> mujoco.MjModel:
