@@ -69,3 +69,16 @@ def test_design_bad_csv_exits_2(tmp_path, capsys):
     p.write_text("x_mm,z_mm\n0,0\n1,0\n")
     assert main(["design", "--target-csv", str(p), "--out", str(tmp_path / "x"), "--quiet"]) == 2
     assert "at least 4 distinct points" in capsys.readouterr().err
+
+
+def test_design_bad_letters_exit_2(tmp_path, capsys):
+    assert main(["design", "--letters", "SX", "--out", str(tmp_path / "x"), "--quiet"]) == 2
+    assert "--letters must use only SJTU" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_design_letter_j(tmp_path, capsys):
+    out = tmp_path / "letters"
+    assert main(["design", "--letters", "J", "--out", str(out), "--quiet"]) == 0
+    assert (out / "letters.png").is_file() and (out / "J" / "jig.svg").is_file()
+    assert "J: L 26.57 mm" in capsys.readouterr().out

@@ -28,7 +28,8 @@ def add_parser(subparsers) -> None:
     p.add_argument("--thickness-mm", type=float, default=1.13, help="beam thickness in mm (default 1.13)")
     p.add_argument("--volume-fraction", type=float, default=0.2, help="particle volume fraction (default 0.2)")
     p.add_argument("--field-min-mT", type=float, default=1.0, help="smallest field magnitude in mT (default 1)")
-    p.add_argument("--field-max-mT", type=float, default=20.0, help="largest field magnitude in mT (default 20)")
+    p.add_argument("--field-max-mT", type=float, default=None,
+                   help="largest field magnitude in mT (default 20; 40 for --letters)")
     p.add_argument("--free-direction", action="store_true",
                    help="let the field angle vary too (default: along +z, perpendicular to the beam)")
     p.add_argument("--family", choices=("spline", "polynomial", "fourier", "piecewise_linear"), default="spline",
@@ -66,6 +67,8 @@ def run(args) -> int:
             raise ValueError(f"{flag} must be a positive number of mm, got {v!r}.")
     if not (math.isfinite(args.rms_tol_percent) and args.rms_tol_percent >= 0):
         raise ValueError(f"--rms-tol-percent must be >= 0, got {args.rms_tol_percent!r}.")
+    if args.field_max_mT is None:
+        args.field_max_mT = 40.0 if args.letters is not None else 20.0
     if args.letters is not None:
         return _run_letters(args, out)
     if args.target is not None:

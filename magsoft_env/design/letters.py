@@ -20,7 +20,7 @@ MM = 1e-3
 LETTERS: dict[str, tuple[float, list]] = {
     "S": (0.0, [(None, 2.0), (4.0, 180.0), (4.0, -180.0), (None, 2.0)]),
     "J": (-90.0, [(None, 2.0), (4.0, 180.0), (None, 12.0)]),
-    "T": (90.0, [(None, 12.0), (2.5, -90.0), (None, 2.5), (2.0, 180.0), (None, 10.0)]),
+    "T": (90.0, [(None, 12.0), (2.5, -90.0), (None, 2.0), (2.5, 180.0), (None, 10.5)]),
     "U": (-90.0, [(None, 10.0), (5.0, 180.0), (None, 10.0)]),
 }
 
@@ -36,7 +36,7 @@ def letter_target(letter: str) -> np.ndarray:
     return xz @ np.array([[c, s], [-s, c]])
 
 
-def design_letters(letters: str = "SJTU", *, field_bounds=(1e-3, 20e-3), width: float = 5e-3,
+def design_letters(letters: str = "SJTU", *, field_bounds=(1e-3, 40e-3), width: float = 5e-3,
                    thickness: float = 1.13e-3, progress: bool = False, **kw) -> dict:
     """Design one beam per letter (vertical field, shared bounds); returns ``{letter: DesignResult}``."""
     from ..spec import Beam
