@@ -129,3 +129,14 @@ def test_default_floor_timestep_is_converged(crawler):
         travel[dt] = sim.centerline()[0].mean() - x0
     assert travel[2.5e-5] > 0.5e-3  # it crawls
     assert travel[1e-4] == pytest.approx(travel[2.5e-5], rel=0.05)
+
+
+def test_solver_and_contact_options_reach_the_model(crawler):
+    o = RodOptions(scene="floor", cone="pyramidal", noslip_iterations=3, solver_iterations=7, solver_tolerance=1e-6,
+                   contact_impedance=(0.95, 0.99))
+    m = build_model(crawler, o).model
+    assert m.opt.cone == mujoco.mjtCone.mjCONE_PYRAMIDAL
+    assert (m.opt.noslip_iterations, m.opt.iterations) == (3, 7)
+    assert m.opt.tolerance == pytest.approx(1e-6)
+    np.testing.assert_allclose(m.geom_solimp[:, :2], np.tile([0.95, 0.99], (m.ngeom, 1)))
+    assert build_model(crawler, RodOptions(scene="floor")).model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
