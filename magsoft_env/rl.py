@@ -227,8 +227,23 @@ def _learning_curve(monitor_dir: Path, png: Path, title: str) -> dict:
     return {"episodes": len(rows), "final_mean_return": float(np.mean([r[1] for r in rows[-10:]])) if rows else math.nan}
 
 
+def _wall_time_callback(max_seconds: float):
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class StopAfter(BaseCallback):
+        """Stop learning after ``max_seconds`` of wall time (the run then saves what it has)."""
+
+        def _on_training_start(self) -> None:
+            self.t0 = time.perf_counter()
+
+        def _on_step(self) -> bool:
+            return time.perf_counter() - self.t0 < max_seconds
+
+    return StopAfter()
+
+
 def train(config: dict, out_dir, *, seed: int = 0, vec: str = "dummy", evaluate: bool = True,
-          progress: bool = False) -> dict:
+          progress: bool = False, max_seconds: float | None = None) -> dict:
     """Train one run and write its outputs into ``out_dir``.
 
     Parameters
@@ -243,6 +258,9 @@ def train(config: dict, out_dir, *, seed: int = 0, vec: str = "dummy", evaluate:
         Vector env class for the ``n_envs`` copies.
     evaluate : bool
         Evaluate the trained policy and the open-loop gaits (same env, same limits).
+    max_seconds : float, optional
+        Wall-time budget for learning (s); learning stops early (and says so in the summary)
+        when it runs out.
 
     Returns
     -------
@@ -274,15 +292,18 @@ def train(config: dict, out_dir, *, seed: int = 0, vec: str = "dummy", evaluate:
     policy = kwargs.pop("policy", "MlpPolicy")
     model = _algo_class(cfg["algo"])(policy, venv, seed=seed, verbose=0, device="cpu", **kwargs)
     t0 = time.perf_counter()
-    model.learn(total_timesteps=cfg["n_timesteps"], progress_bar=progress)
+    callback = None if max_seconds is None else _wall_time_callback(float(max_seconds))
+    model.learn(total_timesteps=cfg["n_timesteps"], progress_bar=progress, callback=callback)
     train_s = time.perf_counter() - t0
+    done_steps = int(model.num_timesteps)
     model.save(out / "model.zip")
     if cfg["normalize"]:
         venv.save(str(out / "vecnormalize.pkl"))
     venv.close()
     curve = _learning_curve(mon, out / "learning_curve.png", f"{cfg['algo'].upper()} on {cfg['env_id']}")
     summary = {"env_id": cfg["env_id"], "algo": cfg["algo"], "n_timesteps": cfg["n_timesteps"],
-               "train_wall_s": train_s, "steps_per_s": cfg["n_timesteps"] / train_s, **curve}
+               "timesteps_done": done_steps, "stopped_by_wall_time": done_steps < cfg["n_timesteps"],
+               "train_wall_s": train_s, "steps_per_s": done_steps / train_s, **curve}
     if evaluate:
         summary.update(evaluate_run(out, episodes=cfg["eval_episodes"], seed=seed + 1000))
     (out / "evaluation.json").write_text(json.dumps(summary, indent=2))

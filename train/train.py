@@ -29,6 +29,7 @@ def main(argv=None) -> int:
     p.add_argument("--vec", default="dummy", choices=["dummy", "subproc"], help="vector env class")
     p.add_argument("--runs", type=Path, default=Path("runs"), help="folder of run folders (default runs/)")
     p.add_argument("--run-id", default=None, help="run folder name (default <env>_<algo>_s<seed>_<time>)")
+    p.add_argument("--max-minutes", type=float, default=None, help="wall-time budget for learning (minutes)")
     p.add_argument("--no-eval", action="store_true", help="skip the evaluation against the open-loop gaits")
     p.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
                    help="override algorithm arguments, e.g. --set learning_rate=1e-3 n_steps=256")
@@ -64,7 +65,11 @@ def main(argv=None) -> int:
         print(f"train.py: error: {err}", file=sys.stderr)
         return 2
     run_id = args.run_id or f"{args.env}_{args.algo}_s{args.seed}_{time.strftime('%Y%m%d-%H%M%S')}"
-    summary = train(cfg, args.runs / run_id, seed=args.seed, vec=args.vec, evaluate=not args.no_eval)
+    if args.max_minutes is not None and not args.max_minutes > 0:
+        print(f"train.py: error: --max-minutes must be > 0, got {args.max_minutes}.", file=sys.stderr)
+        return 2
+    summary = train(cfg, args.runs / run_id, seed=args.seed, vec=args.vec, evaluate=not args.no_eval,
+                    max_seconds=None if args.max_minutes is None else 60.0 * args.max_minutes)
     summary["run_dir"] = str(args.runs / run_id)
     print(json.dumps(summary, indent=2))
     return 0
