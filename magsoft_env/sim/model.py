@@ -36,7 +36,7 @@ _HINGE_AXIS = (0.0, -1.0, 0.0)
 _ROD_CONTYPE, _ROD_CONAFFINITY = 1, 2  # rod pieces touch the scene, never each other
 _SCENE_CONTYPE, _SCENE_CONAFFINITY = 2, 1
 BASES = ("first", "middle")
-CONTACT_GEOMS = ("capsule", "sphere")
+CONTACT_GEOMS = ("capsule", "sphere", "hinge_sphere")
 CONES = {"pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL, "elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC}
 
 
@@ -286,6 +286,13 @@ def build_spec(beam: Beam, options: RodOptions) -> tuple[mujoco.MjSpec, RodDiscr
         body.inertia = [float(v) for v in disc.inertia[i]]
         length = float(disc.piece_length[i])
         if spheres:
+            # one sphere at the middle of each piece, owned by that piece: a contact below a
+            # hinge would move with whichever piece owns it, a chirality that drifts
+            # mirror-symmetric robots (measured: docs/sim.md)
+            collider(body.add_geom(
+                name=f"sphere{i}", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[radius, 0, 0], pos=[0.5 * length, 0, 0],
+            ))
+        elif o.has_contact and o.contact_geom == "hinge_sphere":
             ends = [0.0, length] if i == o.segments else [0.0]
             for k, x in enumerate(ends):
                 collider(body.add_geom(
@@ -324,7 +331,12 @@ def build_spec(beam: Beam, options: RodOptions) -> tuple[mujoco.MjSpec, RodDiscr
         base = add_piece(world, b, [s_b * ca, 0.0, radius + s_b * sa], _quat_y(o.clamp_angle))
         base.add_joint(name="base_x", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[1, 0, 0])
         base.add_joint(name="base_z", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, 1])
-        base.add_joint(name="base_theta", type=mujoco.mjtJoint.mjJNT_HINGE, axis=list(_HINGE_AXIS))
+        # the base hinge turns about the base piece's centre: with the middle piece the tree is
+        # then mirror-symmetric about the beam's midpoint
+        base.add_joint(
+            name="base_theta", type=mujoco.mjtJoint.mjJNT_HINGE, axis=list(_HINGE_AXIS),
+            pos=[0.5 * float(disc.piece_length[b]), 0.0, 0.0],
+        )
 
     parent = base
     for i in range(b - 1, -1, -1):  # pieces left of the base, children toward s = 0
