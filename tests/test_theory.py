@@ -267,3 +267,17 @@ def test_free_beam_through_zero_field_relaxes_straight_and_recovers():
     assert np.ptp(zero.theta) == 0.0
     # switching the field mirrors the shape: theta -> -theta
     np.testing.assert_allclose(down.theta, -up.theta, atol=1e-8)
+
+
+def test_snap_onto_a_shape_the_grid_must_refine_for():
+    # regression (an S-letter design): after a fold the new stable shape needs a finer grid;
+    # the jump must refine instead of stalling
+    from scipy.interpolate import CubicSpline
+
+    L = 0.02913209022435671
+    knots = [2.4091, 1.5349, 0.3291, 0.0071, -0.7775, -2.9532, -0.8239, 0.0049, 0.4283, 1.8696, 1.8290]
+    spl = CubicSpline(np.linspace(0, L, 11), knots)
+    beam = ms.Beam(length=L, width=5e-3, thickness=1.13e-3, magnetization=ms.Function(lambda s: spl(s)))
+    res = ms.solve_equilibrium(beam, (0.0, 0.014091))
+    assert res.success and res.stable and res.snap_through, res.message
+    assert res.residual < 1e-8

@@ -273,18 +273,32 @@ class _Solver:
 
     # energy descent (branch switching) --------------------------------------------------------
     def descend(self, theta, load: Load, kick=None):
-        """Minimize the discrete energy from ``theta`` (plus a kick), then polish with Newton."""
+        """Minimize the discrete energy from ``theta`` (plus a kick), then polish with Newton.
+
+        If Newton cannot polish the minimizer (the new shape is not resolved by the grid), the
+        degree is raised and the descent repeated from the interpolated shape.
+        """
+        th = theta if kick is None else theta + kick
+        while True:
+            th_min, c = self._minimize(th, load)
+            ok, th2, c2, _ = self.newton(th_min, load, c, maxiter=4 * _MAX_NEWTON)
+            if ok or self.opt.nodes is not None or self.grid.n >= self.opt.max_nodes:
+                return ok, th2, c2
+            old = self.grid
+            self._set_grid(_regrid(old, min(self.opt.max_nodes, int(math.ceil(old.n * 1.5)))))
+            th = old.interpolate(th_min, self.grid.s)
+            if self.support == "free":
+                self.c = float(th[0])
+
+    def _minimize(self, theta, load: Load):
         mdl = self.model
-        u0 = theta[mdl.uniq].copy()
-        if kick is not None:
-            u0 = u0 + kick[mdl.uniq]
+        u0 = theta[mdl.uniq]
         clamped = self.support == "cantilever"
         if clamped:
             fixed = self.theta0
 
             def fun(v):
-                u = np.concatenate([[fixed], v])
-                e, g, H = mdl.energy_grad_hess(u, load)
+                e, g, H = mdl.energy_grad_hess(np.concatenate([[fixed], v]), load)
                 return e, g[1:], H[1:, 1:]
 
             v0 = u0[1:]
@@ -294,23 +308,20 @@ class _Solver:
                 return mdl.energy_grad_hess(v, load)
 
             v0 = u0
-        cache = {}
 
         def f(v):
-            cache["r"] = fun(v)
-            return cache["r"][0], cache["r"][1]
+            e, g, _ = fun(v)
+            return e, g
 
         def h(v):
             return fun(v)[2]
 
+        scale = mdl.EI_ref / self.beam.length
         res = scipy.optimize.minimize(
-            f, v0, jac=True, hess=h, method="trust-exact", options={"gtol": 1e-10 * mdl.EI_ref / self.beam.length}
+            f, v0, jac=True, hess=h, method="trust-exact", options={"gtol": 1e-12 * scale, "maxiter": 1000}
         )
         u = np.concatenate([[self.theta0], res.x]) if clamped else res.x
-        th = u[mdl.expand]
-        c = float(u[0]) if not clamped else None
-        ok, th2, c2, _ = self.newton(th, load, c)
-        return ok, th2, c2
+        return u[mdl.expand], (None if clamped else float(u[0]))
 
     # continuation ---------------------------------------------------------------------------------
     def tangent(self, theta, J, start: Load, target: Load, t: float):
