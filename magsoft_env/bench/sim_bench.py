@@ -14,6 +14,7 @@ Sections (run all, or pick with ``--only``):
   default contact model, penetration, microseconds per step and real-time factor.
 * ``contact``: crawl distance against the contact time constant (how much the answer
   depends on the contact model rather than on the numerics).
+* ``symmetry``: numerical left/right bias, from a mirror-symmetric robot driven both ways.
 * ``batch``: ``RodBatch`` (``mujoco.batch``, one thread) against a Python loop of
   ``Simulator`` objects; the cost of computing the couples in C (site actuators) instead.
 * ``peer``: PyElastica (if installed) on the same magnetic cantilever: time to the same
@@ -284,6 +285,25 @@ def contact(quick: bool) -> None:
         print(f"{tc * 1e3:>7.3f} {dt:>8.3g} {(x[-1].mean() - x[0].mean()) * 1e3:>9.3f} {pen * 1e6:>10.1f}")
 
 
+def symmetry(quick: bool) -> None:
+    print("\n## symmetry: the cosine-jig beam (Fig. 5c, 23.9 mm) under B_z = +-2 mT sin(2 pi 2 t); turned end for end "
+          "it is the same beam with B_z reversed, so the two travels must be opposite: their sum is numerical bias")
+    from magsoft_env import jig_from_function
+
+    jig = jig_from_function(lambda x: 3.0 * np.cos(2.0 * np.pi * x / 20.0), 0.0, 20.0, unit=1e-3)
+    beam = Beam(length=jig.length, width=W, thickness=H, volume_fraction=0.2, magnetization=jig)
+    duration = 1.0 if quick else 2.0
+    print(f"{'colliders':>13} {'base':>7} {'+B_z mm':>8} {'-B_z mm':>8} {'sum mm':>8}")
+    for geom, base in (("sphere", "middle"), ("capsule", "middle"), ("hinge_sphere", "middle"), ("sphere", "first")):
+        travel = []
+        for sign in (1.0, -1.0):
+            sim = Simulator(beam, RodOptions(scene="floor", contact_geom=geom, base=base))
+            x0 = sim.centerline()[0].mean()
+            sim.run(Sine((0.0, sign * 2e-3), 2.0), duration, record_every=100)
+            travel.append((sim.centerline()[0].mean() - x0) * 1e3)
+        print(f"{geom:>13} {base:>7} {travel[0]:>8.3f} {travel[1]:>8.3f} {travel[0] + travel[1]:>+8.3f}")
+
+
 def batch(quick: bool) -> None:
     print("\n## batch: many crawlers, one thread; baseline a Python loop over Simulator objects")
     from magsoft_env.sim import RodBatch
@@ -385,7 +405,8 @@ def peer(quick: bool) -> None:
 
 
 SECTIONS = {
-    "static": static, "timestep": timestep, "speed": speed, "floor": floor, "contact": contact, "batch": batch,
+    "static": static, "timestep": timestep, "speed": speed, "floor": floor, "contact": contact, "symmetry": symmetry,
+    "batch": batch,
     "peer": peer,
 }
 
