@@ -325,13 +325,30 @@ def test_equilibrium_rejects_bad_input(beam):
 
 
 def test_import_is_light():
+    # importing the sim layer pulls in no RL stack and no GL backend (gymnasium itself is
+    # imported by the package, which registers its environment ids on import)
     code = (
         "import sys, magsoft_env.sim; "
-        "bad = [m for m in ('gymnasium', 'torch', 'stable_baselines3', 'OpenGL', 'mujoco.egl', 'mujoco.osmesa') "
+        "bad = [m for m in ('torch', 'stable_baselines3', 'OpenGL', 'mujoco.egl', 'mujoco.osmesa') "
         "if m in sys.modules]; print(bad); sys.exit(1 if bad else 0)"
     )
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert r.returncode == 0, r.stdout + r.stderr
+
+
+def test_sim_sources_do_not_import_gymnasium():
+    # layering: sim never imports the environment layer or gymnasium (static check of the sources)
+    import ast
+    from pathlib import Path
+
+    import magsoft_env.sim
+
+    for path in Path(magsoft_env.sim.__file__).parent.glob("*.py"):
+        tree = ast.parse(path.read_text())
+        names = [a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names]
+        names += [n.module or "" for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)]
+        bad = [m for m in names if m.split(".")[0] in ("gymnasium", "torch", "stable_baselines3") or "envs" in m]
+        assert not bad, (path.name, bad)
 
 
 def test_planar_fast_path_matches_general_couples(beam):
