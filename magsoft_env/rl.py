@@ -85,6 +85,8 @@ class EvalResult:
         Mean simulated episode length (s).
     crawl_violations : int
         Episodes that ended by breaking the crawl limit.
+    max_com_height : float
+        Highest centre of mass over the episodes (m): hopping or standing up shows here.
     """
 
     name: str
@@ -92,16 +94,18 @@ class EvalResult:
     episode_return: float
     episode_seconds: float
     crawl_violations: int
+    max_com_height: float = math.nan
 
     def as_dict(self) -> dict:
         return {"name": self.name, "speed_mm_s": self.speed * 1e3, "return": self.episode_return,
-                "episode_s": self.episode_seconds, "crawl_violations": self.crawl_violations}
+                "episode_s": self.episode_seconds, "crawl_violations": self.crawl_violations,
+                "max_com_height_mm": self.max_com_height * 1e3}
 
 
 def run_episodes(env, act, *, episodes: int = 2, seed: int = 0, name: str = "policy") -> EvalResult:
     """Run ``episodes`` episodes of ``env`` (a Gymnasium env, time limit included) with
     ``act(obs, env) -> action``; measure centre-of-mass speed (m/s, along +x)."""
-    speeds, returns, lengths, violations = [], [], [], 0
+    speeds, returns, lengths, violations, zmax = [], [], [], 0, -math.inf
     for k in range(int(episodes)):
         obs, info = env.reset(seed=seed + k)
         x0, t0 = info["x_position"], info["time"]
@@ -109,13 +113,15 @@ def run_episodes(env, act, *, episodes: int = 2, seed: int = 0, name: str = "pol
         while not done:
             obs, r, term, trunc, info = env.step(act(obs, env))
             total += float(r)
+            zmax = max(zmax, float(info.get("z_position", math.nan)))
             done = term or trunc
         violations += int(bool(info.get("crawl_violation")))
         dt = info["time"] - t0
         speeds.append((info["x_position"] - x0) / dt if dt > 0 else 0.0)
         returns.append(total)
         lengths.append(dt)
-    return EvalResult(name, float(np.mean(speeds)), float(np.mean(returns)), float(np.mean(lengths)), violations)
+    return EvalResult(name, float(np.mean(speeds)), float(np.mean(returns)), float(np.mean(lengths)), violations,
+                      zmax)
 
 
 def open_loop_actor(wave=None):
@@ -195,7 +201,7 @@ def load_policy(path, *, algo: str | None = None):
 
 
 # ---------------------------------------------------------------------------- training
-def _learning_curve(monitor_dir: Path, png: Path, title: str) -> dict:
+def _learning_curve(monitor_dir: Path, png: Path, title: str, reference: dict | None = None) -> dict:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -217,7 +223,10 @@ def _learning_curve(monitor_dir: Path, png: Path, title: str) -> dict:
         if len(rets) >= k:
             smooth = np.convolve(rets, np.ones(k) / k, mode="valid")
             ax.plot(steps[k - 1:], smooth, "-", label=f"mean of {k}")
-        ax.legend()
+    for k, (name, value) in enumerate((reference or {}).items()):
+        ax.axhline(value, color=f"C{k + 2}", ls="--", label=f"{name} (return)")
+    if rows or reference:
+        ax.legend(fontsize=8)
     ax.set_xlabel("environment steps")
     ax.set_ylabel("episode return")
     ax.set_title(title)
@@ -306,12 +315,17 @@ def train(config: dict, out_dir, *, seed: int = 0, vec: str = "dummy", evaluate:
                "train_wall_s": train_s, "steps_per_s": done_steps / train_s, **curve}
     if evaluate:
         summary.update(evaluate_run(out, episodes=cfg["eval_episodes"], seed=seed + 1000))
+        ref = {g["name"]: g["return"] for g in summary["open_loop"]}
+        ref["trained policy, deterministic"] = summary["policy"]["return"]
+        _learning_curve(mon, out / "learning_curve.png", f"{cfg['algo'].upper()} on {cfg['env_id']}", ref)
     (out / "evaluation.json").write_text(json.dumps(summary, indent=2))
     return summary
 
 
-def evaluate_run(run_dir, *, episodes: int = 2, seed: int = 1000) -> dict:
-    """Evaluate a run's policy and the open-loop gaits in the run's env (same kwargs).
+def evaluate_run(run_dir, *, episodes: int = 2, seed: int = 1000, env_overrides: dict | None = None) -> dict:
+    """Evaluate a run's policy and the open-loop gaits in the run's env (same kwargs, updated
+    by ``env_overrides``, e.g. ``{"sim_dt": 1e-4}`` to check that a policy does not exploit the
+    timestep).
 
     Returns ``{"policy": {...}, "open_loop": [{...}, ...], "best_open_loop_speed_mm_s",
     "policy_speed_mm_s"}``; speeds along +x in mm/s.
@@ -324,13 +338,14 @@ def evaluate_run(run_dir, *, episodes: int = 2, seed: int = 1000) -> dict:
     run_dir = Path(run_dir)
     cfg = yaml.safe_load((run_dir / "config.yml").read_text())
     policy = load_policy(run_dir / "model.zip", algo=cfg["algo"])
+    cfg["env_kwargs"] = {**cfg["env_kwargs"], **(env_overrides or {})}
     env = gym.make(cfg["env_id"], **cfg["env_kwargs"])
     res = run_episodes(env, lambda obs, _env: policy(obs), episodes=episodes, seed=seed, name=f"{cfg['algo']} policy")
     env.close()
     gaits = evaluate_open_loop(cfg["env_id"], cfg["env_kwargs"], episodes=1, seed=seed)
     direction = int(cfg["env_kwargs"].get("target_direction", 1))
     best = max((g.speed * direction for g in gaits), default=math.nan) * direction
-    return {"policy": res.as_dict(), "open_loop": [g.as_dict() for g in gaits],
+    return {"env_kwargs": cfg["env_kwargs"], "policy": res.as_dict(), "open_loop": [g.as_dict() for g in gaits],
             "policy_speed_mm_s": res.speed * 1e3, "best_open_loop_speed_mm_s": best * 1e3}
 
 

@@ -18,6 +18,16 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 
 
+def _value(v):
+    # YAML 1.1 reads "1e-4" as a string; numbers without a dot are still numbers here
+    if isinstance(v, str):
+        try:
+            return float(v)
+        except ValueError:
+            return v
+    return v
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--env", required=True, help="environment id, e.g. MagSoftCrawl-v0")
@@ -55,12 +65,12 @@ def main(argv=None) -> int:
             if "=" not in item:
                 raise ValueError(f"--set expects KEY=VALUE, got {item!r}.")
             k, v = item.split("=", 1)
-            cfg["algo_kwargs"][k] = yaml.safe_load(v)
+            cfg["algo_kwargs"][k] = _value(yaml.safe_load(v))
         for item in args.env_kwarg:
             if "=" not in item:
                 raise ValueError(f"--env-kwarg expects KEY=VALUE, got {item!r}.")
             k, v = item.split("=", 1)
-            cfg["env_kwargs"][k] = yaml.safe_load(v)
+            cfg["env_kwargs"][k] = _value(yaml.safe_load(v))
     except ValueError as err:
         print(f"train.py: error: {err}", file=sys.stderr)
         return 2
