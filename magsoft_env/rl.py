@@ -233,7 +233,8 @@ def _learning_curve(monitor_dir: Path, png: Path, title: str, reference: dict | 
     fig.tight_layout()
     fig.savefig(png, dpi=120)
     plt.close(fig)
-    return {"episodes": len(rows), "final_mean_return": float(np.mean([r[1] for r in rows[-10:]])) if rows else math.nan}
+    final = float(np.mean([r[1] for r in rows[-10:]])) if rows else math.nan
+    return {"episodes": len(rows), "final_mean_return": final}
 
 
 def _wall_time_callback(max_seconds: float):
@@ -276,7 +277,6 @@ def train(config: dict, out_dir, *, seed: int = 0, vec: str = "dummy", evaluate:
     dict
         The summary also written to ``evaluation.json``.
     """
-    import gymnasium as gym
     import yaml
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize

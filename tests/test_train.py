@@ -19,7 +19,8 @@ HYPER = ROOT / "train" / "hyperparams.yml"
 def test_hyperparams_merge_default_and_env_blocks(tmp_path):
     f = tmp_path / "h.yml"
     f.write_text(
-        "default:\n  n_envs: 2\n  env_kwargs: {segments: 10}\n  ppo: {n_timesteps: 100, learning_rate: 0.001, n_steps: 8}\n"
+        "default:\n  n_envs: 2\n  env_kwargs: {segments: 10}\n"
+        "  ppo: {n_timesteps: 100, learning_rate: 0.001, n_steps: 8}\n"
         "MagSoftCrawl-v0:\n  env_kwargs: {robot: paper-5a}\n  ppo: {n_steps: 16}\n"
     )
     cfg = load_hyperparams(f, "MagSoftCrawl-v0", "ppo")

@@ -68,7 +68,8 @@ def bench_single(env_id: str, steps: int, **kwargs) -> dict:
     env.close()
     return {"env_id": env_id, "steps": steps, "substeps": base.n_substeps, "sim_dt": base.sim_dt,
             "env_steps_per_s": steps / env_s, "sim_steps_per_s": steps / sim_s, "raw_steps_per_s": steps / raw_s,
-            "overhead_vs_simulator": env_s / sim_s - 1.0, "real_time_factor": steps * base.n_substeps * base.sim_dt / env_s}
+            "overhead_vs_simulator": env_s / sim_s - 1.0,
+            "real_time_factor": steps * base.n_substeps * base.sim_dt / env_s}
 
 
 def bench_vector(env_id: str, steps: int, mode: str, num_envs: int, **kwargs) -> float:

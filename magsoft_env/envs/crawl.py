@@ -11,12 +11,12 @@ from ..render.backend import preselect_gl_backend
 preselect_gl_backend()  # MUJOCO_GL must be set before mujoco is imported (for render_mode="rgb_array")
 
 import mujoco  # noqa: E402
-import numpy as np
+import numpy as np  # noqa: E402
 from gymnasium import spaces  # noqa: E402
 
-from ..gaits import GAIT_CONTACT_GEOM, Waveparams, gait_preset, list_gaits
-from ..sim import PhaseShifted, Ramp, RodOptions, SimulationError, Simulator
-from ..spec._validate import choice, nonnegative, positive
+from ..gaits import GAIT_CONTACT_GEOM, Waveparams, gait_preset, list_gaits  # noqa: E402
+from ..sim import PhaseShifted, Ramp, RodOptions, SimulationError, Simulator  # noqa: E402
+from ..spec._validate import choice, nonnegative, positive  # noqa: E402
 
 #: Default coil limit per axis (T): +-20 mT.
 DEFAULT_FIELD_LIMIT = 20e-3
@@ -83,7 +83,11 @@ class MagSoftCrawlEnv(gym.Env):
     | N+1 .. 2N+1 | angular velocity of each piece | angular velocity (rad/s) |
     | 2N+2 | centre-of-mass velocity along x, mean over the last step | velocity (m/s) |
     | 2N+3 | centre-of-mass velocity along z, mean over the last step | velocity (m/s) |
-    | 2N+4 .. 2N+7 | field mode: B_x / limit, B_z / limit now, sin and cos of the clock phase ``2 pi clock_frequency t``; waveform mode: the last action (A_x, A_z, phase, frequency, normalized) | dimensionless |
+    | 2N+4 .. 2N+7 | see below | dimensionless |
+
+    Entries 2N+4 .. 2N+7: in field mode B_x / limit and B_z / limit now, then sin and cos of
+    the clock phase ``2 pi clock_frequency t``; in waveform mode the last action (A_x, A_z,
+    phase, frequency, normalized).
 
     The centre-of-mass position is left out (the task is translation invariant); it is in
     ``info["x_position"]``.
@@ -118,7 +122,7 @@ class MagSoftCrawlEnv(gym.Env):
 
     | Parameter | Default | Description |
     |-----------|---------|-------------|
-    | ``robot`` | ``"paper-5c"`` | beam, magnetization and volume fraction of a gait preset (:func:`magsoft_env.gaits.list_gaits`) |
+    | ``robot`` | ``"paper-5c"`` | beam, magnetization, volume fraction of a gait preset (``list_gaits()``) |
     | ``action_mode`` | ``"field"`` | ``"field"`` or ``"waveform"`` |
     | ``field_limit`` | 0.02 | coil limit per axis (T) |
     | ``slew_rate`` | None | largest field change rate per axis (T/s); None: unlimited |
@@ -136,6 +140,7 @@ class MagSoftCrawlEnv(gym.Env):
     | ``frequency_range`` | (0.5, 4) | waveform-mode frequencies (Hz) |
     | ``clock_frequency`` | 2 | field-mode clock observed as sin/cos (Hz) |
     | ``reset_noise_scale`` | 1e-3 | initial hinge-angle noise (rad) |
+    | ``feature_x`` | None | x (m) of the channel entrance / obstacle (subclasses set it) |
     | ``render_mode`` | None | ``"rgb_array"`` |
     | ``width``, ``height`` | 480, 270 | frame size (pixels) |
 
@@ -201,7 +206,9 @@ class MagSoftCrawlEnv(gym.Env):
         self.clock_frequency = positive("clock_frequency", clock_frequency, unit="Hz")
         self.reset_noise_scale = nonnegative("reset_noise_scale", reset_noise_scale, unit="rad")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}.")
+            raise ValueError(
+                f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}."
+            )
         for name, v in (("width", width), ("height", height)):
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 16 <= v <= 4096:
                 raise ValueError(f"{name} must be an integer number of pixels in [16, 4096], got {v!r}.")

@@ -11,12 +11,12 @@ from ..render.backend import preselect_gl_backend
 preselect_gl_backend()  # MUJOCO_GL must be set before mujoco is imported (for render_mode="rgb_array")
 
 import mujoco  # noqa: E402
-import numpy as np
+import numpy as np  # noqa: E402
 from gymnasium import spaces  # noqa: E402
 
-from ..sim import RodOptions, SimulationError, Simulator
-from ..spec import Beam
-from ..spec._validate import nonnegative, positive
+from ..sim import RodOptions, SimulationError, Simulator  # noqa: E402
+from ..spec import Beam  # noqa: E402
+from ..spec._validate import nonnegative, positive  # noqa: E402
 
 #: Default coil limit per axis (T).
 DEFAULT_FIELD_LIMIT = 20e-3
@@ -139,7 +139,9 @@ class MagSoftShapeEnv(gym.Env):
         self.success_tolerance = positive("success_tolerance", success_tolerance, unit="m")
         self.reset_noise_scale = nonnegative("reset_noise_scale", reset_noise_scale, unit="rad")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}.")
+            raise ValueError(
+                f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}."
+            )
         self.render_mode = render_mode
         self.width, self.height = int(width), int(height)
         self.beam = Beam(length=positive("length", length, unit="m"), width=5e-3, thickness=1.13e-3,
