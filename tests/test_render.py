@@ -88,3 +88,28 @@ def test_videos_have_the_expected_frames_and_they_change(tmp_path):
     assert res["min_diff"] > 0.0  # every frame differs from the one before
     assert res["env_shape"] == [48, 64, 3] and res["env_dtype"] == "uint8"
     assert res["env2_shape"] == [48, 64, 3]
+
+
+def test_video_cli_writes_a_gif(tmp_path):
+    env = {**os.environ}
+    env.setdefault("MUJOCO_GL", "egl")
+    out = tmp_path / "crawl.gif"
+    r = subprocess.run(
+        [sys.executable, "-m", "magsoft_env.cli", "video", "--preset", "paper-5a", "--seconds", "0.2", "--fps", "10",
+         "--width", "64", "--height", "48", "--timestep-ms", "0.5", "--out", str(out)],
+        capture_output=True, text=True, env=env, timeout=300,
+    )
+    if r.returncode == 1 and "headless OpenGL" in r.stdout:
+        pytest.skip("no headless OpenGL here")
+    assert r.returncode == 0, r.stderr
+    summary = json.loads(r.stdout.strip().splitlines()[-1])
+    assert summary["frames"] == 3 and out.exists()
+
+
+def test_video_cli_rejects_bad_input_before_any_work(capsys):
+    from magsoft_env.cli import main
+
+    assert main(["video", "--preset", "paper-5a", "--out", "x.avi"]) == 2
+    assert "--out must end in one of" in capsys.readouterr().err
+    assert main(["video", "--env", "MagSoftCrawl-v0", "--seconds", "0", "--out", "x.gif"]) == 2
+    assert "--seconds must be > 0" in capsys.readouterr().err

@@ -68,13 +68,20 @@ def run(args) -> int:
         _, summary = render_gait(preset, args.seconds, args.out, fps=args.fps, width=args.width, height=args.height,
                                  timestep=args.timestep_ms * 1e-3, scene=args.scene)
     else:
-        policy = None
+        policy, env_kwargs = None, {}
         if args.policy is not None:
             from magsoft_env.rl import load_policy
 
+            if not args.policy.exists():
+                raise ValueError(f"--policy must be an existing model .zip, got {str(args.policy)!r}.")
             policy = load_policy(args.policy)
-        _, summary = render_policy(args.env, policy, args.seconds, args.out,
-                                   env_kwargs={"width": args.width, "height": args.height})
+            cfg = args.policy.parent / "config.yml"
+            if cfg.exists():  # the run's environment arguments (field limit, crawl mode, ...)
+                import yaml
+
+                env_kwargs = dict(yaml.safe_load(cfg.read_text()).get("env_kwargs") or {})
+        env_kwargs.update(width=args.width, height=args.height)
+        _, summary = render_policy(args.env, policy, args.seconds, args.out, env_kwargs=env_kwargs)
     summary["gl_backend"] = backend
     print(json.dumps(summary))
     return 0
