@@ -87,6 +87,8 @@ class EvalResult:
         Episodes that ended by breaking the crawl limit.
     max_com_height : float
         Highest centre of mass over the episodes (m): hopping or standing up shows here.
+    final_error : float
+        Shape env: mean tip-position error at the end of the episodes (m); NaN otherwise.
     """
 
     name: str
@@ -95,20 +97,22 @@ class EvalResult:
     episode_seconds: float
     crawl_violations: int
     max_com_height: float = math.nan
+    final_error: float = math.nan
 
     def as_dict(self) -> dict:
-        return {"name": self.name, "speed_mm_s": self.speed * 1e3, "return": self.episode_return,
-                "episode_s": self.episode_seconds, "crawl_violations": self.crawl_violations,
-                "max_com_height_mm": self.max_com_height * 1e3}
+        d = {"name": self.name, "speed_mm_s": self.speed * 1e3, "return": self.episode_return,
+             "episode_s": self.episode_seconds, "crawl_violations": self.crawl_violations,
+             "max_com_height_mm": self.max_com_height * 1e3, "final_error_mm": self.final_error * 1e3}
+        return {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in d.items()}
 
 
 def run_episodes(env, act, *, episodes: int = 2, seed: int = 0, name: str = "policy") -> EvalResult:
     """Run ``episodes`` episodes of ``env`` (a Gymnasium env, time limit included) with
     ``act(obs, env) -> action``; measure centre-of-mass speed (m/s, along +x)."""
-    speeds, returns, lengths, violations, zmax = [], [], [], 0, -math.inf
+    speeds, returns, lengths, violations, zmax, errors = [], [], [], 0, -math.inf, []
     for k in range(int(episodes)):
         obs, info = env.reset(seed=seed + k)
-        x0, t0 = info["x_position"], info["time"]
+        x0, t0 = info.get("x_position", math.nan), info["time"]
         total, done = 0.0, False
         while not done:
             obs, r, term, trunc, info = env.step(act(obs, env))
@@ -116,12 +120,14 @@ def run_episodes(env, act, *, episodes: int = 2, seed: int = 0, name: str = "pol
             zmax = max(zmax, float(info.get("z_position", math.nan)))
             done = term or trunc
         violations += int(bool(info.get("crawl_violation")))
+        errors.append(float(info.get("position_error", math.nan)))
         dt = info["time"] - t0
-        speeds.append((info["x_position"] - x0) / dt if dt > 0 else 0.0)
+        speeds.append((info.get("x_position", math.nan) - x0) / dt if dt > 0 else 0.0)
         returns.append(total)
         lengths.append(dt)
+    zmax = zmax if math.isfinite(zmax) else math.nan
     return EvalResult(name, float(np.mean(speeds)), float(np.mean(returns)), float(np.mean(lengths)), violations,
-                      zmax)
+                      zmax, float(np.mean(errors)))
 
 
 def open_loop_actor(wave=None):
@@ -138,7 +144,8 @@ def evaluate_open_loop(env_id: str, env_kwargs: dict | None = None, *, episodes:
     """The paper gaits played open loop in ``env_id`` with the same limits and timesteps.
 
     For a crawl-type env whose robot is ``paper-5X``: that robot's gait, and the same gait
-    with B_x inverted. Returns a list of :class:`EvalResult` (empty for other envs).
+    with B_x inverted; for the shape env: holding the field whose equilibrium is the target.
+    Returns a list of :class:`EvalResult` (empty for other envs).
     """
     import gymnasium as gym
 
@@ -150,6 +157,11 @@ def evaluate_open_loop(env_id: str, env_kwargs: dict | None = None, *, episodes:
     if not hasattr(base, "open_loop_action"):
         env.close()
         return []
+    if not hasattr(base, "robot"):  # shape env: hold the field that made the target
+        res = run_episodes(env, lambda obs, e: e.unwrapped.open_loop_action(), episodes=episodes, seed=seed,
+                           name="open-loop target field")
+        env.close()
+        return [res]
     out = []
     for reverse in (False, True):
         preset = gait_preset(base.robot, reverse=reverse)
@@ -345,8 +357,10 @@ def evaluate_run(run_dir, *, episodes: int = 2, seed: int = 1000, env_overrides:
     gaits = evaluate_open_loop(cfg["env_id"], cfg["env_kwargs"], episodes=1, seed=seed)
     direction = int(cfg["env_kwargs"].get("target_direction", 1))
     best = max((g.speed * direction for g in gaits), default=math.nan) * direction
+    best = None if math.isnan(best) else best
     return {"env_kwargs": cfg["env_kwargs"], "policy": res.as_dict(), "open_loop": [g.as_dict() for g in gaits],
-            "policy_speed_mm_s": res.speed * 1e3, "best_open_loop_speed_mm_s": best * 1e3}
+            "policy_speed_mm_s": None if math.isnan(res.speed) else res.speed * 1e3,
+            "best_open_loop_speed_mm_s": None if best is None else best * 1e3}
 
 
 __all__ = ["ALGOS", "EvalResult", "evaluate_open_loop", "evaluate_run", "load_hyperparams", "load_policy",

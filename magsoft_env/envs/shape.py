@@ -66,7 +66,9 @@ class MagSoftShapeEnv(gym.Env):
     - ``field_cost = -field_cost_weight * (B_x^2 + B_z^2) / field_limit^2``
 
     ``info["position_error"]`` (m) and ``info["is_success"]`` (position error below
-    ``success_tolerance``) report progress.
+    ``success_tolerance``) report progress; ``info["target_field"]`` (T) is the field whose
+    equilibrium made the target (NaN for targets given in ``reset``): holding it is the
+    open-loop baseline.
 
     ## Starting State
 
@@ -158,6 +160,7 @@ class MagSoftShapeEnv(gym.Env):
         self.observation_space = spaces.Box(-high, high, dtype=np.float32)
         self._field = np.zeros(2)
         self._target = np.zeros(3)
+        self._target_field = np.zeros(2)
         self._broken = False
         self._renderer = None
 
@@ -169,6 +172,11 @@ class MagSoftShapeEnv(gym.Env):
         if not res.success:
             return np.full(3, np.nan)
         return np.array([res.x[-1], res.z[-1], res.tip_angle])
+
+    def open_loop_action(self) -> np.ndarray:
+        """Hold the field that produced the target (the open-loop baseline); zeros if unknown."""
+        b = np.nan_to_num(self._target_field / self.field_limit)
+        return np.clip(b, -1.0, 1.0).astype(np.float32)
 
     def tip_pose(self) -> np.ndarray:
         """MuJoCo tip pose (x m, z m, angle rad)."""
@@ -195,6 +203,7 @@ class MagSoftShapeEnv(gym.Env):
             if t.shape != (3,) or not np.all(np.isfinite(t)):
                 raise ValueError(f"options['target'] must be finite (x m, z m, angle rad), got {target!r}.")
             self._target = t
+            self._target_field = np.full(2, np.nan)
         else:
             for _ in range(10):
                 b = self.np_random.uniform(-self.target_field, self.target_field, 2)
@@ -202,8 +211,10 @@ class MagSoftShapeEnv(gym.Env):
                 if np.all(np.isfinite(t)):
                     break
             else:
-                t = self.target_pose((0.0, 0.0))
+                b = np.zeros(2)
+                t = self.target_pose(b)
             self._target = t
+            self._target_field = b
         self.sim.reset()
         self.sim.set_field((0.0, 0.0))
         noise = self.np_random.uniform(-self.reset_noise_scale, self.reset_noise_scale, self.segments)
@@ -251,6 +262,7 @@ class MagSoftShapeEnv(gym.Env):
         info = {"reward_position": 0.0, "reward_angle": 0.0, "reward_field": 0.0, "reward": 0.0}
         info.update({k: float(v) for k, v in terms.items()})
         info.update(position_error=err, is_success=err < self.success_tolerance, target=self._target.copy(),
+                    target_field=self._target_field.copy(),
                     tip=tip, field=self._field.copy(), time=self.sim.time)
         return info
 

@@ -102,7 +102,7 @@ def render_gait(
 def render_policy(env_id: str, policy=None, seconds: float = 4.0, path=None, *, seed: int = 0,
                   env_kwargs: dict | None = None) -> tuple[list[np.ndarray], dict]:
     """Frames of an environment driven by ``policy`` (``obs -> action``; None: the robot's
-    open-loop gait for crawl envs, zero field otherwise), one frame per step.
+    open-loop gait for crawl envs, the target's field for the shape env), one frame per step.
 
     Returns frames and a summary (``steps``, ``return``, ``x_displacement_mm``, ``path``).
     """
@@ -122,8 +122,10 @@ def render_policy(env_id: str, policy=None, seconds: float = 4.0, path=None, *, 
     while base.sim.time < t_end - 1e-9:
         if policy is not None:
             action = policy(obs)
-        elif hasattr(base, "open_loop_action"):
+        elif hasattr(base, "robot"):  # crawlers: the robot's paper gait
             action = base.open_loop_action(base.sim.time)
+        elif hasattr(base, "open_loop_action"):  # shape env: hold the target's field
+            action = base.open_loop_action()
         else:
             action = np.zeros(base.action_space.shape, dtype=np.float32)
         obs, r, term, trunc, info = env.step(action)
