@@ -220,6 +220,7 @@ class _Solver:
         self.load = Load(0.0, 0.0, 0.0)
         self.newton_its = 0
         self.events: list[dict] = []
+        self._last_eig = (None, 0.0)
 
     def _set_grid(self, grid: Grid):
         self.grid = grid
@@ -326,11 +327,16 @@ class _Solver:
     # continuation ---------------------------------------------------------------------------------
     def tangent(self, theta, J, start: Load, target: Load, t: float):
         """d theta / d t along the segment (tangent predictor), from the Jacobian J at theta."""
-        h = 1e-3
-        lo, hi = start.lerp(target, t - h), start.lerp(target, t + h)
-        _, f_hi, _, _ = self.model.density(theta, hi)
-        _, f_lo, _, _ = self.model.density(theta, lo)
-        dR = self.model.P @ ((f_hi - f_lo) / (2 * h))
+        if not self.extensible:  # phi_theta is linear in (B_x, B_z, g): exact derivative
+            delta = Load(target.Bx - start.Bx, target.Bz - start.Bz, target.g - start.g)
+            df = self.model.density(theta, delta)[1]
+        else:
+            h = 1e-3
+            df = (
+                self.model.density(theta, start.lerp(target, t + h))[1]
+                - self.model.density(theta, start.lerp(target, t - h))[1]
+            ) / (2 * h)
+        dR = self.model.P @ df
         try:
             return -np.linalg.solve(J, dR)
         except np.linalg.LinAlgError:
@@ -386,6 +392,7 @@ class _Solver:
             else:
                 # stability at every accepted step: one eigenvalue crossing at a time
                 lam, _ = self.model.min_eigen(th_new, load, clamped=True, vector=False)
+                self._last_eig = (th_new, lam)
                 if lam < 0.0:
                     if t_new - t > 1e-3:
                         dt = 0.25 * (t_new - t)  # home in on the crossing before leaving the branch
@@ -462,7 +469,10 @@ class _Solver:
         stretch = 1.0 + eps
         x = grid.Q0 @ (stretch * np.cos(th))
         z = grid.Q0 @ (stretch * np.sin(th))
-        lam, _ = mdl.min_eigen(th, load, clamped=self.support == "cantilever", vector=False)
+        if self._last_eig[0] is th:  # computed at this very state by the last continuation step
+            lam = self._last_eig[1]
+        else:
+            lam, _ = mdl.min_eigen(th, load, clamped=self.support == "cantilever", vector=False)
         u = mdl.uniq
         L = self.beam.length
         kappa = grid.derivative(th)
