@@ -29,7 +29,7 @@ _MAX_NEWTON = 10
 _MAX_STEP_RAD = 0.6  # Newton steps larger than this (rad, max norm) are damped
 _JUMP_RAD = 0.2  # a converged step this far from its prediction counts as a branch jump
 _NEUTRAL = 1e-9  # eigenvalues (units EI/L^2) above -this count as stable (neutral rigid rotation)
-_STEP_RAD = 1.0  # largest predicted change of theta in one continuation step (rad)
+_STEP_RAD = 2.0  # largest predicted change of theta in one continuation step (rad)
 
 
 @dataclass(frozen=True)
@@ -221,6 +221,7 @@ class _Solver:
         self.newton_its = 0
         self.events: list[dict] = []
         self._last_eig = (None, 0.0)
+        self._J_state = None
 
     def _set_grid(self, grid: Grid):
         self.grid = grid
@@ -356,8 +357,11 @@ class _Solver:
         start = self.load
         t, dt = 0.0, 1.0
         theta = self.theta
-        _, fth = self.model.residual(theta, self.theta0, start)
-        J = self.model.jacobian(fth)
+        if self._J_state is not None and self._J_state[0] is theta and self._J_state[1] is self.model:
+            J = self._J_state[2]  # Jacobian of the Newton step that produced this state
+        else:
+            _, fth = self.model.residual(theta, self.theta0, start)
+            J = self.model.jacobian(fth)
         snapped = False
         tan = self.tangent(theta, J, start, target, t)
         while t < 1.0:
@@ -409,6 +413,7 @@ class _Solver:
             if t < 1.0:
                 tan = self.tangent(theta, self._J, start, target, t)
         self.theta, self.load = theta, target
+        self._J_state = (theta, self.model, self._J)
         return True, snapped
 
     def _jump(self, theta, kick, load, t, kind):
