@@ -129,15 +129,29 @@ class BeamModel:
         H = self.K + np.diag(np.bincount(self.expand, weights=wfth, minlength=u.size))
         return 0.5 * u @ (self.K @ u) + self.grid.w @ phi, g, H
 
-    def min_eigen(self, theta, load: Load, *, clamped: bool, vector: bool = True):
-        """Smallest eigenvalue of the second variation, made dimensionless by EI/L^2, and its mode."""
-        u = theta[self.uniq]
-        _, _, H = self.energy_grad_hess(u, load)
+    def _scaled_hessian(self, theta, load: Load, clamped: bool):
+        """Second variation on distinct nodes in the mass-normalized basis, and the basis scale."""
+        _, _, fth, _ = self.density(theta, load)
+        H = self.K + np.diag(np.bincount(self.expand, weights=self.grid.w * fth, minlength=self.uniq.size))
         Mm = self.mass
         if clamped:
             H, Mm = H[1:, 1:], Mm[1:]
         r = 1.0 / np.sqrt(Mm)
-        Hs = H * r[:, None] * r[None, :]
+        return H * r[:, None] * r[None, :], r
+
+    def is_stable(self, theta, load: Load, *, clamped: bool, tol: float = 1e-9) -> bool:
+        """Whether the smallest eigenvalue (units EI/L^2) exceeds -tol: a Cholesky test, no eigensolve."""
+        Hs, _ = self._scaled_hessian(theta, load, clamped)
+        shift = tol * self.EI_ref / self.beam.length**2
+        try:
+            np.linalg.cholesky(Hs + shift * np.eye(Hs.shape[0]))
+        except np.linalg.LinAlgError:
+            return False
+        return True
+
+    def min_eigen(self, theta, load: Load, *, clamped: bool, vector: bool = True):
+        """Smallest eigenvalue of the second variation, made dimensionless by EI/L^2, and its mode."""
+        Hs, r = self._scaled_hessian(theta, load, clamped)
         scale = self.beam.length**2 / self.EI_ref
         if not vector:
             return float(np.linalg.eigvalsh(Hs)[0]) * scale, None

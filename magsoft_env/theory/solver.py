@@ -113,7 +113,6 @@ class EquilibriumResult:
     max_curvature: float
     max_strain: float
     stable: bool
-    min_eigenvalue: float
     snap_through: bool
     field: Field
     gravity: float
@@ -124,7 +123,17 @@ class EquilibriumResult:
     wall_time: float = 0.0
     events: list = dc_field(default_factory=list)
     _grid: Grid | None = dc_field(default=None, repr=False)
+    _eig: tuple | None = dc_field(default=None, repr=False)
     _full: tuple | None = dc_field(default=None, repr=False)
+
+    @property
+    def min_eigenvalue(self) -> float:
+        """Smallest eigenvalue of the discrete second variation in units of EI/L^2 (computed on
+        first access; ``stable`` is decided without it, by a Cholesky test)."""
+        if not hasattr(self, "_lam"):
+            mdl, th, load, clamped = self._eig
+            self._lam = mdl.min_eigen(th, load, clamped=clamped, vector=False)[0]
+        return self._lam
 
     @property
     def length(self) -> float:
@@ -220,7 +229,7 @@ class _Solver:
         self.load = Load(0.0, 0.0, 0.0)
         self.newton_its = 0
         self.events: list[dict] = []
-        self._last_eig = (None, 0.0)
+        self._last_stable = (None, False)
         self._J_state = None
 
     def _set_grid(self, grid: Grid):
@@ -395,9 +404,9 @@ class _Solver:
                 snapped, its, dt = True, _MAX_NEWTON, 4 * self.opt.min_step
             else:
                 # stability at every accepted step: one eigenvalue crossing at a time
-                lam, _ = self.model.min_eigen(th_new, load, clamped=True, vector=False)
-                self._last_eig = (th_new, lam)
-                if lam < 0.0:
+                stable = self.model.is_stable(th_new, load, clamped=True, tol=0.0)
+                self._last_stable = (th_new, stable)
+                if not stable:
                     if t_new - t > 1e-3:
                         dt = 0.25 * (t_new - t)  # home in on the crossing before leaving the branch
                         continue
@@ -474,10 +483,11 @@ class _Solver:
         stretch = 1.0 + eps
         x = grid.Q0 @ (stretch * np.cos(th))
         z = grid.Q0 @ (stretch * np.sin(th))
-        if self._last_eig[0] is th:  # computed at this very state by the last continuation step
-            lam = self._last_eig[1]
+        clamped = self.support == "cantilever"
+        if self._last_stable[0] is th and self._last_stable[1]:  # checked by the last continuation step
+            stable = True
         else:
-            lam, _ = mdl.min_eigen(th, load, clamped=self.support == "cantilever", vector=False)
+            stable = mdl.is_stable(th, load, clamped=clamped, tol=_NEUTRAL)
         u = mdl.uniq
         L = self.beam.length
         kappa = grid.derivative(th)
@@ -507,8 +517,8 @@ class _Solver:
             rotation_angle=chord,
             max_curvature=float(np.max(np.abs(kappa))),
             max_strain=float(np.max(np.abs(eps))),
-            stable=bool(lam > -_NEUTRAL),
-            min_eigenvalue=lam,
+            stable=bool(stable),
+            _eig=(mdl, th.copy(), load, clamped),
             snap_through=snapped,
             field=field_,
             gravity=gravity,
