@@ -21,8 +21,8 @@ class Field:
 
     Examples
     --------
-    >>> Field.from_mT(0, 13).Bz
-    0.013
+    >>> Field.from_mT(-22, 13).as_array() * 1e3
+    array([-22.,  13.])
     """
 
     Bx: float = 0.0

@@ -46,7 +46,7 @@ class Material:
     Examples
     --------
     >>> m = Material()
-    >>> round(m.youngs_modulus(0.2) / 1e6, 4)   # MPa
+    >>> round(float(m.youngs_modulus(0.2)) / 1e6, 4)   # MPa
     0.123
     """
 

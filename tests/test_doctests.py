@@ -1,0 +1,21 @@
+"""The documented examples of the analytical side run and print what their docstrings say."""
+
+import doctest
+import importlib
+
+import pytest
+
+MODULES = [
+    "magsoft_env.spec.material",
+    "magsoft_env.spec.field",
+    "magsoft_env.spec.beam",
+    "magsoft_env.spec.profiles",
+    "magsoft_env.theory.solver",
+]
+
+
+@pytest.mark.parametrize("name", MODULES)
+def test_docstring_examples(name):
+    result = doctest.testmod(importlib.import_module(name), optionflags=doctest.NORMALIZE_WHITESPACE)
+    assert result.failed == 0
+    assert result.attempted > 0
