@@ -17,6 +17,20 @@ ALGOS = ("ppo", "sac")
 
 
 # ---------------------------------------------------------------------------- hyperparameters
+def parse_override(text: str):
+    """Value of a ``KEY=VALUE`` command-line override: YAML, with "1e-4"-style strings as floats
+    (YAML 1.1 reads exponent notation without a dot as a string)."""
+    import yaml
+
+    v = yaml.safe_load(text)
+    if isinstance(v, str):
+        try:
+            return float(v)
+        except ValueError:
+            return v
+    return v
+
+
 def load_hyperparams(path, env_id: str, algo: str) -> dict:
     """Resolved settings for ``env_id`` and ``algo`` from a YAML file keyed by env id.
 

@@ -13,16 +13,6 @@ import sys
 from pathlib import Path
 
 
-def _value(v):
-    # YAML 1.1 reads "1e-4" as a string; numbers without a dot are still numbers here
-    if isinstance(v, str):
-        try:
-            return float(v)
-        except ValueError:
-            return v
-    return v
-
-
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("run", type=Path, help="run folder written by train/train.py")
@@ -35,9 +25,7 @@ def main(argv=None) -> int:
     if not (args.run / "model.zip").exists():
         print(f"evaluate.py: error: {args.run} has no model.zip (is it a run folder?)", file=sys.stderr)
         return 2
-    import yaml
-
-    from magsoft_env.rl import evaluate_run
+    from magsoft_env.rl import evaluate_run, parse_override
 
     overrides = {}
     for item in args.env_kwarg:
@@ -45,7 +33,7 @@ def main(argv=None) -> int:
             print(f"evaluate.py: error: --env-kwarg expects KEY=VALUE, got {item!r}.", file=sys.stderr)
             return 2
         k, v = item.split("=", 1)
-        overrides[k] = _value(yaml.safe_load(v))
+        overrides[k] = parse_override(v)
     res = evaluate_run(args.run, episodes=args.episodes, seed=args.seed, env_overrides=overrides)
     (args.run / f"evaluation_{args.tag}.json").write_text(json.dumps(res, indent=2))
     print(json.dumps(res, indent=2))

@@ -18,15 +18,6 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 
 
-def _value(v):
-    # YAML 1.1 reads "1e-4" as a string; numbers without a dot are still numbers here
-    if isinstance(v, str):
-        try:
-            return float(v)
-        except ValueError:
-            return v
-    return v
-
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -47,7 +38,7 @@ def main(argv=None) -> int:
                    help="override environment arguments (SI units), e.g. --env-kwarg segments=10")
     args = p.parse_args(argv)
 
-    from magsoft_env.rl import load_hyperparams, train
+    from magsoft_env.rl import load_hyperparams, parse_override, train
 
     try:
         cfg = load_hyperparams(args.hyperparams, args.env, args.algo)
@@ -59,18 +50,16 @@ def main(argv=None) -> int:
             if args.n_envs < 1:
                 raise ValueError(f"--n-envs must be >= 1, got {args.n_envs}.")
             cfg["n_envs"] = args.n_envs
-        import yaml
-
         for item in args.set:
             if "=" not in item:
                 raise ValueError(f"--set expects KEY=VALUE, got {item!r}.")
             k, v = item.split("=", 1)
-            cfg["algo_kwargs"][k] = _value(yaml.safe_load(v))
+            cfg["algo_kwargs"][k] = parse_override(v)
         for item in args.env_kwarg:
             if "=" not in item:
                 raise ValueError(f"--env-kwarg expects KEY=VALUE, got {item!r}.")
             k, v = item.split("=", 1)
-            cfg["env_kwargs"][k] = _value(yaml.safe_load(v))
+            cfg["env_kwargs"][k] = parse_override(v)
     except ValueError as err:
         print(f"train.py: error: {err}", file=sys.stderr)
         return 2
