@@ -86,19 +86,18 @@ class RodRenderer:
         return 0.3 * self.sim.beam.length, 0.0  # clamp region, fixed
 
     def _line(self, scn, a, b, rgba, width):
-        if scn.ngeom >= scn.maxgeom:
-            return
-        g = scn.geoms[scn.ngeom]
-        mujoco.mjv_initGeom(g, mujoco.mjtGeom.mjGEOM_LINE, np.zeros(3), np.zeros(3), np.eye(3).ravel(), rgba)
-        mujoco.mjv_connector(g, mujoco.mjtGeom.mjGEOM_LINE, width, np.asarray(a, float), np.asarray(b, float))
-        scn.ngeom += 1
+        self._connector(scn, mujoco.mjtGeom.mjGEOM_LINE, a, b, rgba, width)
 
     def _arrow(self, scn, a, b, rgba, radius):
+        self._connector(scn, mujoco.mjtGeom.mjGEOM_ARROW, a, b, rgba, radius)
+
+    @staticmethod
+    def _connector(scn, kind, a, b, rgba, width):
         if scn.ngeom >= scn.maxgeom:
             return
         g = scn.geoms[scn.ngeom]
-        mujoco.mjv_initGeom(g, mujoco.mjtGeom.mjGEOM_ARROW, np.zeros(3), np.zeros(3), np.eye(3).ravel(), rgba)
-        mujoco.mjv_connector(g, mujoco.mjtGeom.mjGEOM_ARROW, radius, np.asarray(a, float), np.asarray(b, float))
+        mujoco.mjv_initGeom(g, kind, np.zeros(3), np.zeros(3), np.eye(3).ravel(), rgba)
+        mujoco.mjv_connector(g, kind, width, np.asarray(a, float), np.asarray(b, float))
         scn.ngeom += 1
 
     def _sphere(self, scn, p, rgba, radius):
