@@ -3,8 +3,9 @@
 The couples are the same as :class:`~magsoft_env.sim.Simulator`'s (``tau = (R m) x B`` from
 the orientations of the current state): each step asks ``mujoco.batch`` for the
 position stage at the new state (``stage=mjSTAGE_VEL``, which a persistent batch reuses,
-as ``mj_step1`` / ``mj_step2`` do), so the results are bit-identical to a loop of
-:class:`Simulator` objects. One ``einsum`` per step serves every simulation.
+as ``mj_step1`` / ``mj_step2`` do), and each simulation's generalized magnetic force goes
+into its ``qfrc_applied`` by the same matrix-vector products as the simulator's, so the
+results are bit-identical to a loop of :class:`Simulator` objects.
 """
 
 from __future__ import annotations
@@ -65,7 +66,7 @@ class RodBatch:
         self._qvel = self.batch.bind("qvel")
         self._xmat = self.batch.bind("xmat")
         self._xpos = self.batch.bind("xpos")
-        self._xfrc = self.batch.bind("xfrc_applied")
+        self._qfrc = self.batch.bind("qfrc_applied")
         self._b0, self._b1 = t._b0, t._b1
         self._fields = np.zeros((self.nsim, 2))
         self._waveforms = None
@@ -107,21 +108,30 @@ class RodBatch:
             If a simulation's state turned non-finite or MuJoCo failed on it.
         """
         t = self.template
-        cx, cz = t._cx, t._cz
+        nv = self.model.nv
+        gzx = t._gzx
         b0, b1 = self._b0, self._b1
-        xmat, tau = self._xmat[:, b0:b1], self._xfrc[:, b0:b1, 4]
+        x = self._xmat[:, b0:b1].reshape(self.nsim, -1)  # live views
+        q = self._qfrc
+        dot = np.dot
         if self._waveforms is not None:
             ts = self.time + self.timestep * np.arange(n)
             fields = np.stack([w.sample(ts) for w in self._waveforms], axis=1)  # (n, nsim, 2)
+            bs = fields * np.array([1.0, -1.0])
+            v = np.empty((self.nsim, 2 * nv))
+            v2 = v.reshape(self.nsim, 2, nv)
         else:
             fields = None
-        f = self._fields
+            # as Simulator._set_coefficients: G = B_x G_z - B_z G_x
+            G = [np.subtract(bx * gzx[:, :nv], bz * gzx[:, nv:]) for bx, bz in self._fields]
         stage = mujoco.mjtStage.mjSTAGE_VEL
         for k in range(int(n)):
-            if fields is not None:
-                f = fields[k]
-            coef = f[:, 0, None, None] * cz - f[:, 1, None, None] * cx  # (nsim, pieces, 9)
-            np.einsum("sij,sij->si", xmat, coef, out=tau)
+            for s in range(self.nsim):  # the simulator's own products, so the arithmetic is identical
+                if fields is None:
+                    dot(x[s], G[s], out=q[s])
+                else:
+                    dot(x[s], gzx, out=v[s])
+                    dot(bs[k, s], v2[s], out=q[s])
             try:
                 self.batch.step(stage=stage)
             except mjbatch.SimulationError as err:

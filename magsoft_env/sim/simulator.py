@@ -104,7 +104,8 @@ class Simulator:
     """A magnetic rod in MuJoCo under a uniform applied field.
 
     Each step the couple ``tau_i = (R_i m_i) x B`` (N m) on every rigid piece goes into
-    ``data.xfrc_applied``, computed from the piece orientations of the current state (via
+    ``data.qfrc_applied`` as its generalized force (the planar rod's angular Jacobian about y
+    is a constant 0 / +-1 map), computed from the piece orientations of the current state (via
     ``mj_step1`` / ``mj_step2``; RK4 uses ``mj_step`` and the previous step's orientations).
     After every call to :meth:`step` the state is checked: non-finite or huge values
     (MuJoCo's warnings; auto-reset is disabled), and kinetic energy above
@@ -154,11 +155,12 @@ class Simulator:
         self._tip_len = float(disc.piece_length[-1])
         self._two_stage = self.model.opt.integrator != mujoco.mjtIntegrator.mjINT_RK4
         # pieces in body-id order (the tree is numbered from the base piece outward), so the
-        # couples go into one contiguous block of xfrc_applied
+        # rows of xmat (and of external wrenches in xfrc_applied) form one contiguous block
         self._order = np.argsort(self._bodies)
         self._b0, self._b1 = int(self._bodies.min()), int(self._bodies.max()) + 1
         if self._b1 - self._b0 != len(self._bodies):
             raise RuntimeError("rod bodies must have consecutive ids")  # guaranteed by build_model
+        self._S = self._couple_map()
         self._coef = np.zeros((len(self._bodies), 9))
         #: Extra constant wrench per piece, world frame, shape (N + 1, 6): force (N) at the
         #: piece's centre of mass, then couple (N m); added to the magnetic couples each step.
@@ -231,17 +233,45 @@ class Simulator:
         return 2.0 * mags * b + 2.0 * m_tot * self.options.gravity * self.beam.length + elastic
 
     # ------------------------------------------------------------------ stepping
+    def _couple_map(self) -> np.ndarray:
+        """``S`` of shape (pieces in body-id order, nv): the generalized force of a couple
+        ``tau_y`` (about world y) on piece ``i`` is ``tau_y S[i]``.
+
+        Every joint that turns a piece is a hinge about +-y and the slides do not turn it, so the
+        angular Jacobian about y is constant (entries 0 or +-1, whatever the configuration);
+        it is read from MuJoCo once (``mj_applyFT`` of a unit couple at the reference pose).
+        """
+        m = self.model
+        d = mujoco.MjData(m)
+        mujoco.mj_forward(m, d)
+        S = np.zeros((len(self._bodies), m.nv))
+        for row, body in enumerate(np.sort(self._bodies)):
+            mujoco.mj_applyFT(m, d, np.zeros(3), np.array([0.0, 1.0, 0.0]), d.xipos[body], int(body), S[row])
+        S = np.rint(S)  # exact +-1 / 0 (the axes are exact unit vectors; rint removes nothing but -0.0)
+        return S
+
     def _set_coefficients(self) -> None:
         # planar fast path: every piece turns about y, so tau = (R m) x B has only a y part,
         # tau_y = B_x (R m)_z - B_z (R m)_x, linear in the row-major xmat entries 0, 2, 6, 8;
-        # _cx / _cz hold the (R m)_x and (R m)_z rows, so coef = B_x _cz - B_z _cx
+        # _cx / _cz hold the (R m)_x and (R m)_z rows, so coef = B_x _cz - B_z _cx. The
+        # generalized force is then Q = S^T tau = xmat.ravel() @ G (G = coef (x) S, a constant
+        # topology map S), one matrix-vector product straight into qfrc_applied: no per-body
+        # force accumulation in MuJoCo (xfrc_applied) and no per-piece Python.
         if not hasattr(self, "_cx"):
             mx, mz = self._m_body[self._order, 0], self._m_body[self._order, 2]
             self._cx = np.zeros((len(self._bodies), 9))
             self._cz = np.zeros((len(self._bodies), 9))
             self._cx[:, 0], self._cx[:, 2], self._cz[:, 6], self._cz[:, 8] = mx, mz, mx, mz
+            nv = self.model.nv
+            gx = (self._cx[:, :, None] * self._S[:, None, :]).reshape(-1, nv)
+            gz = (self._cz[:, :, None] * self._S[:, None, :]).reshape(-1, nv)
+            #: [G_z | G_x], shape (9 pieces, 2 nv): Q = B_x (x @ G_z) - B_z (x @ G_x)
+            self._gzx = np.ascontiguousarray(np.concatenate([gz, gx], axis=1))
+            self._G = np.zeros((gx.shape[0], nv))
         bx, bz = self._B3[0], self._B3[2]
         np.subtract(bx * self._cz, bz * self._cx, out=self._coef)
+        nv = self.model.nv
+        np.subtract(bx * self._gzx[:, :nv], bz * self._gzx[:, nv:], out=self._G)
 
     def _apply_torques(self, field=None) -> None:
         d = self.data
@@ -249,12 +279,11 @@ class Simulator:
             self._B3[0], self._B3[2] = field
             self._set_coefficients()
         b0, b1 = self._b0, self._b1
-        tau_y = np.einsum("ij,ij->i", d.xmat[b0:b1], self._coef)
+        np.dot(d.xmat[b0:b1].reshape(-1), self._G, out=d.qfrc_applied)
         if self._has_external:
             d.xfrc_applied[b0:b1] = self.external_wrench[self._order]
-            d.xfrc_applied[b0:b1, 4] += tau_y
         else:
-            d.xfrc_applied[b0:b1, 4] = tau_y
+            d.xfrc_applied[b0:b1] = 0.0
 
     def magnetic_couples(self) -> np.ndarray:
         """Magnetic couples on the pieces now, world frame, shape ``(N + 1, 3)`` (N m)."""
@@ -315,28 +344,35 @@ class Simulator:
 
     def _step_fast(self, n: int, fields) -> None:
         # the same as _step_general for the common case (two-stage integrator, no external
-        # wrench), with the per-step Python work cut to one einsum into a cached view:
-        # coefficients for every step of this call are formed at once (linear in B)
+        # wrench), with the per-step Python work cut to one or two matrix-vector products
+        # into qfrc_applied (see _set_coefficients)
         m, d = self.model, self.data
         b0, b1 = self._b0, self._b1
-        xmat = d.xmat[b0:b1]
-        tau = d.xfrc_applied[b0:b1, 4]
-        coef = self._coef
+        x = d.xmat[b0:b1].reshape(-1)  # a view: xmat rows of the pieces, contiguous
+        q = d.qfrc_applied
+        d.xfrc_applied[b0:b1] = 0.0
+        G, gzx = self._G, self._gzx
+        nv = m.nv
+        v = np.empty(2 * nv)
+        v2 = v.reshape(2, nv)
         if fields is not None:
-            coefs = fields[:, 0, None, None] * self._cz - fields[:, 1, None, None] * self._cx
-        hold, warned, step1, step2, einsum = self.torque_every, self._warning_text, mujoco.mj_step1, \
-            mujoco.mj_step2, np.einsum
+            bs = fields * np.array([1.0, -1.0])  # (B_x, -B_z) per step
+        hold, warned, step1, step2, dot = self.torque_every, self._warning_text, mujoco.mj_step1, \
+            mujoco.mj_step2, np.dot
         check_every, nstep = self.check_every, self.nstep
         k = 0
         try:
             for k in range(n):
-                if fields is not None:
-                    coef = coefs[k]
                 if hold > 1 and nstep % hold:
                     mujoco.mj_step(m, d)  # couples held from the last update
+                elif fields is None:
+                    step1(m, d)
+                    dot(x, G, out=q)
+                    step2(m, d)
                 else:
                     step1(m, d)
-                    einsum("ij,ij->i", xmat, coef, out=tau)
+                    dot(x, gzx, out=v)
+                    dot(bs[k], v2, out=q)
                     step2(m, d)
                 nstep += 1
                 if warned:  # MuJoCo reported a bad state in this step: stop here
