@@ -54,7 +54,7 @@ def _cheb_local(n: int):
     return x, w, Q, D, C, bary
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # compared and hashed by identity (grids are cached): usable as a cache key
 class Grid:
     """Nodes of a multi-domain Chebyshev discretization of [0, L].
 

@@ -22,6 +22,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.linalg.lapack import dgesv, dgetrs, dpotrf
 
 from .collocation import Grid
 
@@ -57,6 +58,8 @@ class BeamModel:
         self.W1 = grid.QL @ beam.mass_per_length(s)  # weight beyond s per unit g (kg)
         # theta = theta0 + P @ (-phi_theta):  P = Q0 diag(1/EI) QL
         self.P = grid.Q0 @ (grid.QL / self.EI[:, None])
+        self._PT = np.ascontiguousarray(self.P.T)  # J.T = I + fth[:, None] * P.T, built row-wise
+        self._diag = slice(None, None, grid.M + 1)
         self._eye = np.eye(grid.M)
         self._zeros = np.zeros(grid.M)
         self._load = None
@@ -76,6 +79,11 @@ class BeamModel:
         DE = Dblk @ E
         self.K = DE.T @ ((grid.w * self.EI)[:, None] * DE)
         self.mass = E.T @ grid.w  # lumped quadrature weights on distinct nodes
+        # second variation in the mass-normalized basis: Ks + diag(w fth / mass), per support
+        r = 1.0 / np.sqrt(self.mass)
+        Ks = self.K * r[:, None] * r[None, :]
+        self._Ks = {False: Ks, True: np.ascontiguousarray(Ks[1:, 1:])}
+        self._single = self.uniq.size == grid.M  # one subdomain: no repeated nodes
 
     # energy density and its derivatives --------------------------------------------------
     def _coeffs(self, load: Load):
@@ -114,6 +122,22 @@ class BeamModel:
     def jacobian(self, fth):
         return self._eye + self.P * fth[None, :]
 
+    def solve_newton(self, R, fth):
+        """Solve J d = R for the cantilever Jacobian J = I + P diag(fth) (LAPACK, no checks).
+
+        Returns (d, lu) with ``lu`` the factorization for :meth:`lu_solve`; d is None when J is
+        singular."""
+        JT = fth[:, None] * self._PT
+        JT.reshape(-1)[self._diag] += 1.0
+        lu, piv, d, info = dgesv(JT.T, R, overwrite_a=1, overwrite_b=0)
+        return (d if info == 0 else None), (lu, piv)
+
+    @staticmethod
+    def lu_solve(lu, b):
+        """Solve with a factorization returned by :meth:`solve_newton` or :func:`lu_factor`."""
+        x, info = dgetrs(lu[0], lu[1], b)
+        return x
+
     # energy on distinct nodes ---------------------------------------------------------------
     def energy(self, u, load: Load) -> float:
         theta = u[self.expand]
@@ -141,13 +165,15 @@ class BeamModel:
 
     def is_stable(self, theta, load: Load, *, clamped: bool, tol: float = 1e-9) -> bool:
         """Whether the smallest eigenvalue (units EI/L^2) exceeds -tol: a Cholesky test, no eigensolve."""
-        Hs, _ = self._scaled_hessian(theta, load, clamped)
-        shift = tol * self.EI_ref / self.beam.length**2
-        try:
-            np.linalg.cholesky(Hs + shift * np.eye(Hs.shape[0]))
-        except np.linalg.LinAlgError:
-            return False
-        return True
+        _, _, fth, _ = self.density(theta, load)
+        if self._single:
+            d = fth  # w fth / mass with mass = w
+        else:
+            d = np.bincount(self.expand, weights=self.grid.w * fth, minlength=self.uniq.size) / self.mass
+        H = self._Ks[clamped].copy()
+        H.reshape(-1)[:: H.shape[0] + 1] += (d[1:] if clamped else d) + tol * self.EI_ref / self.beam.length**2
+        _, info = dpotrf(H, lower=0, clean=0, overwrite_a=1)  # symmetric: C order is its own transpose
+        return info == 0
 
     def min_eigen(self, theta, load: Load, *, clamped: bool, vector: bool = True):
         """Smallest eigenvalue of the second variation, made dimensionless by EI/L^2, and its mode."""

@@ -238,13 +238,16 @@ class _Solver:
 
     # Newton ---------------------------------------------------------------------------------
     def newton(self, theta, load: Load, c=None, maxiter: int = _MAX_NEWTON):
-        """Damped Newton on the collocation equations. Returns (ok, theta, c, iterations)."""
+        """Damped Newton on the collocation equations. Returns (ok, theta, c, iterations).
+
+        On success ``self._lu`` holds the factorized Jacobian of the last step (cantilever)."""
         mdl = self.model
         free = self.support == "free"
         th = theta.copy()
         cc = self.c if c is None else c
         M = th.size
         scale = self.beam.length / mdl.EI_ref
+        tol = self.opt.tol
         prev_big = math.inf
         for it in range(1, maxiter + 1):
             if free:
@@ -256,28 +259,29 @@ class _Solver:
                 J[M, :M] = scale * mdl.grid.w * fth
                 J[M, M] = 0.0
                 R = np.concatenate([R, [scale * (mdl.grid.w @ f)]])
+                try:
+                    d = np.linalg.solve(J, R)
+                except np.linalg.LinAlgError:
+                    return False, theta, cc, it
+                lu = None
             else:
                 R, fth = mdl.residual(th, self.theta0, load)
-                J = mdl.jacobian(fth)
-            if not np.all(np.isfinite(R)):
-                return False, theta, cc, it
-            try:
-                d = -np.linalg.solve(J, R)
-            except np.linalg.LinAlgError:
-                return False, theta, cc, it
-            big = float(np.max(np.abs(d)))
+                d, lu = mdl.solve_newton(R, fth)
+                if d is None:
+                    return False, theta, cc, it
+            big = float(np.abs(d).max())  # NaN or inf in R or J propagate here
             if not math.isfinite(big):
                 return False, theta, cc, it
             if it >= 3 and big > 0.25 * prev_big and maxiter <= _MAX_NEWTON:
                 return False, theta, cc, it  # not converging quadratically: give up early
             if big > _MAX_STEP_RAD:
                 d *= _MAX_STEP_RAD / big
-            th += d[:M]
+            th -= d[:M]
             if free:
-                cc += d[M]
+                cc -= d[M]
             # quadratic convergence: the next update would be about big^3 / prev^2
-            if big < self.opt.tol or (it >= 2 and big**3 < self.opt.tol * prev_big**2 and big < 1e-5):
-                self._J = J
+            if big < tol or (it >= 2 and big**3 < tol * prev_big**2 and big < 1e-5):
+                self._lu = lu
                 return True, th, cc, it
             prev_big = big
         return False, theta, cc, maxiter
@@ -335,8 +339,8 @@ class _Solver:
         return u[mdl.expand], (None if clamped else float(u[0]))
 
     # continuation ---------------------------------------------------------------------------------
-    def tangent(self, theta, J, start: Load, target: Load, t: float):
-        """d theta / d t along the segment (tangent predictor), from the Jacobian J at theta."""
+    def tangent(self, theta, lu, start: Load, target: Load, t: float):
+        """d theta / d t along the segment (tangent predictor), from the factorized Jacobian at theta."""
         if not self.extensible:  # phi_theta is linear in (B_x, B_z, g): exact derivative
             delta = Load(target.Bx - start.Bx, target.Bz - start.Bz, target.g - start.g)
             df = self.model.density(theta, delta)[1]
@@ -346,11 +350,9 @@ class _Solver:
                 self.model.density(theta, start.lerp(target, t + h))[1]
                 - self.model.density(theta, start.lerp(target, t - h))[1]
             ) / (2 * h)
-        dR = self.model.P @ df
-        try:
-            return -np.linalg.solve(J, dR)
-        except np.linalg.LinAlgError:
-            return np.zeros_like(theta)
+        tan = self.model.lu_solve(lu, self.model.P @ df)
+        tan *= -1.0
+        return tan if np.isfinite(tan).all() else np.zeros_like(theta)
 
     def continue_to(self, target: Load) -> tuple[bool, bool]:
         """Follow the equilibrium from the current load to ``target``. Returns (ok, snapped).
@@ -367,12 +369,12 @@ class _Solver:
         t, dt = 0.0, 1.0
         theta = self.theta
         if self._J_state is not None and self._J_state[0] is theta and self._J_state[1] is self.model:
-            J = self._J_state[2]  # Jacobian of the Newton step that produced this state
+            lu = self._J_state[2]  # Jacobian of the Newton step that produced this state
         else:
-            _, fth = self.model.residual(theta, self.theta0, start)
-            J = self.model.jacobian(fth)
+            R, fth = self.model.residual(theta, self.theta0, start)
+            _, lu = self.model.solve_newton(R, fth)
         snapped = False
-        tan = self.tangent(theta, J, start, target, t)
+        tan = self.tangent(theta, lu, start, target, t)
         while t < 1.0:
             tmax = float(np.max(np.abs(tan)))
             dt = min(dt, 1.0 - t, _STEP_RAD / tmax if tmax > 0 else 1.0)
@@ -420,9 +422,9 @@ class _Solver:
             if its <= 4:
                 dt = min(1.0, 2.0 * dt)
             if t < 1.0:
-                tan = self.tangent(theta, self._J, start, target, t)
+                tan = self.tangent(theta, self._lu, start, target, t)
         self.theta, self.load = theta, target
-        self._J_state = (theta, self.model, self._J)
+        self._J_state = (theta, self.model, self._lu)
         return True, snapped
 
     def _jump(self, theta, kick, load, t, kind):
