@@ -38,6 +38,12 @@ _SCENE_CONTYPE, _SCENE_CONAFFINITY = 2, 1
 BASES = ("first", "middle")
 CONTACT_GEOMS = ("capsule", "sphere", "hinge_sphere")
 CONES = {"pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL, "elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC}
+#: Default timestep of every scene (s).
+DEFAULT_TIMESTEP = 1e-3
+#: Default contact ``solref`` time constant of the contact scenes (s): twice the default
+#: timestep, the stiffest contact a 1 ms step resolves (MuJoCo's ``refsafe`` rule), fixed so
+#: that smaller timesteps converge to the same contact model (docs/sim.md).
+DEFAULT_CONTACT_TIMECONST = 2e-3
 
 
 @dataclass(frozen=True)
@@ -59,8 +65,8 @@ class RodOptions:
         solve; under the others the hinge springs are explicit (see docs/sim.md for the
         measured stable timesteps).
     timestep : float or None
-        Simulation step (s), in (0, 0.1]. ``None``: 1 ms for the cantilever, 0.1 ms for the
-        contact scenes (the floor contact needs it: see docs/sim.md for measured errors).
+        Simulation step (s), in (0, 0.1]. ``None``: 1 ms for every scene (before version 0.3
+        the contact scenes used 0.1 ms; see docs/sim.md for the measured errors of each).
     gravity : float
         Gravitational acceleration along -z (m/s^2); 0 turns gravity off.
     clamp_angle : float
@@ -69,12 +75,15 @@ class RodOptions:
         Kelvin-Voigt retardation time (s): hinge damping ``c_j = retardation_time * k_j``.
     friction : float
         Sliding friction coefficient between rod and scene (floor scenes).
-    contact_timeconst : float or None
-        Contact ``solref`` time constant (s). ``None`` (default): the material's own
-        through-thickness time ``h sqrt(rho / E)`` (a compression wave crossing the beam's
-        thickness; the smallest over the beam, about 0.14 ms for the paper's 1.13 mm phi = 0.2
-        beam), so the contact model does not change with the timestep. Before version 0.2 the
-        default was ``2 * timestep``; pass that explicitly to get it back.
+    contact_timeconst : float, "material" or None
+        Contact ``solref`` time constant (s). ``None`` (default): 2 ms, a soft contact that
+        the default 1 ms step resolves (``2 x timestep``), fixed, so the same contact model is
+        simulated at every timestep and a finer step converges to it. ``"material"``: the
+        beam's own through-thickness time ``h sqrt(rho / E)`` (about 0.14 ms for the paper's
+        1.13 mm phi = 0.2 beam; :func:`material_contact_timeconst`), a much stiffer contact
+        that needs dt <= 0.1 ms and crawls differently (docs/sim.md, "contact"); it was the
+        default of version 0.2, with a 0.1 ms step. Before version 0.2 the default was
+        ``2 * timestep``; pass that explicitly to get it back.
     contact_refsafe : bool
         Keep MuJoCo's ``refsafe`` (which raises every contact time constant to at least
         ``2 * timestep``, so the contact softens as the step grows). Off by default: the
@@ -107,6 +116,12 @@ class RodOptions:
         Main constraint-solver tolerance (MuJoCo ``opt.tolerance``), >= 0.
     contact_impedance : (float, float) or None
         Contact ``solimp`` (d_min, d_max), each in (0, 1); ``None``: MuJoCo's (0.9, 0.95).
+    contact_pairs : bool
+        Contact scenes: list every rod collider x scene geom as an explicit MuJoCo contact
+        ``pair`` and switch the broad phase off (``contype = conaffinity = 0`` on every geom):
+        the same contacts, found in less than half the time (docs/sim.md). ``False``: the
+        ``contype`` / ``conaffinity`` filter (rod 1/2, scene 2/1), for a spec extended with
+        more geoms (:func:`build_spec`) that should touch the rod.
     """
 
     segments: int = 20
@@ -117,7 +132,7 @@ class RodOptions:
     clamp_angle: float = 0.0
     retardation_time: float = 5e-3
     friction: float = 0.5
-    contact_timeconst: float | None = None
+    contact_timeconst: float | str | None = None
     contact_dampratio: float = 1.0
     contact_refsafe: bool = False
     feature_x: float | None = None
@@ -130,6 +145,7 @@ class RodOptions:
     solver_iterations: int = 100
     solver_tolerance: float = 1e-8
     contact_impedance: tuple | None = None
+    contact_pairs: bool = True
 
     def __post_init__(self):
         seg = self.segments
@@ -138,7 +154,7 @@ class RodOptions:
         choice("RodOptions.scene", self.scene, SCENES)
         choice("RodOptions.integrator", self.integrator, INTEGRATORS)
         if self.timestep is None:
-            object.__setattr__(self, "timestep", 1e-3 if self.scene == "cantilever" else 1e-4)
+            object.__setattr__(self, "timestep", DEFAULT_TIMESTEP)
         dt = positive("RodOptions.timestep", self.timestep, unit="s")
         if dt > 0.1:
             raise ValueError(f"RodOptions.timestep must lie in (0, 0.1] s, got {self.timestep!r}.")
@@ -148,7 +164,8 @@ class RodOptions:
         nonnegative("RodOptions.friction", self.friction)
         if not isinstance(self.contact_refsafe, (bool, np.bool_)):
             raise ValueError(f"RodOptions.contact_refsafe must be a bool, got {self.contact_refsafe!r}.")
-        if self.contact_timeconst is not None:
+        if self.contact_timeconst is not None and not (
+                isinstance(self.contact_timeconst, str) and self.contact_timeconst == "material"):
             positive("RodOptions.contact_timeconst", self.contact_timeconst, unit="s")
         positive("RodOptions.contact_dampratio", self.contact_dampratio)
         if self.feature_x is not None:
@@ -164,6 +181,8 @@ class RodOptions:
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
                 raise ValueError(f"RodOptions.{name} must be an integer >= {lo}, got {v!r}.")
         nonnegative("RodOptions.solver_tolerance", self.solver_tolerance)
+        if not isinstance(self.contact_pairs, (bool, np.bool_)):
+            raise ValueError(f"RodOptions.contact_pairs must be a bool, got {self.contact_pairs!r}.")
         if self.contact_impedance is not None:
             imp = self.contact_impedance
             if (not isinstance(imp, (tuple, list)) or len(imp) != 2
@@ -228,6 +247,16 @@ def material_contact_timeconst(beam: Beam) -> float:
     return float(np.min(beam.thickness * np.sqrt(rho / beam.youngs_modulus(s))))
 
 
+def contact_timeconst(beam: Beam, options: RodOptions) -> float:
+    """The contact ``solref`` time constant (s) that ``options`` gives ``beam``."""
+    tc = options.contact_timeconst
+    if tc is None:
+        return DEFAULT_CONTACT_TIMECONST
+    if isinstance(tc, str):
+        return material_contact_timeconst(beam)
+    return float(tc)
+
+
 def _quat_y(theta: float) -> list[float]:
     """Quaternion turning +x toward +z by ``theta`` (rad): a rotation about -y."""
     return [math.cos(theta / 2), 0.0, -math.sin(theta / 2), 0.0]
@@ -251,16 +280,21 @@ def build_spec(beam: Beam, options: RodOptions) -> tuple[mujoco.MjSpec, RodDiscr
         spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
     # never silently reset on a bad state: the simulator reports it instead
     spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
+    # one kinematic tree: island discovery finds one island and costs ~10 % of a floor step;
+    # the sparse constraint Jacobian (rows reach only the dofs between a contact and the root)
+    # is cheaper than dense at 23 dofs. Both measured, neither changes the result (docs/sim.md)
+    spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_ISLAND
+    spec.option.jacobian = mujoco.mjtJacobian.mjJAC_SPARSE
 
     h, w = beam.thickness, beam.width
     radius = 0.5 * h
-    tc = o.contact_timeconst if o.contact_timeconst is not None else material_contact_timeconst(beam)
+    tc = contact_timeconst(beam, o)
     if o.has_contact and not o.contact_refsafe:
         spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_REFSAFE
     world = spec.worldbody
 
-    if o.has_contact:
-        _add_scene(spec, beam, o, tc)
+    scene_geoms = _add_scene(spec, beam, o, tc) if o.has_contact else []
+    rod_geoms = []
 
     spec.option.cone = CONES[o.cone]
     spec.option.noslip_iterations = int(o.noslip_iterations)
@@ -275,6 +309,7 @@ def build_spec(beam: Beam, options: RodOptions) -> tuple[mujoco.MjSpec, RodDiscr
         if o.contact_impedance is not None:
             g.solimp = [o.contact_impedance[0], o.contact_impedance[1], 0.001, 0.5, 2.0]
         g.group = 3
+        rod_geoms.append(g)
 
     def add_piece(parent, i, pos, quat=None):
         body = parent.add_body(name=f"piece{i}", pos=pos)
@@ -350,6 +385,18 @@ def build_spec(beam: Beam, options: RodOptions) -> tuple[mujoco.MjSpec, RodDiscr
         add_hinge(body, i - 1, [0.0, 0.0, 0.0], list(_HINGE_AXIS))
         parent = body
 
+    if o.has_contact and o.contact_pairs:
+        # explicit pairs: no broad phase (it cost more than the narrow phase of these pairs)
+        for sg in scene_geoms:
+            for rg in rod_geoms:
+                pair = spec.add_pair(geomname1=sg.name, geomname2=rg.name)
+                pair.condim = 3
+                pair.friction = [o.friction, o.friction, 0.005, 0.0001, 0.0001]
+                pair.solref = [tc, o.contact_dampratio]
+                pair.solimp = list(rg.solimp)
+        for g in (*scene_geoms, *rod_geoms):
+            g.contype = g.conaffinity = 0
+
     if o.render:
         world.add_light(name="light", pos=[0.5 * beam.length, -0.1, 0.1], dir=[0, 1, -1])
         world.add_camera(
@@ -358,8 +405,9 @@ def build_spec(beam: Beam, options: RodOptions) -> tuple[mujoco.MjSpec, RodDiscr
     return spec, disc
 
 
-def _add_scene(spec, beam: Beam, o: RodOptions, tc: float) -> None:
+def _add_scene(spec, beam: Beam, o: RodOptions, tc: float) -> list:
     world = spec.worldbody
+    geoms = []
 
     def static_geom(name, **kw):
         g = world.add_geom(name=name, **kw)
@@ -368,6 +416,7 @@ def _add_scene(spec, beam: Beam, o: RodOptions, tc: float) -> None:
         g.solref = [tc, o.contact_dampratio]
         if o.contact_impedance is not None:
             g.solimp = [o.contact_impedance[0], o.contact_impedance[1], 0.001, 0.5, 2.0]
+        geoms.append(g)
         return g
 
     half = 10.0 * beam.length
@@ -390,6 +439,7 @@ def _add_scene(spec, beam: Beam, o: RodOptions, tc: float) -> None:
             "obstacle", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.5 * bl, 0.5 * bw, 0.5 * bh],
             pos=[x0 + 0.5 * bl, 0.0, 0.5 * bh],
         )
+    return geoms
 
 
 def build_model(beam: Beam, options: RodOptions | None = None) -> RodModel:
