@@ -40,7 +40,7 @@ class CrosscheckRow:
     success: bool
 
 
-def crosscheck_preset(preset, segments=(10, 20, 40), *, grading: float = 1.0, theory_results=None):
+def crosscheck_preset(preset, segments=(10, 20, 40), *, grading: float | None = None, theory_results=None):
     """Compare the analytical solver (``coupling="rotated"``, inextensible) and the MuJoCo rod.
 
     Parameters
@@ -49,8 +49,9 @@ def crosscheck_preset(preset, segments=(10, 20, 40), *, grading: float = 1.0, th
         A cantilever preset.
     segments : sequence of int
         Segment counts to run.
-    grading : float
-        Cell grading of the rod (see :class:`~magsoft_env.sim.RodOptions`).
+    grading : float or None
+        Cell grading of the rod (see :class:`~magsoft_env.sim.RodOptions`); ``None``: the
+        cantilever default.
     theory_results : list, optional
         Precomputed analytical path (skips the theory solve and its timing).
 
@@ -63,7 +64,9 @@ def crosscheck_preset(preset, segments=(10, 20, 40), *, grading: float = 1.0, th
     if preset.support != "cantilever":
         raise ValueError(f"preset {preset.name!r} has support={preset.support!r}; the MuJoCo rod is clamped only.")
     from .. import theory as th
+    from .model import RodOptions
 
+    grading = RodOptions(scene="cantilever", grading=grading).grading
     fields = preset.fields
     t_th = math.nan
     if theory_results is None:

@@ -73,7 +73,7 @@ def mujoco_path(
     integrator: str = "discrete",
     tol: float = 1e-8,
     max_time: float = 20.0,
-    grading: float = 1.0,
+    grading: float | None = None,
 ) -> list[SimEquilibrium]:
     """Settle the clamped MuJoCo rod along a loading path: gravity first, then each field in turn.
 
@@ -102,8 +102,9 @@ def mujoco_path(
         Static-residual tolerance (rad).
     max_time : float
         Simulated-time budget per settle (s).
-    grading : float
-        Last / first cell length (see :class:`RodOptions`); 1 gives equal cells.
+    grading : float or None
+        Last / first cell length (see :class:`RodOptions`); 1 gives equal cells; ``None``:
+        the cantilever default (1.5, finer at the clamp).
 
     Returns
     -------
@@ -150,7 +151,7 @@ def mujoco_equilibrium(
     integrator: str = "discrete",
     tol: float = 1e-8,
     max_time: float = 20.0,
-    grading: float = 1.0,
+    grading: float | None = None,
 ) -> SimEquilibrium:
     """Static equilibrium of the clamped MuJoCo rod under ``field`` (T), reached like the
     analytical solver: gravity first, then the field ramped from zero in straight-line steps

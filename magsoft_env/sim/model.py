@@ -38,6 +38,8 @@ _SCENE_CONTYPE, _SCENE_CONAFFINITY = 2, 1
 BASES = ("first", "middle")
 CONTACT_GEOMS = ("capsule", "sphere", "hinge_sphere")
 CONES = {"pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL, "elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC}
+#: Default cell grading of the cantilever (last / first cell length).
+DEFAULT_CANTILEVER_GRADING = 1.5
 #: Default timestep of every scene (s).
 DEFAULT_TIMESTEP = 1e-3
 #: Default contact ``solref`` time constant of the contact scenes (s): twice the default
@@ -94,9 +96,12 @@ class RodOptions:
         x (m) of the channel entrance or the obstacle's left face; ``None``: ``L + 5 mm``.
     render : bool
         Add box visual geoms, a light and a camera (only for rendering).
-    grading : float
+    grading : float or None
         Last cell length / first cell length, in [0.1, 10]; 1 gives equal cells, > 1 finer
         cells at the clamp (more accurate cantilevers in strong fields, see docs/sim.md).
+        ``None`` (default): 1.5 for the cantilever (the largest grading that improves every
+        static cross-check but one, measured in docs/sim.md; equal cells before version 0.3),
+        1 (equal cells) for the contact scenes.
     base : {"middle", "first"}
         Floor scenes: which piece carries the planar base joint (the root of the kinematic
         tree). ``middle`` (default) is the least biased with soft contact (DESIGN.md section 5);
@@ -137,7 +142,7 @@ class RodOptions:
     contact_refsafe: bool = False
     feature_x: float | None = None
     render: bool = False
-    grading: float = 1.0
+    grading: float | None = None
     base: str = "middle"
     contact_geom: str = "sphere"
     cone: str = "elliptic"
@@ -170,6 +175,8 @@ class RodOptions:
         positive("RodOptions.contact_dampratio", self.contact_dampratio)
         if self.feature_x is not None:
             finite_number("RodOptions.feature_x", self.feature_x, unit="m")
+        if self.grading is None:
+            object.__setattr__(self, "grading", DEFAULT_CANTILEVER_GRADING if self.scene == "cantilever" else 1.0)
         g = finite_number("RodOptions.grading", self.grading)
         if not 0.1 <= g <= 10.0:
             raise ValueError(f"RodOptions.grading must lie in [0.1, 10], got {self.grading!r}.")
