@@ -161,6 +161,7 @@ class Simulator:
         if self._b1 - self._b0 != len(self._bodies):
             raise RuntimeError("rod bodies must have consecutive ids")  # guaranteed by build_model
         self._S = self._couple_map()
+        self._mv = np.zeros(self.model.nv)
         self._coef = np.zeros((len(self._bodies), 9))
         #: Extra constant wrench per piece, world frame, shape (N + 1, 6): force (N) at the
         #: piece's centre of mass, then couple (N m); added to the magnetic couples each step.
@@ -396,7 +397,7 @@ class Simulator:
             self._stale = False
 
     def _warning_counts(self) -> np.ndarray:
-        return np.array([self.data.warning[i].number for i in _WARN_IDS])
+        return self.data.warning.number[_WARN_IDS]
 
     def _fail(self, quantity: str, value: float, hint: str) -> None:
         o = self.options
@@ -419,10 +420,14 @@ class Simulator:
             self._fail(f"MuJoCo warning: {_WARNINGS[wid]}{text}", math.nan, hint)
         for name in ("qpos", "qvel"):
             arr = getattr(d, name)
-            if not np.all(np.isfinite(arr)):
+            if not math.isfinite(arr.sum()):  # a NaN or an infinity anywhere makes the sum non-finite
                 self._fail(f"non-finite {name}", math.nan, hint)
         if energy:
-            ke = self.kinetic_energy()
+            # the mass matrix of the step's start (mj_step leaves it in qM) is enough for a
+            # factor-100 runaway test and saves recomputing the position stage every check
+            mv = self._mv
+            mujoco.mj_mulM(self.model, d, mv, d.qvel)
+            ke = 0.5 * float(d.qvel @ mv)
             if not ke <= _RUNAWAY_FACTOR * self._energy_scale:
                 self._fail(
                     "runaway kinetic energy (J)", ke,
