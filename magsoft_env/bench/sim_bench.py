@@ -2,16 +2,23 @@
 
 Sections (run all, or pick with ``--only``):
 
+* ``targets``: end to end at the default floor settings for two 20-segment crawlers:
+  microseconds per step and real-time factor, beside the dynamic error against a fine-step
+  reference of the same contact model and against the stiff material-contact model; the
+  couples held over 2 and 5 steps (a shortcut, measured).
+
 * ``static``: tip error / L against segments for the uniform cantilever without gravity
   (baseline: the elastica closed form, ``magsoft_env.sim.reference``) and for the paper's
   Fig. 3 paths (baseline: ``magsoft_env.solve_path``), with wall times of both.
 * ``timestep``: largest stable timestep per integrator and segment count (a 0.3 s step
   response of a gravity-loaded cantilever to 13 mT; stable = no SimulationError).
 * ``speed``: microseconds per step, raw ``mj_step`` (baseline) against ``Simulator.step``
-  (magnetics included), clamped and on a floor, contact on and off, real-time factor.
+  (magnetics included), clamped and on a floor, explicit contact pairs against the broad
+  phase, contact on and off, real-time factor.
 * ``floor``: a 20-segment crawler on a floor driven by an oscillating B_z: timestep x settings
   -> crawl distance, its error and the shape error against a fine-step reference of the
-  default contact model, penetration, microseconds per step and real-time factor.
+  same contact model (the default 2 ms one, or the stiff material one), penetration,
+  microseconds per step and real-time factor.
 * ``contact``: crawl distance against the contact time constant (how much the answer
   depends on the contact model rather than on the numerics).
 * ``symmetry``: numerical left/right bias, from a mirror-symmetric robot driven both ways.
@@ -55,21 +62,24 @@ def static(quick: bool) -> None:
     EI, AM = float(beam.bending_stiffness(0.0)), float(beam.moment_per_length(0.0))
     segs = (10, 20, 40) if quick else (10, 20, 40, 80)
     print("uniform cantilever, no gravity, field along +z; baseline: elastica closed form")
-    print(f"{'B (mT)':>7} {'Lambda':>7} {'N':>4} {'err/L %':>9} {'MuJoCo s':>9} {'closed form s':>14}")
+    print(f"{'B (mT)':>7} {'Lambda':>7} {'grading':>7} {'N':>4} {'err/L %':>9} {'MuJoCo s':>9} {'closed form s':>14}")
     for B in (5e-3, 13e-3):
         t0 = time.perf_counter()
         ref = elastica_dead_load(beam.length, EI, AM * B, math.pi / 2)
         t_ref = time.perf_counter() - t0
-        for n in segs:
-            t0 = time.perf_counter()
-            eq = mujoco_path(beam, [(0.0, B)], gravity=0.0, segments=n)[-1]
-            t_sim = time.perf_counter() - t0
-            err = math.hypot(eq.x[-1] - ref["x"], eq.z[-1] - ref["z"]) / beam.length
-            lam = AM * B * beam.length**2 / EI
-            print(f"{B * 1e3:>7.1f} {lam:>7.1f} {n:>4} {100 * err:>9.4f} {t_sim:>9.3f} {t_ref:>14.4f}")
+        for grading in (1.0, None):
+            for n in segs:
+                t0 = time.perf_counter()
+                eq = mujoco_path(beam, [(0.0, B)], gravity=0.0, segments=n, grading=grading)[-1]
+                t_sim = time.perf_counter() - t0
+                err = math.hypot(eq.x[-1] - ref["x"], eq.z[-1] - ref["z"]) / beam.length
+                lam = AM * B * beam.length**2 / EI
+                g = "1.5 (d)" if grading is None else f"{grading:.1f}"
+                print(f"{B * 1e3:>7.1f} {lam:>7.1f} {g:>7} {n:>4} {100 * err:>9.4f} {t_sim:>9.3f} {t_ref:>14.4f}")
     from magsoft_env import solve_path
 
-    print("\nFig. 3 paths (gravity first; a: B_z 0 -> 13 mT; b: B_z 13 mT, B_x 0 -> -22 mT), max over the path")
+    print("\nFig. 3 paths (gravity first; a: B_z 0 -> 13 mT; b: B_z 13 mT, B_x 0 -> -22 mT), max over the path; "
+          "grading 1.5 (d) = the cantilever default")
     print("baseline: magsoft_env.solve_path (rotated coupling, inextensible)")
     print(f"{'L mm':>5} {'path':>4} {'grading':>7} {'N':>4} {'max err/L %':>12} {'MuJoCo s':>9} {'theory s':>9}")
     lengths = (25e-3,) if quick else (20e-3, 25e-3, 30e-3)
@@ -83,13 +93,14 @@ def static(quick: bool) -> None:
             t0 = time.perf_counter()
             th = solve_path(b, path)
             t_th = time.perf_counter() - t0
-            for grading in (1.0, 3.0):
+            for grading in (1.0, None, 3.0):
                 for n in (10, 20, 40):
                     t0 = time.perf_counter()
                     sim = mujoco_path(b, path, segments=n, grading=grading)
                     t_sim = time.perf_counter() - t0
                     err = max(math.hypot(s.x[-1] - t.x[-1], s.z[-1] - t.z[-1]) for s, t in zip(sim, th, strict=True))
-                    print(f"{L * 1e3:>5.0f} {name:>4} {grading:>7.1f} {n:>4} {100 * err / L:>12.3f} "
+                    g = "1.5 (d)" if grading is None else f"{grading:.1f}"
+                    print(f"{L * 1e3:>5.0f} {name:>4} {g:>7} {n:>4} {100 * err / L:>12.3f} "
                           f"{t_sim:>9.3f} {t_th:>9.3f}")
 
 
@@ -126,13 +137,23 @@ def timestep(quick: bool) -> None:
 
 
 _CRAWLER = dict(length=25e-3, width=W, thickness=H)
-#: the floor settings before the floor work (version 0.1): capsules, pyramidal cones, base on the
-#: first piece, contact time constant 2 dt with MuJoCo's refsafe
-OLD_FLOOR = dict(contact_geom="capsule", cone="pyramidal", base="first", contact_refsafe=True)
+#: the floor defaults of version 0.2: the material's contact time constant at a 0.1 ms step
+MATERIAL = dict(contact_timeconst="material", timestep=1e-4)
 
 
 def _crawler() -> Beam:
     return Beam(**_CRAWLER, volume_fraction=PiecewiseConstant([0.1, 0.2]))
+
+
+def _crawlers():
+    """The two 20-segment crawlers of the floor benchmarks: (name, beam, waveform)."""
+    from magsoft_env.gaits import gait_preset
+
+    p5c = gait_preset("paper-5c")
+    return [
+        ("A: 10/20 % halves, B_z 2 mT 2 Hz", _crawler(), Sine((0.0, 2e-3), 2.0)),
+        ("5c: cosine jig, paper-5c field", p5c.beam, p5c.wave.waveform()),
+    ]
 
 
 def _cpu_us_per_step(fn, n: int, repeats: int = 7) -> float:
@@ -145,65 +166,85 @@ def _cpu_us_per_step(fn, n: int, repeats: int = 7) -> float:
     return best
 
 
-def speed(quick: bool) -> None:
-    print("\n## speed: us per step (CPU time, best of 7); baseline raw mj_step on the same model and state")
-    print("floor cases: the crawler after 0.3 s of B_z = 2 mT sin(2 pi 2 t) (crawling state)")
-    beam = _crawler()
-    n = 300 if quick else 1000
-    print(f"{'scene':>10} {'N':>3} {'settings':>28} {'dt s':>7} {'mj_step':>8} {'Simulator':>10} "
-          f"{'RTF (sim)':>10} {'ncon':>5} {'nefc':>5}")
-    cases = [("cantilever", 20, {}, 1e-3), ("cantilever", 40, {}, 1e-3),
-             ("floor", 20, {}, 1e-4), ("floor", 20, dict(cone="pyramidal"), 1e-4),
-             ("floor", 20, dict(contact_geom="capsule"), 1e-4), ("floor", 20, dict(base="first"), 1e-4),
-             ("floor", 20, dict(OLD_FLOOR, contact_timeconst=2e-4), 1e-4), ("floor", 20, {}, 1e-3)]
-    for scene, nseg, kw, dt in cases:
-        label = ",".join(f"{k}={v}" for k, v in kw.items() if k != "contact_refsafe") or "defaults"
-        if kw == dict(OLD_FLOOR, contact_timeconst=2e-4):
-            label = "0.1 floor (capsule, pyr, ...)"
-        sim = Simulator(beam, RodOptions(scene=scene, segments=nseg, timestep=dt, **kw), field=(0.0, 2e-3))
-        try:
-            if scene == "floor":
-                sim.run(Sine((0.0, 2e-3), 2.0), 0.3)
-            else:
-                sim.step(200)
-            raw_data = mujoco.MjData(sim.model)
-            mujoco.mj_setState(sim.model, raw_data, _state(sim), mujoco.mjtState.mjSTATE_INTEGRATION)
-            full = _cpu_us_per_step(sim.step, n)
-            raw = _cpu_us_per_step(lambda k, s=sim, d=raw_data: mujoco.mj_step(s.model, d, nstep=k), n)
-        except SimulationError as err:
-            print(f"{scene:>10} {nseg:>3} {label:>28} {dt:>7g} unstable: {err.quantity} at step {err.step}")
-            continue
-        print(f"{scene:>10} {nseg:>3} {label:>28} {dt:>7g} {raw:>8.1f} {full:>10.1f} {dt * 1e6 / full:>10.1f} "
-              f"{raw_data.ncon:>5} {raw_data.nefc:>5}")
-    for label, kw in (("defaults", {}), ("0.1 floor (capsule, pyr, ...)", dict(OLD_FLOOR, contact_timeconst=2e-4))):
-        sim = Simulator(beam, RodOptions(scene="floor", **kw))
-        sim.step(200)  # lying flat at zero field: every collider touches
-        raw = _cpu_us_per_step(lambda k, s=sim: mujoco.mj_step(s.model, s.data, nstep=k), n)
-        full = _cpu_us_per_step(sim.step, n)
-        print(f"{'floor flat':>10} {20:>3} {label:>28} {1e-4:>7g} {raw:>8.1f} {full:>10.1f} {100 / full:>10.1f} "
-              f"{sim.data.ncon:>5} {sim.data.nefc:>5}")
-    sim = Simulator(beam, RodOptions(scene="floor"))
-    sim.run(Sine((0.0, 2e-3), 2.0), 0.3)
-    on = _cpu_us_per_step(lambda k: mujoco.mj_step(sim.model, sim.data, nstep=k), n)
-    ncon = sim.data.ncon
-    sim.model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
-    off = _cpu_us_per_step(lambda k: mujoco.mj_step(sim.model, sim.data, nstep=k), n)
-    print(f"floor defaults, dt 1e-4, crawling: mj_step contact on {on:.1f} us ({ncon} contacts), "
-          f"contact off {off:.1f} us")
-
-
 def _state(sim) -> np.ndarray:
     st = np.empty(mujoco.mj_stateSize(sim.model, mujoco.mjtState.mjSTATE_INTEGRATION))
     mujoco.mj_getState(sim.model, sim.data, st, mujoco.mjtState.mjSTATE_INTEGRATION)
     return st
 
 
-def _crawl(beam, duration, *, torque_every=1, **options):
-    """Crawl under B_z = 2 mT sin(2 pi 2 t): trajectory (every 10 ms), CPU s, max penetration (m)."""
+def _raw_and_full(sim, n: int) -> tuple[float, float]:
+    """Best-of-7 CPU us per step: raw ``mj_step`` (C loop, couples held) from a copy of the
+    state, and ``Simulator.step`` (magnetics and checks included), interleaved."""
+    st = _state(sim)
+    raw_data = mujoco.MjData(sim.model)
+    raw, full = math.inf, math.inf
+    for _ in range(7):
+        mujoco.mj_setState(sim.model, raw_data, st, mujoco.mjtState.mjSTATE_INTEGRATION)
+        raw = min(raw, _cpu_us_per_step(lambda k: mujoco.mj_step(sim.model, raw_data, nstep=k), n, repeats=1))
+        full = min(full, _cpu_us_per_step(sim.step, n, repeats=1))
+    return raw, full
+
+
+def speed(quick: bool) -> None:
+    print("\n## speed: us per step (CPU time, best of 7, interleaved); baseline raw mj_step on the same model "
+          "and state")
+    print("cantilever: 5 mT + gravity, moving (0.2 s after the field step); floor: crawler A after 0.3 s of its "
+          "waveform (crawling state)")
+    beam = _crawler()
+    n = 300 if quick else 1000
+    print(f"{'scene':>10} {'N':>3} {'settings':>34} {'dt s':>7} {'mj_step':>8} {'Simulator':>10} "
+          f"{'RTF (sim)':>10} {'ncon':>5} {'nefc':>5}")
+    cases = [("cantilever", 20, {}), ("cantilever", 20, dict(grading=1.0)), ("cantilever", 40, {}),
+             ("floor", 20, {}), ("floor", 20, dict(contact_pairs=False)),
+             ("floor", 20, dict(cone="pyramidal")), ("floor", 20, dict(contact_geom="capsule")),
+             ("floor", 20, MATERIAL), ("floor", 20, dict(MATERIAL, contact_pairs=False)),
+             ("channel", 20, dict(feature_x=20e-3)), ("channel", 20, dict(feature_x=20e-3, contact_pairs=False))]
+    for scene, nseg, kw in cases:
+        label = "0.2 defaults (material tc)" if kw.get("contact_timeconst") == "material" else "defaults"
+        extra = ",".join(f"{k}={v}" for k, v in kw.items() if k not in MATERIAL and k != "feature_x")
+        label = label + ("," + extra if extra else "")
+        field = (0.0, 5e-3) if scene == "cantilever" else (0.0, 2e-3)
+        sim = Simulator(beam, RodOptions(scene=scene, segments=nseg, **kw), field=field)
+        dt = sim.timestep
+        try:
+            if scene == "cantilever":
+                sim.step(int(round(0.2 / dt)))
+            else:
+                sim.run(Sine((0.0, 2e-3), 2.0), 0.3)
+            raw, full = _raw_and_full(sim, n)
+        except SimulationError as err:
+            print(f"{scene:>10} {nseg:>3} {label:>34} {dt:>7g} unstable: {err.quantity} at step {err.step}")
+            continue
+        print(f"{scene:>10} {nseg:>3} {label:>34} {dt:>7g} {raw:>8.1f} {full:>10.1f} {dt * 1e6 / full:>10.1f} "
+              f"{sim.data.ncon:>5} {sim.data.nefc:>5}")
+    sim = Simulator(beam, RodOptions(scene="floor"))
+    sim.step(200)  # lying flat at zero field: every collider touches
+    raw, full = _raw_and_full(sim, n)
+    print(f"{'floor flat':>10} {20:>3} {'defaults':>34} {sim.timestep:>7g} {raw:>8.1f} {full:>10.1f} "
+          f"{sim.timestep * 1e6 / full:>10.1f} {sim.data.ncon:>5} {sim.data.nefc:>5}")
+    sim = Simulator(beam, RodOptions(scene="floor"))
+    sim.run(Sine((0.0, 2e-3), 2.0), 0.3)
+    ncon = sim.data.ncon
+    st = _state(sim)
+    d = mujoco.MjData(sim.model)
+    on = off = math.inf
+    for _ in range(5):
+        sim.model.opt.disableflags &= ~int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
+        mujoco.mj_setState(sim.model, d, st, mujoco.mjtState.mjSTATE_INTEGRATION)
+        on = min(on, _cpu_us_per_step(lambda k: mujoco.mj_step(sim.model, d, nstep=k), n, repeats=1))
+        sim.model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
+        mujoco.mj_setState(sim.model, d, st, mujoco.mjtState.mjSTATE_INTEGRATION)
+        off = min(off, _cpu_us_per_step(lambda k: mujoco.mj_step(sim.model, d, nstep=k), n, repeats=1))
+    print(f"floor defaults, crawling: mj_step contact on {on:.1f} us ({ncon} contacts), contact off {off:.1f} us")
+
+
+def _crawl(beam, duration, *, waveform=None, torque_every=1, **options):
+    """Crawl under ``waveform`` (default B_z = 2 mT sin(2 pi 2 t)): trajectory (every 10 ms),
+    CPU s, max penetration (m)."""
     sim = Simulator(beam, RodOptions(scene="floor", **options), torque_every=torque_every)
     dt = sim.timestep
     every = max(1, int(round(0.01 / dt)))
-    sim.set_waveform(Sine((0.0, 2e-3), 2.0))
+    sim.set_waveform(Sine((0.0, 2e-3), 2.0) if waveform is None else waveform)
     ts, xs, zs, pen = [], [], [], 0.0
     cpu = 0.0
     nsteps = int(round(duration / dt))
@@ -226,63 +267,155 @@ def _crawl(beam, duration, *, torque_every=1, **options):
     return np.array(ts), np.array(xs), np.array(zs), cpu, pen
 
 
+def _shape_error(run, ref, length) -> float:
+    (_, x, z, _, _), (_, xr, zr, _, _) = run, ref
+    m = min(len(x), len(xr))  # both sampled every 10 ms
+    return float(np.sqrt(((x[:m] - xr[:m]) ** 2 + (z[:m] - zr[:m]) ** 2).mean(axis=1)).max() / length)
+
+
+def _travel(run) -> float:
+    x = run[1]
+    return float(x[-1].mean() - x[0].mean())
+
+
+def _e2e_us(beam, waveform, duration, holds=(1,), repeats=3) -> dict:
+    """Best-of-``repeats`` CPU us per step of ``Simulator.step`` over the whole crawl (one call)
+    at the default settings, for each couple-hold count in ``holds``, interleaved."""
+    sims = {h: Simulator(beam, RodOptions(scene="floor"), torque_every=h) for h in holds}
+    n = int(round(duration / sims[holds[0]].timestep))
+    best = dict.fromkeys(holds, math.inf)
+    for _ in range(repeats):
+        for h, sim in sims.items():
+            sim.reset()
+            sim.set_waveform(waveform)
+            t0 = time.process_time()
+            sim.step(n)
+            best[h] = min(best[h], time.process_time() - t0)
+    return {h: v / n * 1e6 for h, v in best.items()}
+
+
+def _replay_us(beam, waveform, duration, repeats=3) -> tuple[float, float]:
+    """``mj_step`` alone along the default crawl: the generalized magnetic forces of every step
+    are recorded from a ``Simulator`` run, then replayed by ``mujoco.rollout`` (a C loop, no
+    Python per step) from the same initial state. Returns best-of-``repeats`` CPU us per step
+    and the largest |qpos| difference of the replay from the run (0: the same trajectory)."""
+    from mujoco import rollout as mjrollout
+
+    sim = Simulator(beam, RodOptions(scene="floor"))
+    sim.set_waveform(waveform)
+    m, d = sim.model, sim.data
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    x0 = np.empty(mujoco.mj_stateSize(m, spec))
+    mujoco.mj_getState(m, d, x0, spec)
+    w0 = d.qacc_warmstart.copy()
+    n = int(round(duration / sim.timestep))
+    qfrc = np.empty((n, m.nv))
+    for k in range(n):
+        sim.step(1)
+        qfrc[k] = d.qfrc_applied
+    best, state = math.inf, None
+    for _ in range(repeats):
+        t0 = time.process_time()
+        state, _ = mjrollout.rollout(m, mujoco.MjData(m), x0[None], qfrc[None],
+                                     control_spec=mujoco.mjtState.mjSTATE_QFRC_APPLIED, initial_warmstart=w0[None])
+        best = min(best, time.process_time() - t0)
+    diff = float(np.abs(state[0, -1, 1 : 1 + m.nq] - d.qpos).max())  # FULLPHYSICS rows: time, qpos, ...
+    return best / n * 1e6, diff
+
+
+def targets(quick: bool) -> None:
+    print("\n## targets: end to end at the default floor settings (N = 20, dt 1 ms, contact tc 2 ms, discrete, "
+          "magnetics every step), one core")
+    duration = 0.5 if quick else 2.0
+    print(f"each crawler for {duration:g} s. us/step = best of 3 CPU time of Simulator.step over the whole run "
+          "(magnetics, checks); mj_step = the same trajectory replayed by mujoco.rollout with the recorded "
+          "generalized magnetic forces (C loop; |dq| = its distance from the run); RTF = dt / (us/step)")
+    print("crawl = centre-of-mass x travel; d = its error vs the reference; shape = max over time of the centerline "
+          "RMS distance / L vs the fine reference; pen = largest penetration (sampled every 10 ms)")
+    print("fine ref: the same contact model (tc 2 ms) at dt = 50 us. stiff ref: the material contact "
+          "(tc = h sqrt(rho / E)) at dt = 25 us, the 0.2 default model")
+    print(f"{'crawler':>34} {'mj_step':>7} {'|dq|':>7} {'us/step':>8} {'RTF':>6} {'crawl mm':>9} {'fine mm':>8} "
+          f"{'d fine %':>8} {'shape %L':>8} {'pen um':>7} {'stiff mm':>8} {'d stiff %':>9} {'pen stiff':>9}")
+    for name, beam, wf in _crawlers():
+        e2e = _e2e_us(beam, wf, duration, holds=(1, 2, 5))
+        raw, dq = _replay_us(beam, wf, duration)
+        us = e2e[1]
+        run = _crawl(beam, duration, waveform=wf)
+        fine = _crawl(beam, duration, waveform=wf, timestep=5e-5)
+        stiff = _crawl(beam, duration, waveform=wf, timestep=2.5e-5, contact_timeconst="material")
+        c, cf, cs = (1e3 * _travel(r) for r in (run, fine, stiff))
+        print(f"{name:>34} {raw:>7.1f} {dq:>7.0e} {us:>8.1f} {1e3 / us:>6.1f} {c:>9.3f} {cf:>8.3f} "
+              f"{100 * (c - cf) / abs(cf):>+8.1f} {100 * _shape_error(run, fine, beam.length):>8.2f} "
+              f"{run[4] * 1e6:>7.1f} {cs:>8.3f} {100 * (c - cs) / abs(cs):>+9.1f} {stiff[4] * 1e6:>7.1f}um")
+        for hold in (2, 5):
+            us_h = e2e[hold]
+            rh = _crawl(beam, duration, waveform=wf, torque_every=hold)
+            ch = 1e3 * _travel(rh)
+            print(f"{'  couples held ' + str(hold) + ' steps':>34} {'':>7} {'':>7} {us_h:>8.1f} {1e3 / us_h:>6.1f} "
+                  f"{ch:>9.3f} {cf:>8.3f} {100 * (ch - cf) / abs(cf):>+8.1f} "
+                  f"{100 * _shape_error(rh, fine, beam.length):>8.2f} {rh[4] * 1e6:>7.1f}")
+
+
 def floor(quick: bool) -> None:
-    print("\n## floor: crawler (L = 25 mm, phi 10 %/20 % halves, N = 20) on a floor, B_z = 2 mT sin(2 pi 2 t)")
+    print("\n## floor: crawler A (L = 25 mm, phi 10 %/20 % halves, N = 20) on a floor, B_z = 2 mT sin(2 pi 2 t)")
     beam = _crawler()
     duration = 0.5 if quick else 2.0
-    ref_dt = 2.5e-5 if quick else 1.25e-5
-    from magsoft_env.sim.model import material_contact_timeconst
-
-    tc = material_contact_timeconst(beam)
-    t_ref, x_ref, z_ref, cpu_ref, pen_ref = _crawl(beam, duration, timestep=ref_dt)
-    com_ref = (x_ref[-1].mean() - x_ref[0].mean()) * 1e3
-    print(f"reference: defaults (spheres, elliptic cones, base on the middle piece, contact time constant "
-          f"{tc * 1e3:.3f} ms from the material, refsafe off) at dt = {ref_dt:g} s: crawl {com_ref:.3f} mm in "
-          f"{duration:g} s, max penetration {pen_ref * 1e6:.1f} um, {cpu_ref:.1f} CPU s")
-    print("crawl = centre-of-mass x travel; d crawl = its error vs the reference; shape err = max over time of the "
-          "centerline RMS distance / L vs the reference; us/step and RTF end to end (Simulator.step, magnetics "
-          "and checks included, CPU time)")
+    refs = {}
+    for model, kw, ref_dt in (("default contact (tc 2 ms)", {}, 2.5e-5 if quick else 1.25e-5),
+                              ("material contact", dict(contact_timeconst="material"), 2.5e-5 if quick else 1.25e-5)):
+        refs[model] = _crawl(beam, duration, timestep=ref_dt, **kw)
+        print(f"reference, {model}: dt = {ref_dt:g} s, crawl {1e3 * _travel(refs[model]):.3f} mm in {duration:g} s, "
+              f"max penetration {refs[model][4] * 1e6:.1f} um")
+    print("crawl = centre-of-mass x travel; d crawl = its error vs the reference of the same contact model; "
+          "shape err = max over time of the centerline RMS distance / L vs that reference; us/step and RTF end to end "
+          "(Simulator.step, magnetics and checks included, CPU time of one run)")
     print(f"{'settings':>34} {'dt s':>7} {'crawl mm':>9} {'d crawl %':>9} {'shape err/L %':>13} {'pen um':>7} "
           f"{'us/step':>8} {'RTF':>6}")
-    dts = (2.5e-5, 5e-5, 1e-4, 2e-4, 5e-4, 1e-3)
-    cases = [("defaults", {}, dt) for dt in dts if dt != ref_dt]
+    D, M = "default contact (tc 2 ms)", "material contact"
+    cases = [("defaults", D, {}, dt) for dt in (5e-5, 1e-4, 2.5e-4, 5e-4, 1e-3, 2e-3)]
     cases += [
-        ("defaults, torque hold 5", dict(torque_every=5), 1e-4),
-        ("implicitfast integrator", dict(integrator="implicitfast"), 1e-4),
-        ("euler integrator", dict(integrator="euler"), 1e-4),
-        ("pyramidal cones", dict(cone="pyramidal"), 1e-4),
-        ("capsules", dict(contact_geom="capsule"), 1e-4),
-        ("base on the first piece", dict(base="first"), 1e-4),
-        ("soft contact tc 1 ms", dict(contact_timeconst=1e-3), 1e-4),
-        ("soft contact tc 1 ms", dict(contact_timeconst=1e-3), 5e-4),
-        ("soft contact tc 2 ms", dict(contact_timeconst=2e-3), 1e-3),
-        ("0.1 floor (tc = 2 dt)", dict(OLD_FLOOR, contact_timeconst=2e-4), 1e-4),
-        ("0.1 floor (tc = 2 dt)", dict(OLD_FLOOR, contact_timeconst=2e-3), 1e-3),
+        ("defaults, couples held 2 steps", D, dict(torque_every=2), 1e-3),
+        ("implicitfast integrator", D, dict(integrator="implicitfast"), 1e-3),
+        ("pyramidal cones", D, dict(cone="pyramidal"), 1e-3),
+        ("capsules", D, dict(contact_geom="capsule"), 1e-3),
+        ("base on the first piece", D, dict(base="first"), 1e-3),
+        ("contact tc 1 ms", None, dict(contact_timeconst=1e-3), 1e-3),
     ]
-    for label, kw, dt in cases:
+    cases += [("material contact", M, dict(contact_timeconst="material"), dt) for dt in (2.5e-5, 1e-4, 5e-4, 1e-3)]
+    for label, ref_name, kw, dt in cases:
         try:
-            t, x, z, cpu, pen = _crawl(beam, duration, timestep=dt, **kw)
+            run = _crawl(beam, duration, timestep=dt, **kw)
         except SimulationError as err:
             print(f"{label:>34} {dt:>7g} unstable: {err.quantity} at step {err.step}")
             continue
-        m = min(len(t), len(t_ref))  # both sampled every 10 ms
-        err = np.sqrt(((x[:m] - x_ref[:m]) ** 2 + (z[:m] - z_ref[:m]) ** 2).mean(axis=1)).max() / beam.length
-        com = (x[-1].mean() - x[0].mean()) * 1e3
-        us = cpu / (duration / dt) * 1e6
-        print(f"{label:>34} {dt:>7g} {com:>9.3f} {100 * (com - com_ref) / com_ref:>+9.1f} {100 * err:>13.2f} "
-              f"{pen * 1e6:>7.1f} {us:>8.1f} {dt * 1e6 / us:>6.1f}")
+        com = 1e3 * _travel(run)
+        us = run[3] / (duration / dt) * 1e6
+        if ref_name is None:
+            err_c, err_s = "", ""
+        else:
+            ref = refs[ref_name]
+            com_ref = 1e3 * _travel(ref)
+            err_c = f"{100 * (com - com_ref) / com_ref:+.1f}"
+            err_s = f"{100 * _shape_error(run, ref, beam.length):.2f}"
+        print(f"{label:>34} {dt:>7g} {com:>9.3f} {err_c:>9} {err_s:>13} {run[4] * 1e6:>7.1f} {us:>8.1f} "
+              f"{dt * 1e6 / us:>6.1f}")
 
 
 def contact(quick: bool) -> None:
     print("\n## contact: crawl distance against the contact time constant (the contact model), each at a "
-          "timestep that resolves it")
-    beam = _crawler()
+          "timestep that resolves it (dt = min(0.1 ms, tc / 2))")
     duration = 0.5 if quick else 2.0
-    print(f"{'tc ms':>7} {'dt s':>8} {'crawl mm':>9} {'max pen um':>10}")
-    for tc in (5e-5, 1.42e-4, 5e-4, 1e-3, 2e-3):
-        dt = min(1e-4, tc / 2)
-        _, x, _, _, pen = _crawl(beam, duration, timestep=dt, contact_timeconst=tc)
-        print(f"{tc * 1e3:>7.3f} {dt:>8.3g} {(x[-1].mean() - x[0].mean()) * 1e3:>9.3f} {pen * 1e6:>10.1f}")
+    print(f"{'crawler':>34} {'tc ms':>7} {'dt s':>8} {'crawl mm':>9} {'max pen um':>10}")
+    from magsoft_env.sim.model import material_contact_timeconst
+
+    for name, beam, wf in _crawlers():
+        tcm = material_contact_timeconst(beam)
+        for tc in (5e-5, tcm, 5e-4, 1e-3, 2e-3):
+            dt = min(1e-4, tc / 2)
+            run = _crawl(beam, duration, waveform=wf, timestep=dt, contact_timeconst=tc)
+            label = f"{tc * 1e3:.3f}" + ("m" if tc == tcm else "") + ("d" if tc == 2e-3 else "")
+            print(f"{name:>34} {label:>7} {dt:>8.3g} {1e3 * _travel(run):>9.3f} {run[4] * 1e6:>10.1f}")
+    print("m: the material's through-thickness time; d: the default")
 
 
 def symmetry(quick: bool) -> None:
@@ -405,6 +538,7 @@ def peer(quick: bool) -> None:
 
 
 SECTIONS = {
+    "targets": targets,
     "static": static, "timestep": timestep, "speed": speed, "floor": floor, "contact": contact, "symmetry": symmetry,
     "batch": batch,
     "peer": peer,
