@@ -281,3 +281,22 @@ def test_snap_onto_a_shape_the_grid_must_refine_for():
     res = ms.solve_equilibrium(beam, (0.0, 0.014091))
     assert res.success and res.stable and res.snap_through, res.message
     assert res.residual < 1e-8
+
+
+@pytest.mark.parametrize(
+    "L_mm, h_mm, levels, field, g, n, coupling",
+    [  # found by random search; the first was crossed silently by an earlier version
+        (32.86, 1.942, [3.082, -1.521], (0.03686, -0.1006), 11.97, 3, "paper"),
+        (34.5, 1.745, [-2.466, -2.712, 1.078, 0.9131, 2.191, -0.9332], (-0.02897, 0.0), 3.452, 1, "rotated"),
+        (10.01, 0.9343, [-3.047, 2.956, 2.452, 0.5879], (-0.1192, -0.2982), 205.7, 3, "rotated"),
+    ],
+)
+def test_fold_within_a_large_step_is_flagged(L_mm, h_mm, levels, field, g, n, coupling):
+    beam = ms.Beam(length=L_mm * 1e-3, width=5e-3, thickness=h_mm * 1e-3, magnetization=ms.PiecewiseConstant(levels))
+    kw = dict(gravity=g, coupling=coupling)
+    coarse = ms.solve_path(beam, ms.ramp((0, 0), field, n, include_start=False), **kw)
+    fine = ms.solve_path(beam, ms.ramp((0, 0), field, 200, include_start=False), **kw)
+    assert sum(r.snap_through for r in fine) == 1  # reference: small load steps pass one fold
+    assert coarse[0].snap_through and coarse[0].events[-1]["kind"] == "fold"
+    assert all(r.success and r.stable for r in coarse)
+    assert abs(coarse[-1].tip_angle - fine[-1].tip_angle) < 1e-8

@@ -22,7 +22,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg.lapack import dgesv, dgetrs, dpotrf
+from scipy.linalg.lapack import dgesv, dgetrs, dpotrf, dpotrs
 
 from .collocation import Grid
 
@@ -62,8 +62,7 @@ class BeamModel:
         self._diag = slice(None, None, grid.M + 1)
         self._eye = np.eye(grid.M)
         self._zeros = np.zeros(grid.M)
-        self._load = None
-        self._pq = None
+        self._pq = {}  # load -> coefficients (a few recent loads)
         self.EI_ref = float(grid.w @ self.EI) / beam.length
         # energy operators on distinct nodes (for stability and energy descent)
         self.uniq = grid.unique()
@@ -87,13 +86,15 @@ class BeamModel:
 
     # energy density and its derivatives --------------------------------------------------
     def _coeffs(self, load: Load):
-        if load != self._load:
+        pq = self._pq.get(load)
+        if pq is None:
+            if len(self._pq) > 8:
+                self._pq.clear()
             W = load.g * self.W1
             p1, p2 = self.mc * load.Bx, self.mc * load.Bz - W
             q1, q2 = self.ms * load.Bz, self.ms * load.Bx
-            self._pq = (p1, p2, q1, q2, q2 - p2, q1 + p1)
-            self._load = load
-        return self._pq
+            pq = self._pq[load] = (p1, p2, q1, q2, q2 - p2, q1 + p1)
+        return pq
 
     def density(self, theta, load: Load):
         """phi, phi_theta, phi_theta_theta and strain eps at all nodes."""
@@ -174,6 +175,45 @@ class BeamModel:
         H.reshape(-1)[:: H.shape[0] + 1] += (d[1:] if clamped else d) + tol * self.EI_ref / self.beam.length**2
         _, info = dpotrf(H, lower=0, clean=0, overwrite_a=1)  # symmetric: C order is its own transpose
         return info == 0
+
+    # continuation helpers (inextensible) -----------------------------------------------------
+    def f_fth(self, c, sn, load: Load):
+        """phi_theta and phi_theta_theta from precomputed cos, sin of theta (inextensible)."""
+        _, _, _, _, r1, r2 = self._coeffs(load)
+        return r1 * c + r2 * sn, r2 * c - r1 * sn
+
+    def cholesky(self, fth, *, clamped: bool, tol: float = 0.0):
+        """Upper Cholesky factor of the mass-normalized second variation (shifted by tol, units
+        EI/L^2), or None when it is not positive definite."""
+        if self._single:
+            d = fth
+        else:
+            d = np.bincount(self.expand, weights=self.grid.w * fth, minlength=self.uniq.size) / self.mass
+        H = self._Ks[clamped].copy()
+        H.reshape(-1)[:: H.shape[0] + 1] += (d[1:] if clamped else d) + tol * self.EI_ref / self.beam.length**2
+        U, info = dpotrf(H, lower=0, clean=0, overwrite_a=1)
+        return U if info == 0 else None
+
+    def low_mode(self, U, v, its: int = 2):
+        """Smallest eigenvalue (mass-normalized units) and its unit eigenvector, by inverse
+        iteration with the Cholesky factor U, started from v."""
+        lam = 0.0
+        for _ in range(its):
+            w, _ = dpotrs(U, v, lower=0)
+            n = float(np.sqrt(w @ w))
+            lam = float(v @ w)  # Rayleigh quotient of H^-1 at the unit vector v
+            v = w / n
+        return 1.0 / lam, v
+
+    def mode_rate(self, v, dfth, *, clamped: bool):
+        """d lambda / d t for the unit mode v (mass-normalized) when f_theta changes by dfth."""
+        if self._single:
+            d = dfth
+        else:
+            d = np.bincount(self.expand, weights=self.grid.w * dfth, minlength=self.uniq.size) / self.mass
+        if clamped:
+            d = d[1:]
+        return float((v * v) @ d)
 
     def min_eigen(self, theta, load: Load, *, clamped: bool, vector: bool = True):
         """Smallest eigenvalue of the second variation, made dimensionless by EI/L^2, and its mode."""

@@ -30,6 +30,10 @@ _MAX_STEP_RAD = 0.6  # Newton steps larger than this (rad, max norm) are damped
 _JUMP_RAD = 0.2  # a converged step this far from its prediction counts as a branch jump
 _NEUTRAL = 1e-9  # eigenvalues (units EI/L^2) above -this count as stable (neutral rigid rotation)
 _STEP_RAD = 2.0  # largest predicted change of theta in one continuation step (rad)
+_CURV_RAD = 1.0  # largest second-order term of the prediction in one continuation step (rad)
+_FOLD_FRAC = 0.5  # largest load step as a fraction of the estimated distance to a fold
+_GIVEUP_IT, _GIVEUP_RATIO = 3, 0.25
+_SHRINK = 0.25  # step reduction after a failed or rejected continuation step
 
 
 @dataclass(frozen=True)
@@ -231,6 +235,8 @@ class _Solver:
         self.events: list[dict] = []
         self._last_stable = (None, False)
         self._J_state = None
+        self._mode = None  # last lowest stability mode (warm start of inverse iteration)
+        self._stab = None  # (theta, model, load, cos, sin, stable, lambda, mode) of the last test
 
     def _set_grid(self, grid: Grid):
         self.grid = grid
@@ -272,7 +278,7 @@ class _Solver:
             big = float(np.abs(d).max())  # NaN or inf in R or J propagate here
             if not math.isfinite(big):
                 return False, theta, cc, it
-            if it >= 3 and big > 0.25 * prev_big and maxiter <= _MAX_NEWTON:
+            if it >= _GIVEUP_IT and big > _GIVEUP_RATIO * prev_big and maxiter <= _MAX_NEWTON:
                 return False, theta, cc, it  # not converging quadratically: give up early
             if big > _MAX_STEP_RAD:
                 d *= _MAX_STEP_RAD / big
@@ -340,26 +346,89 @@ class _Solver:
 
     # continuation ---------------------------------------------------------------------------------
     def tangent(self, theta, lu, start: Load, target: Load, t: float):
-        """d theta / d t along the segment (tangent predictor), from the factorized Jacobian at theta."""
-        if not self.extensible:  # phi_theta is linear in (B_x, B_z, g): exact derivative
+        """Derivatives d theta / d t and d^2 theta / d t^2 along the segment (predictor), from the
+        factorized Jacobian at theta. The second derivative is None where it is not available."""
+        mdl = self.model
+        if not self.extensible:
+            # f = phi_theta is linear in the load (B_x, B_z, g): R_t = P f_delta exactly, and
+            # differentiating R(theta(t), t) = 0 twice (f_theta_theta = -f) gives
+            #   J theta'' = -P (2 f_theta,delta theta' - f theta'^2)
             delta = Load(target.Bx - start.Bx, target.Bz - start.Bz, target.g - start.g)
-            df = self.model.density(theta, delta)[1]
-        else:
-            h = 1e-3
-            df = (
-                self.model.density(theta, start.lerp(target, t + h))[1]
-                - self.model.density(theta, start.lerp(target, t - h))[1]
-            ) / (2 * h)
-        tan = self.model.lu_solve(lu, self.model.P @ df)
+            _, df, dfth, _ = mdl.density(theta, delta)
+            tan = mdl.lu_solve(lu, mdl.P @ df)
+            tan *= -1.0
+            if not np.isfinite(tan).all():
+                return np.zeros_like(theta), None
+            f = mdl.density(theta, start.lerp(target, t))[1]
+            acc = mdl.lu_solve(lu, mdl.P @ ((f * tan - 2.0 * dfth) * tan))
+            return tan, (acc if np.isfinite(acc).all() else None)
+        h = 1e-3
+        df = (
+            mdl.density(theta, start.lerp(target, t + h))[1] - mdl.density(theta, start.lerp(target, t - h))[1]
+        ) / (2 * h)
+        tan = mdl.lu_solve(lu, mdl.P @ df)
         tan *= -1.0
-        return tan if np.isfinite(tan).all() else np.zeros_like(theta)
+        return (tan if np.isfinite(tan).all() else np.zeros_like(theta)), None
+
+    def _stability(self, theta, load: Load):
+        """Stability of an equilibrium by a Cholesky test, with cos/sin of theta and, when stable,
+        the lowest mode's eigenvalue and unit vector (inverse iteration). Cached for ``theta``."""
+        st = self._stab
+        if st is not None and st[0] is theta and st[1] is self.model and st[2] == load:
+            return st
+        mdl = self.model
+        c, sn = np.cos(theta), np.sin(theta)
+        _, fth = mdl.f_fth(c, sn, load)
+        U = mdl.cholesky(fth, clamped=True, tol=0.0)
+        lam, v = 0.0, None
+        if U is not None:
+            v = self._mode
+            if v is None or v.size != U.shape[0]:
+                v = np.full(U.shape[0], 1.0 / math.sqrt(U.shape[0]))
+            lam, v = mdl.low_mode(U, v)
+            self._mode = v
+        self._stab = st = (theta, mdl, load, c, sn, U is not None, lam, v)
+        return st
+
+    def _point(self, theta, lu, start: Load, target: Load, t: float):
+        """At an equilibrium on the segment (inextensible): its stability, the derivatives
+        theta', theta'' along the segment, and an estimate of the load distance to a fold.
+
+        The fold estimate follows the smallest eigenvalue lambda of the second variation:
+        at a fold lambda vanishes like sqrt(t_fold - t), so lambda^2 is nearly linear in t and
+        t_fold - t ~ lambda / (2 |d lambda / d t|), with d lambda / d t = v^T (d H / d t) v for
+        the unit mode v."""
+        mdl = self.model
+        load = start.lerp(target, t) if t < 1.0 else target
+        _, _, _, c, sn, stable, lam, v = self._stability(theta, load)
+        f, _ = mdl.f_fth(c, sn, load)
+        delta = Load(target.Bx - start.Bx, target.Bz - start.Bz, target.g - start.g)
+        fd, fthd = mdl.f_fth(c, sn, delta)
+        tan = mdl.lu_solve(lu, mdl.P @ fd)
+        tan *= -1.0
+        if np.isfinite(tan).all():
+            # differentiating R(theta(t), t) = 0 twice (f_theta_theta = -f):
+            #   J theta'' = -P (2 f_theta,delta theta' - f theta'^2)
+            acc = mdl.lu_solve(lu, mdl.P @ ((f * tan - 2.0 * fthd) * tan))
+            if not np.isfinite(acc).all():
+                acc = None
+        else:
+            tan, acc = np.zeros_like(theta), None
+        d_fold = math.inf
+        if stable:
+            rate = mdl.mode_rate(v, fthd - f * tan, clamped=True)
+            if rate < 0.0 and lam > 0.0:
+                d_fold = lam / (-2.0 * rate)
+        return stable, tan, acc, d_fold
 
     def continue_to(self, target: Load) -> tuple[bool, bool]:
         """Follow the equilibrium from the current load to ``target``. Returns (ok, snapped).
 
-        Tangent predictor, Newton corrector; the step is limited so that the predicted
-        change stays below ``_STEP_RAD`` and halved when Newton fails or lands far from
-        the prediction. Every accepted step is checked for stability; when the smallest
+        Predictor (tangent, plus the second derivative for inextensible beams), Newton
+        corrector; the step is limited so that the predicted change stays below ``_STEP_RAD``,
+        its second-order part below ``_CURV_RAD``, and the load step below a fraction of the
+        estimated distance to a fold; it is cut when Newton fails or lands far from the
+        prediction. Every accepted step is checked for stability; when the smallest
         eigenvalue turns negative the step is shortened to the crossing, then the solver
         jumps to a stable branch by energy descent.
         """
@@ -374,26 +443,44 @@ class _Solver:
             R, fth = self.model.residual(theta, self.theta0, start)
             _, lu = self.model.solve_newton(R, fth)
         snapped = False
-        tan = self.tangent(theta, lu, start, target, t)
+        second = not self.extensible
+        if second:
+            _, tan, acc, d_fold = self._point(theta, lu, start, target, t)
+        else:
+            tan, acc = self.tangent(theta, lu, start, target, t)
+            d_fold = math.inf
         while t < 1.0:
-            tmax = float(np.max(np.abs(tan)))
+            tmax = float(np.abs(tan).max())
             dt = min(dt, 1.0 - t, _STEP_RAD / tmax if tmax > 0 else 1.0)
+            # keep the second-order term of the prediction moderate, and approach a predicted
+            # fold geometrically; only a failed step declares a fold (a dip of the eigenvalue
+            # that does not reach zero is crossed)
+            lim = _FOLD_FRAC * d_fold
+            if acc is not None:
+                amax = float(np.abs(acc).max())
+                if amax > 0:
+                    lim = min(lim, math.sqrt(2.0 * _CURV_RAD / amax))
+            dt = min(dt, max(lim, 4 * self.opt.min_step))
             fold = dt < self.opt.min_step
             if not fold:
                 t_new = t + dt
                 if 1.0 - t_new < 1e-12:
                     t_new = 1.0
                 load = start.lerp(target, t_new)
-                guess = theta + (t_new - t) * tan
+                h = t_new - t
+                guess = theta + h * tan
+                if acc is not None:
+                    guess += (0.5 * h * h) * acc
                 ok, th_new, _, its = self.newton(guess, load)
                 self.newton_its += its
-                if ok and np.max(np.abs(th_new - guess)) > max(_JUMP_RAD, 0.5 * (t_new - t) * tmax):
+                if ok and np.max(np.abs(th_new - guess)) > max(_JUMP_RAD, 0.5 * h * tmax):
                     ok = False  # converged far from the prediction: likely another branch
                 if not ok:
-                    dt *= 0.25
+                    dt *= _SHRINK
                     fold = dt < self.opt.min_step
                     if not fold:
                         continue
+            nxt = None
             if fold:
                 # no equilibrium near the current one beyond load t: snap to a stable one
                 t_new = min(1.0, t + 4 * self.opt.min_step)
@@ -406,11 +493,18 @@ class _Solver:
                 snapped, its, dt = True, _MAX_NEWTON, 4 * self.opt.min_step
             else:
                 # stability at every accepted step: one eigenvalue crossing at a time
-                stable = self.model.is_stable(th_new, load, clamped=True, tol=0.0)
+                if second and t_new < 1.0:
+                    nxt = self._point(th_new, self._lu, start, target, t_new)
+                    stable = nxt[0]
+                elif second:  # end of the segment: derivatives come with the next one
+                    stable = self._stability(th_new, load)[5]
+                else:
+                    stable = self.model.is_stable(th_new, load, clamped=True, tol=0.0)
                 self._last_stable = (th_new, stable)
                 if not stable:
-                    if t_new - t > 1e-3:
-                        dt = 0.25 * (t_new - t)  # home in on the crossing before leaving the branch
+                    nxt = None
+                    if h > 1e-3:
+                        dt = 0.25 * h  # home in on the crossing before leaving the branch
                         continue
                     lam, mode = self.model.min_eigen(th_new, load, clamped=True)
                     ok2, th_s, _ = self._jump(th_new, mode, load, t_new, "bifurcation")
@@ -422,7 +516,12 @@ class _Solver:
             if its <= 4:
                 dt = min(1.0, 2.0 * dt)
             if t < 1.0:
-                tan = self.tangent(theta, self._lu, start, target, t)
+                if nxt is not None:
+                    _, tan, acc, d_fold = nxt
+                elif second:
+                    _, tan, acc, d_fold = self._point(theta, self._lu, start, target, t)
+                else:
+                    tan, acc = self.tangent(theta, self._lu, start, target, t)
         self.theta, self.load = theta, target
         self._J_state = (theta, self.model, self._lu)
         return True, snapped
@@ -482,9 +581,13 @@ class _Solver:
         _, f, _, eps = mdl.density(th, load)
         theta0 = self.theta0 if self.support == "cantilever" else self.c
         R = th - theta0 + mdl.P @ f
-        stretch = 1.0 + eps
-        x = grid.Q0 @ (stretch * np.cos(th))
-        z = grid.Q0 @ (stretch * np.sin(th))
+        cs = np.empty((th.size, 2))
+        cs[:, 0] = np.cos(th)
+        cs[:, 1] = np.sin(th)
+        if self.extensible:
+            cs *= (1.0 + eps)[:, None]
+        xz = grid.Q0 @ cs
+        x, z = xz[:, 0], xz[:, 1]
         clamped = self.support == "cantilever"
         if self._last_stable[0] is th and self._last_stable[1]:  # checked by the last continuation step
             stable = True
@@ -512,25 +615,25 @@ class _Solver:
             s=grid.s[u].copy(),
             theta=th[u].copy(),
             strain=eps[u].copy(),
-            x=x[u],
-            z=z[u],
+            x=x[u].copy(),
+            z=z[u].copy(),
             tip_angle=float(th[-1]),
             tip_deflection=float(z[-1]),
             rotation_angle=chord,
-            max_curvature=float(np.max(np.abs(kappa))),
-            max_strain=float(np.max(np.abs(eps))),
+            max_curvature=float(np.abs(kappa).max()),
+            max_strain=float(np.abs(eps).max()),
             stable=bool(stable),
             _eig=(mdl, th.copy(), load, clamped),
             snap_through=snapped,
             field=field_,
             gravity=gravity,
-            residual=float(np.max(np.abs(R))),
+            residual=float(np.abs(R).max()),
             resolution=tail,
             nodes=int(u.size),
             newton_iterations=self.newton_its,
             events=list(self.events),
             _grid=grid,
-            _full=(th.copy(), x, z),
+            _full=(th.copy(), x.copy(), z.copy()),
         )
 
 
