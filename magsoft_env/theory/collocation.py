@@ -10,7 +10,7 @@ accuracy.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cached_property, lru_cache
 
 import numpy as np
 
@@ -97,26 +97,37 @@ class Grid:
         keep[(self.n + 1) * np.arange(1, len(self.edges) - 1)] = False
         return np.flatnonzero(keep)
 
+    @cached_property
+    def _D(self) -> np.ndarray:
+        """Block-diagonal spectral differentiation matrix (M, M)."""
+        _, _, _, D, _, _ = _cheb_local(self.n)
+        p = self.n + 1
+        out = np.zeros((self.M, self.M))
+        for k in range(len(self.edges) - 1):
+            out[k * p : (k + 1) * p, k * p : (k + 1) * p] = D / (0.5 * (self.edges[k + 1] - self.edges[k]))
+        out.setflags(write=False)
+        return out
+
+    @cached_property
+    def _Ctail(self) -> np.ndarray:
+        """Rows giving the last three Chebyshev coefficients of every subdomain (3 d, M)."""
+        _, _, _, _, C, _ = _cheb_local(self.n)
+        p = self.n + 1
+        d = len(self.edges) - 1
+        out = np.zeros((3 * d, self.M))
+        for k in range(d):
+            out[3 * k : 3 * k + 3, k * p : (k + 1) * p] = C[-3:]
+        out.setflags(write=False)
+        return out
+
     def derivative(self, f: np.ndarray) -> np.ndarray:
         """Spectral derivative, domain by domain."""
-        _, _, _, D, _, _ = _cheb_local(self.n)
-        out = np.empty_like(f)
-        for k in range(len(self.edges) - 1):
-            sl = slice(k * (self.n + 1), (k + 1) * (self.n + 1))
-            h = 0.5 * (self.edges[k + 1] - self.edges[k])
-            out[sl] = D @ f[sl] / h
-        return out
+        return self._D @ f
 
     def tail(self, f: np.ndarray) -> float:
         """Largest size of the last three Chebyshev coefficients over subdomains, relative to |f|."""
-        _, _, _, _, C, _ = _cheb_local(self.n)
-        scale = max(1.0, float(np.max(np.abs(f))))
-        worst = 0.0
-        for k in range(len(self.edges) - 1):
-            sl = slice(k * (self.n + 1), (k + 1) * (self.n + 1))
-            coef = C @ f[sl]
-            worst = max(worst, float(np.max(np.abs(coef[-3:]))))
-        return worst / scale
+        scale = max(1.0, float(np.abs(f).max()))
+        return float(np.abs(self._Ctail @ f).max()) / scale
 
     def interpolate(self, f: np.ndarray, s_new) -> np.ndarray:
         """Barycentric interpolation of nodal values ``f`` (M,) or (M, k) at ``s_new`` (m)."""

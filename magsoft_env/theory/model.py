@@ -93,18 +93,23 @@ class BeamModel:
             W = load.g * self.W1
             p1, p2 = self.mc * load.Bx, self.mc * load.Bz - W
             q1, q2 = self.ms * load.Bz, self.ms * load.Bx
-            pq = self._pq[load] = (p1, p2, q1, q2, q2 - p2, q1 + p1)
+            r1, r2 = q2 - p2, q1 + p1
+            # f = r1 cos + r2 sin = A sin(theta + ph), f_theta = A cos(theta + ph)
+            pq = self._pq[load] = (p1, p2, q1, q2, r1, r2, np.hypot(r1, r2), np.arctan2(r1, r2))
         return pq
 
     def density(self, theta, load: Load):
         """phi, phi_theta, phi_theta_theta and strain eps at all nodes."""
-        c, sn = np.cos(theta), np.sin(theta)
-        p1, p2, q1, q2, r1, r2 = self._coeffs(load)
+        p1, p2, q1, q2, r1, r2, amp, ph = self._coeffs(load)
         if not self.extensible:
             # phi = -a - t0, f = -a1 + t1, f_theta = a + t0 (see module docstring)
-            f = r1 * c + r2 * sn
-            fth = r2 * c - r1 * sn
+            u = theta + ph
+            f = np.sin(u)
+            f *= amp
+            fth = np.cos(u)
+            fth *= amp
             return -fth, f, fth, self._zeros
+        c, sn = np.cos(theta), np.sin(theta)
         a = p1 * c + p2 * sn
         a1 = p2 * c - p1 * sn
         t0 = q1 * c - q2 * sn
@@ -114,6 +119,18 @@ class BeamModel:
         f = -a1 * (1.0 + eps) + t1
         fth = a * (1.0 + eps) - a1 * a1 / self.EA + t0
         return phi, f, fth, eps
+
+    def f_fth_at(self, theta, load: Load):
+        """phi_theta and phi_theta_theta only (what Newton needs)."""
+        if self.extensible:
+            return self.density(theta, load)[1:3]
+        amp, ph = self._coeffs(load)[6:]
+        u = theta + ph
+        f = np.sin(u)
+        f *= amp
+        u = np.cos(u, out=u)
+        u *= amp
+        return f, u
 
     # collocation residual (integral form) -------------------------------------------------
     def residual(self, theta, theta0: float, load: Load):
@@ -179,7 +196,7 @@ class BeamModel:
     # continuation helpers (inextensible) -----------------------------------------------------
     def f_fth(self, c, sn, load: Load):
         """phi_theta and phi_theta_theta from precomputed cos, sin of theta (inextensible)."""
-        _, _, _, _, r1, r2 = self._coeffs(load)
+        r1, r2 = self._coeffs(load)[4:6]
         return r1 * c + r2 * sn, r2 * c - r1 * sn
 
     def cholesky(self, fth, *, clamped: bool, tol: float = 0.0):
@@ -190,7 +207,10 @@ class BeamModel:
         else:
             d = np.bincount(self.expand, weights=self.grid.w * fth, minlength=self.uniq.size) / self.mass
         H = self._Ks[clamped].copy()
-        H.reshape(-1)[:: H.shape[0] + 1] += (d[1:] if clamped else d) + tol * self.EI_ref / self.beam.length**2
+        dg = H.reshape(-1)[:: H.shape[0] + 1]
+        dg += d[1:] if clamped else d
+        if tol:
+            dg += tol * self.EI_ref / self.beam.length**2
         U, info = dpotrf(H, lower=0, clean=0, overwrite_a=1)
         return U if info == 0 else None
 

@@ -236,7 +236,7 @@ class _Solver:
         self._last_stable = (None, False)
         self._J_state = None
         self._mode = None  # last lowest stability mode (warm start of inverse iteration)
-        self._stab = None  # (theta, model, load, cos, sin, stable, lambda, mode) of the last test
+        self._stab = None  # (theta, model, load, cos, sin, stable, lambda, mode, f) of the last test
 
     def _set_grid(self, grid: Grid):
         self.grid = grid
@@ -271,7 +271,10 @@ class _Solver:
                     return False, theta, cc, it
                 lu = None
             else:
-                R, fth = mdl.residual(th, self.theta0, load)
+                f, fth = mdl.f_fth_at(th, load)
+                R = mdl.P @ f
+                R += th
+                R -= self.theta0
                 d, lu = mdl.solve_newton(R, fth)
                 if d is None:
                     return False, theta, cc, it
@@ -363,9 +366,9 @@ class _Solver:
             acc = mdl.lu_solve(lu, mdl.P @ ((f * tan - 2.0 * dfth) * tan))
             return tan, (acc if np.isfinite(acc).all() else None)
         h = 1e-3
-        df = (
-            mdl.density(theta, start.lerp(target, t + h))[1] - mdl.density(theta, start.lerp(target, t - h))[1]
-        ) / (2 * h)
+        df = (mdl.density(theta, start.lerp(target, t + h))[1] - mdl.density(theta, start.lerp(target, t - h))[1]) / (
+            2 * h
+        )
         tan = mdl.lu_solve(lu, mdl.P @ df)
         tan *= -1.0
         return (tan if np.isfinite(tan).all() else np.zeros_like(theta)), None
@@ -378,16 +381,17 @@ class _Solver:
             return st
         mdl = self.model
         c, sn = np.cos(theta), np.sin(theta)
-        _, fth = mdl.f_fth(c, sn, load)
+        f, fth = mdl.f_fth(c, sn, load)
         U = mdl.cholesky(fth, clamped=True, tol=0.0)
         lam, v = 0.0, None
         if U is not None:
             v = self._mode
-            if v is None or v.size != U.shape[0]:
-                v = np.full(U.shape[0], 1.0 / math.sqrt(U.shape[0]))
-            lam, v = mdl.low_mode(U, v)
+            if v is None or v.size != U.shape[0]:  # cold start: two inverse iterations
+                lam, v = mdl.low_mode(U, np.full(U.shape[0], 1.0 / math.sqrt(U.shape[0])), its=2)
+            else:  # warm start from the previous step's mode
+                lam, v = mdl.low_mode(U, v, its=1)
             self._mode = v
-        self._stab = st = (theta, mdl, load, c, sn, U is not None, lam, v)
+        self._stab = st = (theta, mdl, load, c, sn, U is not None, lam, v, f)
         return st
 
     def _point(self, theta, lu, start: Load, target: Load, t: float):
@@ -400,17 +404,16 @@ class _Solver:
         the unit mode v."""
         mdl = self.model
         load = start.lerp(target, t) if t < 1.0 else target
-        _, _, _, c, sn, stable, lam, v = self._stability(theta, load)
-        f, _ = mdl.f_fth(c, sn, load)
+        _, _, _, c, sn, stable, lam, v, f = self._stability(theta, load)
         delta = Load(target.Bx - start.Bx, target.Bz - start.Bz, target.g - start.g)
         fd, fthd = mdl.f_fth(c, sn, delta)
         tan = mdl.lu_solve(lu, mdl.P @ fd)
         tan *= -1.0
-        if np.isfinite(tan).all():
+        if math.isfinite(tan.sum()):
             # differentiating R(theta(t), t) = 0 twice (f_theta_theta = -f):
             #   J theta'' = -P (2 f_theta,delta theta' - f theta'^2)
             acc = mdl.lu_solve(lu, mdl.P @ ((f * tan - 2.0 * fthd) * tan))
-            if not np.isfinite(acc).all():
+            if not math.isfinite(acc.sum()):
                 acc = None
         else:
             tan, acc = np.zeros_like(theta), None
@@ -466,14 +469,14 @@ class _Solver:
                 t_new = t + dt
                 if 1.0 - t_new < 1e-12:
                     t_new = 1.0
-                load = start.lerp(target, t_new)
+                load = start.lerp(target, t_new) if t_new < 1.0 else target
                 h = t_new - t
                 guess = theta + h * tan
                 if acc is not None:
                     guess += (0.5 * h * h) * acc
                 ok, th_new, _, its = self.newton(guess, load)
                 self.newton_its += its
-                if ok and np.max(np.abs(th_new - guess)) > max(_JUMP_RAD, 0.5 * h * tmax):
+                if ok and float(np.abs(th_new - guess).max()) > max(_JUMP_RAD, 0.5 * h * tmax):
                     ok = False  # converged far from the prediction: likely another branch
                 if not ok:
                     dt *= _SHRINK
@@ -578,16 +581,20 @@ class _Solver:
         mdl, grid = self.model, self.grid
         th = self.theta
         load = self.load
-        _, f, _, eps = mdl.density(th, load)
+        st = self._stab
+        if not self.extensible and st is not None and st[0] is th and st[1] is mdl and st[2] == load:
+            c, sn, f = st[3], st[4], st[8]  # from the stability test of this state
+            eps = mdl._zeros
+        else:
+            _, f, _, eps = mdl.density(th, load)
+            c, sn = np.cos(th), np.sin(th)
+            if self.extensible:
+                c, sn = c * (1.0 + eps), sn * (1.0 + eps)
         theta0 = self.theta0 if self.support == "cantilever" else self.c
-        R = th - theta0 + mdl.P @ f
-        cs = np.empty((th.size, 2))
-        cs[:, 0] = np.cos(th)
-        cs[:, 1] = np.sin(th)
-        if self.extensible:
-            cs *= (1.0 + eps)[:, None]
-        xz = grid.Q0 @ cs
-        x, z = xz[:, 0], xz[:, 1]
+        R = mdl.P @ f
+        R += th
+        R -= theta0
+        x, z = grid.Q0 @ c, grid.Q0 @ sn
         clamped = self.support == "cantilever"
         if self._last_stable[0] is th and self._last_stable[1]:  # checked by the last continuation step
             stable = True
@@ -615,8 +622,8 @@ class _Solver:
             s=grid.s[u].copy(),
             theta=th[u].copy(),
             strain=eps[u].copy(),
-            x=x[u].copy(),
-            z=z[u].copy(),
+            x=x[u],
+            z=z[u],
             tip_angle=float(th[-1]),
             tip_deflection=float(z[-1]),
             rotation_angle=chord,
@@ -633,7 +640,7 @@ class _Solver:
             newton_iterations=self.newton_its,
             events=list(self.events),
             _grid=grid,
-            _full=(th.copy(), x.copy(), z.copy()),
+            _full=(th.copy(), x, z),
         )
 
 
