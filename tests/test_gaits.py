@@ -77,6 +77,45 @@ def test_5c_reverses_with_bx():
     assert fwd.speed == pytest.approx(-rev.speed, rel=0.05)
 
 
+# The directions docs/envs.md ("Paper gaits") reports, at a coarser step than the table's 0.1 ms
+# (the table shows the same signs at 0.2, 0.1 and 0.05 ms) and over shorter runs, to stay fast.
+
+
+def test_5a_under_oscillating_bz_moves_right_with_its_right_half_lifting_more():
+    # the preset (B_z 2 mT, 2 Hz): against the paper's left, a reported disagreement; the right half
+    # (phi = 20 %) deflects more, as the paper describes
+    r = run_gait(gait_preset("paper-5a"), 2.0, timestep=2e-4)
+    assert r.success
+    assert r.speed > 0.2e-3  # m/s
+    assert r.max_lift_right > 3.0 * r.max_lift_left
+
+
+def test_5a_under_oscillating_bz_at_4hz_moves_left():
+    # the same robot and amplitude at 4 Hz crawls left: the direction depends on the frequency
+    import dataclasses
+
+    p = gait_preset("paper-5a")
+    p = dataclasses.replace(p, wave=dataclasses.replace(p.wave, frequency=4.0))
+    r = run_gait(p, 2.0, timestep=2e-4)
+    assert r.success and r.speed < -0.1e-3  # m/s
+
+
+def test_5a_under_oscillating_bx_does_not_crawl():
+    # B_x acts only on the small transverse magnetization (sin 15 deg): below the tumbling threshold
+    # the beam barely deforms and does not move
+    import dataclasses
+
+    p = dataclasses.replace(gait_preset("paper-5a"), wave=Waveparams(5e-3, 0.0, 2.0))
+    r = run_gait(p, 1.5, timestep=2e-4)
+    assert r.success
+    assert abs(r.speed) < 0.05e-3 and max(r.max_lift_left, r.max_lift_right) < 1.5e-3
+
+
+def test_5b_moves_left():
+    r = run_gait(gait_preset("paper-5b"), 2.0, timestep=2e-4)
+    assert r.success and r.speed < -0.2e-3  # m/s, the paper's direction
+
+
 def test_symmetric_robot_under_pure_bz_does_not_drift():
     # the cosine-jig beam under an oscillating B_z alone is its own mirror image: no net motion
     # (this caught a +0.55 mm/s drift of sphere colliders, hence capsules in the presets)
@@ -103,3 +142,24 @@ def test_gait_cli_text_and_bad_input(capsys):
     assert "mm/s" in text and "paper: left, -0.85 mm/s" in text
     assert main(["gait", "--preset", "paper-5a", "--seconds", "-1"]) == 2
     assert "--seconds must be > 0" in capsys.readouterr().err
+
+
+def test_gaits_pin_their_rod_options():
+    # the gaits must not move when the sim's defaults change: contact, solver and base are explicit
+    from magsoft_env.gaits import GAIT_ROD_OPTIONS, contact_timeconst
+
+    p = gait_preset("paper-5a")
+    o = p.rod_options()
+    assert o.contact_timeconst == contact_timeconst(p.beam) == pytest.approx(1.42e-4, rel=0.01)
+    assert (o.contact_geom, o.timestep, o.segments) == ("capsule", 1e-4, 20)
+    assert all(getattr(o, k) == v for k, v in GAIT_ROD_OPTIONS.items())
+    assert gait_preset("paper-5b").rod_options().segments == 40  # 5b's speed needs 40 (docs/envs.md)
+
+
+def test_beam_5a_jig_angle_and_face():
+    from magsoft_env.gaits import beam_5a
+
+    L = 25e-3
+    up, down = beam_5a(), beam_5a(math.radians(30.0), face_down=True)
+    np.testing.assert_allclose(np.degrees(up.beta([0.25 * L, 0.75 * L])), [15.0, -15.0], atol=1e-9)
+    np.testing.assert_allclose(np.degrees(down.beta([0.25 * L, 0.75 * L])), [-30.0, 30.0], atol=1e-9)

@@ -22,7 +22,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--reverse", action="store_true", help="invert B_x (paper Fig. 5c: reverses the direction)")
     p.add_argument("--seconds", type=float, default=4.0, help="simulated time in s (default 4)")
     p.add_argument("--timestep-ms", type=float, default=0.1, help="simulation step in ms (default 0.1, converged)")
-    p.add_argument("--segments", type=int, default=20, help="rod segments (default 20)")
+    p.add_argument("--segments", type=int, default=None,
+                   help="rod segments (default: the preset's, 40 for paper-5b and 20 for the others)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
     p.set_defaults(run=run)
     return p
@@ -35,7 +36,7 @@ def run(args) -> int:
         raise ValueError(f"--seconds must be > 0 (s), got {args.seconds}.")
     if not 0 < args.timestep_ms <= 10:
         raise ValueError(f"--timestep-ms must lie in (0, 10] ms, got {args.timestep_ms}.")
-    if not 2 <= args.segments <= 1000:
+    if args.segments is not None and not 2 <= args.segments <= 1000:
         raise ValueError(f"--segments must be an integer in [2, 1000], got {args.segments}.")
     preset = gait_preset(args.preset, reverse=args.reverse)
     res = run_gait(preset, args.seconds, segments=args.segments, timestep=args.timestep_ms * 1e-3)
@@ -47,6 +48,8 @@ def run(args) -> int:
         "frequency_Hz": preset.wave.frequency, "phase_x_deg": preset.wave.phase * 180.0 / 3.141592653589793,
     }
     out["friction"] = preset.friction
+    out["segments"] = preset.segments if args.segments is None else args.segments
+    out["timestep_ms"] = args.timestep_ms
     if args.json:
         print(json.dumps(out))
     else:
