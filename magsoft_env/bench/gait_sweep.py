@@ -1,0 +1,162 @@
+"""The paper gaits (Fig. 5) under varied fields, friction and numerics: the table in docs/envs.md.
+
+    python -m magsoft_env.bench.gait_sweep [--quick] [--groups 5a-field,5b-numerics] [--seconds 6]
+                                           [--json out.json]
+
+Every row is one :func:`magsoft_env.gaits.run_gait` of a preset with some of its settings
+replaced (field, friction, segments, timestep); the speed is the centre-of-mass speed along +x
+after the first field period. Groups:
+
+* ``presets``: the three presets as shipped (``--reverse`` for 5c), defaults of ``magsoft gait``.
+* ``5a-field``: paper-5a under oscillating B_z, oscillating B_x, a field oscillating along a
+  tilted axis (B_x and B_z in phase or in antiphase) and rotating fields (B_x 90 deg ahead of
+  or behind B_z), 2 Hz.
+* ``5a-robot``: what the paper leaves open about the robot itself: the other face down
+  (beta -> -beta) and a 30 deg jig instead of 15 deg.
+* ``5a-frequency``, ``5a-friction``: paper-5a's own field at 1 and 4 Hz; friction 0.3 and 1.0.
+* ``5a-numerics``, ``5b-numerics``, ``5c-numerics``: timestep 0.2 / 0.1 / 0.05 ms and 20 / 40
+  segments, to show whether the speeds converge.
+
+``--quick`` runs only ``presets`` for 2 s each (a smoke check of the directions, about a
+minute); the docs table is the full run (default 6 s, about 15 minutes on one core).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import math
+import sys
+
+from magsoft_env.gaits import GAIT_TIMESTEP, Waveparams, beam_5a, gait_preset, run_gait
+
+MT = 1e-3
+
+
+@dataclasses.dataclass(frozen=True)
+class Case:
+    """One row: a preset with optional replacements (``None``: the preset's own)."""
+
+    group: str
+    preset: str
+    reverse: bool = False
+    wave: Waveparams | None = None
+    friction: float | None = None
+    segments: int | None = None  # None: the preset's own
+    timestep: float = GAIT_TIMESTEP
+    label: str = ""
+    jig_angle_deg: float | None = None  # paper-5a only: V-jig angle (preset 15 deg)
+    face_down: bool = False  # paper-5a only: the other face on the floor
+
+
+def _w(bx_mT: float, bz_mT: float, f: float = 2.0, phase_deg: float = 0.0) -> Waveparams:
+    return Waveparams(bx_mT * MT, bz_mT * MT, f, math.radians(phase_deg))
+
+
+def cases(groups=None) -> list[Case]:
+    """The sweep's rows, optionally only the named groups."""
+    out = [Case("presets", "paper-5a"), Case("presets", "paper-5b"), Case("presets", "paper-5c"),
+           Case("presets", "paper-5c", reverse=True)]
+    for bz in (1.0, 1.25, 1.5, 2.0, 2.5):
+        out.append(Case("5a-field", "paper-5a", wave=_w(0.0, bz), label="oscillating B_z"))
+    for bx in (2.0, 5.0, 6.0, 7.0):
+        out.append(Case("5a-field", "paper-5a", wave=_w(bx, 0.0), label="oscillating B_x"))
+    for ph, what in ((0.0, "tilted axis, in phase"), (180.0, "tilted axis, antiphase"),
+                     (90.0, "rotating, B_x 90 deg ahead"), (-90.0, "rotating, B_x 90 deg behind")):
+        out.append(Case("5a-field", "paper-5a", wave=_w(1.5, 1.5, 2.0, ph), label=what))
+    for bz in (1.5, 2.0):
+        out.append(Case("5a-robot", "paper-5a", wave=_w(0.0, bz), face_down=True, label="face down"))
+    out.append(Case("5a-robot", "paper-5a", wave=_w(6.0, 0.0), face_down=True, label="face down"))
+    for bx in (2.0, 3.0):
+        out.append(Case("5a-robot", "paper-5a", wave=_w(bx, 0.0), jig_angle_deg=30.0, label="30 deg jig"))
+    out.append(Case("5a-robot", "paper-5a", wave=_w(0.0, 1.5), jig_angle_deg=30.0, label="30 deg jig"))
+    wa = gait_preset("paper-5a").wave
+    for f, seg, dt in ((1.0, 20, 1e-4), (3.0, 20, 1e-4), (4.0, 20, 1e-4), (4.0, 40, 5e-5)):
+        out.append(Case("5a-frequency", "paper-5a", wave=dataclasses.replace(wa, frequency=f), segments=seg,
+                        timestep=dt))
+    for mu in (0.3, 1.0):
+        out.append(Case("5a-friction", "paper-5a", friction=mu))
+    for name, rev in (("paper-5a", False), ("paper-5b", False), ("paper-5c", False), ("paper-5c", True)):
+        group = name[-2:] + "-numerics"
+        for seg, dt in ((20, 2e-4), (20, 1e-4), (20, 5e-5), (40, 1e-4), (40, 5e-5)):
+            out.append(Case(group, name, reverse=rev, segments=seg, timestep=dt))
+    if groups:
+        known = {c.group for c in out}
+        bad = set(groups) - known
+        if bad:
+            raise ValueError(f"unknown groups {sorted(bad)}; known: {sorted(known)}")
+        out = [c for c in out if c.group in groups]
+    return out
+
+
+def run_case(case: Case, seconds: float) -> dict:
+    """Run one row; returns a JSON-ready dict (mm, mm/s, mT, ms)."""
+    p = gait_preset(case.preset, reverse=case.reverse)
+    if case.wave is not None:
+        p = dataclasses.replace(p, wave=case.wave)
+    if case.friction is not None:
+        p = dataclasses.replace(p, friction=case.friction)
+    if case.jig_angle_deg is not None or case.face_down:
+        angle = math.radians(15.0 if case.jig_angle_deg is None else case.jig_angle_deg)
+        p = dataclasses.replace(p, beam=beam_5a(angle, face_down=case.face_down))
+    r = run_gait(p, seconds, segments=case.segments, timestep=case.timestep)
+    w = p.wave
+    d = r.as_dict()
+    d.update(preset=case.preset, group=case.group, label=case.label, reverse=case.reverse,
+             segments=p.segments if case.segments is None else case.segments,
+             timestep_ms=case.timestep * 1e3, friction=p.friction, bx_mT=w.amplitude_x / MT,
+             bz_mT=w.amplitude_z / MT, frequency_Hz=w.frequency, phase_deg=math.degrees(w.phase),
+             paper_direction=p.paper_direction,
+             paper_speed_mm_s=None if p.paper_speed is None else p.paper_speed * 1e3)
+    return d
+
+
+def _field(d: dict) -> str:
+    parts = []
+    if d["bx_mT"]:
+        ph = f" {d['phase_deg']:+.0f} deg" if d["phase_deg"] and d["bz_mT"] else ""
+        parts.append(f"B_x {d['bx_mT']:+g}{ph}")
+    if d["bz_mT"]:
+        parts.append(f"B_z {d['bz_mT']:g}")
+    return ", ".join(parts) + f" mT, {d['frequency_Hz']:g} Hz"
+
+
+HEADER = ("| group | gait | field | friction | N | dt (ms) | speed (mm/s) | direction | lift left / right (mm) "
+          "| max height (mm) | paper |\n|---|---|---|---|---|---|---|---|---|---|---|")
+
+
+def row(d: dict) -> str:
+    paper = d["paper_direction"] + ("" if d["paper_speed_mm_s"] is None else f", {d['paper_speed_mm_s']:+.2f}")
+    direction = d["direction"] if d["success"] else "unstable"
+    label = f" ({d['label']})" if d["label"] else ""
+    return (f"| {d['group']} | {d['preset']}{' --reverse' if d['reverse'] else ''}{label} | {_field(d)} | "
+            f"{d['friction']:g} | {d['segments']} | {d['timestep_ms']:g} | {d['speed_mm_s']:+.2f} | {direction} | "
+            f"{d['max_lift_left_mm']:.1f} / {d['max_lift_right_mm']:.1f} | {d['max_height_mm']:.1f} | {paper} |")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="only the presets, 2 s each (smoke check)")
+    ap.add_argument("--groups", default="", help="comma-separated groups (default: all)")
+    ap.add_argument("--seconds", type=float, default=None, help="simulated time per row in s (default 6; quick 2)")
+    ap.add_argument("--json", default=None, help="also write the rows to this JSON file")
+    args = ap.parse_args(argv)
+    groups = [g for g in args.groups.split(",") if g] or (["presets"] if args.quick else None)
+    seconds = args.seconds if args.seconds is not None else (2.0 if args.quick else 6.0)
+    rows = []
+    print(f"{seconds:g} s per row; speed after the first field period\n")
+    print(HEADER)
+    for case in cases(groups):
+        d = run_case(case, seconds)
+        rows.append(d)
+        print(row(d), flush=True)
+    print(f"\n{len(rows)} rows, {sum(d['wall_time_s'] for d in rows):.0f} s of computing")
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(rows, f, indent=1)
+    return 0 if all(d["success"] for d in rows) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
