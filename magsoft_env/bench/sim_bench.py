@@ -293,12 +293,35 @@ def _travel(run) -> float:
     return float(x[-1].mean() - x[0].mean())
 
 
-def _e2e_us(beam, waveform, duration, holds=(1,), repeats=3) -> dict:
-    """Best-of-``repeats`` CPU us per step of ``Simulator.step`` over the whole crawl (one call)
-    at the default settings, for each couple-hold count in ``holds``, interleaved."""
+def _timings(beam, waveform, duration, holds=(1, 2, 5), repeats=9) -> tuple[dict, float, float]:
+    """CPU us per step along the default crawl, best of ``repeats`` rounds, all cases interleaved in
+    each round (the machine's load changes within a run):
+
+    * ``Simulator.step`` over the whole crawl (one call), magnetics every step or held over
+      ``h`` steps, for each ``h`` in ``holds``;
+    * ``mj_step`` alone along the same trajectory: the generalized magnetic forces of every step
+      recorded from a ``Simulator`` run and replayed by ``mujoco.rollout`` (a C loop, no Python
+      per step) from the same initial state.
+
+    Returns ({hold: us}, replay us, largest |qpos| difference of the replay from the run)."""
+    from mujoco import rollout as mjrollout
+
     sims = {h: Simulator(beam, RodOptions(scene="floor"), torque_every=h) for h in holds}
-    n = int(round(duration / sims[holds[0]].timestep))
+    rec = Simulator(beam, RodOptions(scene="floor"))
+    rec.set_waveform(waveform)
+    m, d = rec.model, rec.data
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    x0 = np.empty(mujoco.mj_stateSize(m, spec))
+    mujoco.mj_getState(m, d, x0, spec)
+    w0 = d.qacc_warmstart.copy()
+    n = int(round(duration / rec.timestep))
+    qfrc = np.empty((n, m.nv))
+    for k in range(n):
+        rec.step(1)
+        qfrc[k] = d.qfrc_applied
     best = dict.fromkeys(holds, math.inf)
+    replay, state = math.inf, None
+    scratch = mujoco.MjData(m)
     for _ in range(repeats):
         for h, sim in sims.items():
             sim.reset()
@@ -306,45 +329,22 @@ def _e2e_us(beam, waveform, duration, holds=(1,), repeats=3) -> dict:
             t0 = time.process_time()
             sim.step(n)
             best[h] = min(best[h], time.process_time() - t0)
-    return {h: v / n * 1e6 for h, v in best.items()}
-
-
-def _replay_us(beam, waveform, duration, repeats=3) -> tuple[float, float]:
-    """``mj_step`` alone along the default crawl: the generalized magnetic forces of every step
-    are recorded from a ``Simulator`` run, then replayed by ``mujoco.rollout`` (a C loop, no
-    Python per step) from the same initial state. Returns best-of-``repeats`` CPU us per step
-    and the largest |qpos| difference of the replay from the run (0: the same trajectory)."""
-    from mujoco import rollout as mjrollout
-
-    sim = Simulator(beam, RodOptions(scene="floor"))
-    sim.set_waveform(waveform)
-    m, d = sim.model, sim.data
-    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
-    x0 = np.empty(mujoco.mj_stateSize(m, spec))
-    mujoco.mj_getState(m, d, x0, spec)
-    w0 = d.qacc_warmstart.copy()
-    n = int(round(duration / sim.timestep))
-    qfrc = np.empty((n, m.nv))
-    for k in range(n):
-        sim.step(1)
-        qfrc[k] = d.qfrc_applied
-    best, state = math.inf, None
-    for _ in range(repeats):
         t0 = time.process_time()
-        state, _ = mjrollout.rollout(m, mujoco.MjData(m), x0[None], qfrc[None],
+        state, _ = mjrollout.rollout(m, scratch, x0[None], qfrc[None],
                                      control_spec=mujoco.mjtState.mjSTATE_QFRC_APPLIED, initial_warmstart=w0[None])
-        best = min(best, time.process_time() - t0)
+        replay = min(replay, time.process_time() - t0)
     diff = float(np.abs(state[0, -1, 1 : 1 + m.nq] - d.qpos).max())  # FULLPHYSICS rows: time, qpos, ...
-    return best / n * 1e6, diff
+    return {h: v / n * 1e6 for h, v in best.items()}, replay / n * 1e6, diff
 
 
 def targets(quick: bool) -> None:
     print("\n## targets: end to end at the default floor settings (N = 20, dt 1 ms, contact tc 2 ms, discrete, "
           "magnetics every step), one core")
     duration = 0.5 if quick else 2.0
-    print(f"each crawler for {duration:g} s. us/step = best of 3 CPU time of Simulator.step over the whole run "
+    print(f"each crawler for {duration:g} s. us/step = best of 9 CPU time of Simulator.step over the whole run "
           "(magnetics, checks); mj_step = the same trajectory replayed by mujoco.rollout with the recorded "
-          "generalized magnetic forces (C loop; |dq| = its distance from the run); RTF = dt / (us/step)")
+          "generalized magnetic forces (C loop; |dq| = its distance from the run); all interleaved; "
+          "RTF = dt / (us/step)")
     print("crawl = centre-of-mass x travel; d = its error vs the reference; shape = max over time of the centerline "
           "RMS distance / L vs the fine reference; pen = largest penetration (sampled every 10 ms)")
     print("fine ref: the same contact model (tc 2 ms) at dt = 50 us. stiff ref: the material contact "
@@ -352,8 +352,7 @@ def targets(quick: bool) -> None:
     print(f"{'crawler':>34} {'mj_step':>7} {'|dq|':>7} {'us/step':>8} {'RTF':>6} {'crawl mm':>9} {'fine mm':>8} "
           f"{'d fine %':>8} {'shape %L':>8} {'pen um':>7} {'stiff mm':>8} {'d stiff %':>9} {'pen stiff':>9}")
     for name, beam, wf in _crawlers():
-        e2e = _e2e_us(beam, wf, duration, holds=(1, 2, 5))
-        raw, dq = _replay_us(beam, wf, duration)
+        e2e, raw, dq = _timings(beam, wf, duration)
         us = e2e[1]
         run = _crawl(beam, duration, waveform=wf)
         fine = _crawl(beam, duration, waveform=wf, timestep=5e-5)
