@@ -213,18 +213,27 @@ class GaitResult:
         }
 
 
-def beam_5a(jig_angle: float = math.radians(15.0), *, face_down: bool = False) -> Beam:
-    """The Fig. 5a robot: 25 x 5 x 1.13 mm, phi = 10 % left half / 20 % right half, "V" jig.
+def beam_5a(jig_angle: float = math.radians(15.0), *, face_down: bool = False, vees: int = 1) -> Beam:
+    """The Fig. 5a robot: 25 x 5 x 1.13 mm, phi = 10 % left half / 20 % right half, polyline jig.
 
-    The symmetric polyline jig falls ``jig_angle`` (rad) over the left half and rises as much over
-    the right, so beta = +angle on the left half and -angle on the right. ``face_down`` turns the
-    beam over (the other face on the floor, left and right kept): beta -> -beta, a "Lambda" jig.
-    The paper gives neither the angle nor the face; the preset uses 15 deg, face up.
+    ``vees = 1`` (the preset): the symmetric "V" jig falls ``jig_angle`` (rad) over the left half
+    and rises as much over the right, so beta = +angle on the left half and -angle on the right.
+    ``vees = n``: the paper's "multiple symmetric polylines" read as a zigzag of n V's ("W" for
+    n = 2), 2n equal pieces alternately falling and rising by ``jig_angle``: beta = +angle, -angle,
+    +angle, ... (mirror-symmetric about the middle for every n: beta(L - s) = -beta(s)).
+    ``face_down`` turns the beam over (the other face on the floor, left and right kept):
+    beta -> -beta. The paper gives neither the angle, the number of V's nor the face; the preset
+    uses 15 deg, one V, face up (docs/envs.md, "5a with multiple polylines", has the study of
+    n = 1-4).
     """
+    n = int(vees)
+    if n < 1 or n != vees:
+        raise ValueError(f"vees must be a positive integer, got {vees!r}.")
     L, a = 25e-3, float(jig_angle)
     sign = -1.0 if face_down else 1.0
-    x = np.array([0.0, 0.5 * L * math.cos(a), L * math.cos(a)])
-    z = np.array([0.0, -sign * 0.5 * L * math.sin(a), 0.0])
+    piece = L / (2 * n)
+    x = piece * math.cos(a) * np.arange(2 * n + 1)
+    z = np.where(np.arange(2 * n + 1) % 2 == 1, -sign * piece * math.sin(a), 0.0)
     return Beam(length=L, width=WIDTH, thickness=THICKNESS, volume_fraction=PiecewiseConstant([0.1, 0.2]),
                 magnetization=jig_from_polyline(x, z))
 

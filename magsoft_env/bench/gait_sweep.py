@@ -14,6 +14,10 @@ after the first field period. Groups:
 * ``5a-robot``: what the paper leaves open about the robot itself: the other face down
   (beta -> -beta) and a 30 deg jig instead of 15 deg.
 * ``5a-frequency``, ``5a-friction``: paper-5a's own field at 1 and 4 Hz; friction 0.3 and 1.0.
+* ``5a-polylines``: the 5a robot magnetized by multiple symmetric polylines (zigzag jigs of 1-4
+  V's, ``beam_5a(vees=n)``): both faces down, jig angle 10-30 deg, oscillating B_z 1.25-2.5 mT at
+  1-3 Hz, oscillating B_x 2.5 and 5 mT, and 20 / 40 segments at 0.1 / 0.05 ms (40 rows, about
+  6 minutes on one core).
 * ``5a-numerics``, ``5b-numerics``, ``5c-numerics``: timestep 0.2 / 0.1 / 0.05 ms and 20 / 40
   segments, to show whether the speeds converge.
 
@@ -48,6 +52,7 @@ class Case:
     label: str = ""
     jig_angle_deg: float | None = None  # paper-5a only: V-jig angle (preset 15 deg)
     face_down: bool = False  # paper-5a only: the other face on the floor
+    vees: int = 1  # paper-5a only: V's in the symmetric zigzag jig (preset 1)
 
 
 def _w(bx_mT: float, bz_mT: float, f: float = 2.0, phase_deg: float = 0.0) -> Waveparams:
@@ -77,6 +82,7 @@ def cases(groups=None) -> list[Case]:
                         timestep=dt))
     for mu in (0.3, 1.0):
         out.append(Case("5a-friction", "paper-5a", friction=mu))
+    out += polyline_cases()
     for name, rev in (("paper-5a", False), ("paper-5b", False), ("paper-5c", False), ("paper-5c", True)):
         group = name[-2:] + "-numerics"
         for seg, dt in ((20, 2e-4), (20, 1e-4), (20, 5e-5), (40, 1e-4), (40, 5e-5)):
@@ -90,6 +96,37 @@ def cases(groups=None) -> list[Case]:
     return out
 
 
+def _poly(vees: int, face_down: bool = False, angle: float = 15.0) -> str:
+    jig = {1: "V", 2: "W"}.get(vees, f"{vees} V's")
+    return f"{jig} jig {angle:g} deg" + (", face down" if face_down else "")
+
+
+def polyline_cases() -> list[Case]:
+    """Group ``5a-polylines``: the 5a robot magnetized by multiple symmetric polylines (zigzags of
+    1-4 V's), both faces down, jig angle 10-30 deg, oscillating B_z 1.25-2.5 mT at 1-3 Hz, a few
+    oscillating B_x rows, and 20 / 40 segments at 0.1 / 0.05 ms for the convergence of the
+    multiple-V robots. Fixed before any row was run; no row was chosen by its direction."""
+    g, out = "5a-polylines", []
+    for n in (1, 2, 3, 4):  # the core: V's x face x amplitude, 15 deg, 2 Hz
+        for down in (False, True):
+            for bz in (1.5, 2.0):
+                out.append(Case(g, "paper-5a", wave=_w(0.0, bz), vees=n, face_down=down, label=_poly(n, down)))
+    for n in (2, 3):
+        for bz in (1.25, 2.5):  # the ends of the crawl window
+            out.append(Case(g, "paper-5a", wave=_w(0.0, bz), vees=n, label=_poly(n)))
+        for f in (1.0, 3.0):  # frequency
+            out.append(Case(g, "paper-5a", wave=_w(0.0, 2.0, f), vees=n, label=_poly(n)))
+        for ang in (10.0, 30.0):  # jig angle
+            out.append(Case(g, "paper-5a", wave=_w(0.0, 2.0), vees=n, jig_angle_deg=ang, label=_poly(n, angle=ang)))
+    for n in (2, 3, 4):  # oscillating B_x: acts on the transverse (zigzag) part of the magnetization
+        for bx in (2.5, 5.0):
+            out.append(Case(g, "paper-5a", wave=_w(bx, 0.0), vees=n, label=_poly(n)))
+    for n in (2, 3):  # convergence of the multiple-V robots (the 20-segment, 0.1 ms rows are above)
+        for seg, dt in ((20, 5e-5), (40, 1e-4), (40, 5e-5)):
+            out.append(Case(g, "paper-5a", wave=_w(0.0, 2.0), vees=n, segments=seg, timestep=dt, label=_poly(n)))
+    return out
+
+
 def run_case(case: Case, seconds: float) -> dict:
     """Run one row; returns a JSON-ready dict (mm, mm/s, mT, ms)."""
     p = gait_preset(case.preset, reverse=case.reverse)
@@ -97,9 +134,9 @@ def run_case(case: Case, seconds: float) -> dict:
         p = dataclasses.replace(p, wave=case.wave)
     if case.friction is not None:
         p = dataclasses.replace(p, friction=case.friction)
-    if case.jig_angle_deg is not None or case.face_down:
+    if case.jig_angle_deg is not None or case.face_down or case.vees != 1:
         angle = math.radians(15.0 if case.jig_angle_deg is None else case.jig_angle_deg)
-        p = dataclasses.replace(p, beam=beam_5a(angle, face_down=case.face_down))
+        p = dataclasses.replace(p, beam=beam_5a(angle, face_down=case.face_down, vees=case.vees))
     r = run_gait(p, seconds, segments=case.segments, timestep=case.timestep)
     w = p.wave
     d = r.as_dict()
