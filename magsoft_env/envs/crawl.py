@@ -14,7 +14,14 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 from gymnasium import spaces  # noqa: E402
 
-from ..gaits import GAIT_CONTACT_GEOM, Waveparams, gait_preset, list_gaits  # noqa: E402
+from ..gaits import (  # noqa: E402
+    GAIT_CONTACT_GEOM,
+    GAIT_ROD_OPTIONS,
+    Waveparams,
+    contact_timeconst,
+    gait_preset,
+    list_gaits,
+)
 from ..sim import PhaseShifted, Ramp, RodOptions, SimulationError, Simulator  # noqa: E402
 from ..spec._validate import choice, nonnegative, positive  # noqa: E402
 
@@ -220,6 +227,9 @@ class MagSoftCrawlEnv(gym.Env):
         options = RodOptions(
             scene=self._scene, segments=segments, timestep=self.sim_dt, friction=friction,
             render=render_mode is not None, feature_x=feature_x, contact_geom=GAIT_CONTACT_GEOM,
+            # the gaits' contact model (the beam's own stiff contact, not the sim's fast 2 ms
+            # default) so that env results and the open-loop gait table describe the same physics
+            contact_timeconst=contact_timeconst(self.gait.beam), **GAIT_ROD_OPTIONS,
         )
         self.sim = Simulator(self.gait.beam, options)
         self.segments = options.segments
