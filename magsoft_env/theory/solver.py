@@ -603,6 +603,7 @@ class _Solver:
         u = mdl.uniq
         L = self.beam.length
         kappa = grid.derivative(th)
+        thc = th.copy()  # kept for min_eigenvalue and interpolation
         chord = math.atan2(z[-1], x[-1])
         mean_angle = float(grid.w @ th) / L
         chord += 2 * math.pi * round((mean_angle - chord) / (2 * math.pi))
@@ -619,18 +620,18 @@ class _Solver:
             success=ok and status in (0, 2),
             status=status,
             message=msg,
-            s=grid.s[u].copy(),
-            theta=th[u].copy(),
-            strain=eps[u].copy(),
+            s=grid.s[u],  # fancy indexing: copies
+            theta=th[u],
+            strain=eps[u],
             x=x[u],
             z=z[u],
             tip_angle=float(th[-1]),
             tip_deflection=float(z[-1]),
             rotation_angle=chord,
             max_curvature=float(np.abs(kappa).max()),
-            max_strain=float(np.abs(eps).max()),
+            max_strain=float(np.abs(eps).max()) if self.extensible else 0.0,
             stable=bool(stable),
-            _eig=(mdl, th.copy(), load, clamped),
+            _eig=(mdl, thc, load, clamped),
             snap_through=snapped,
             field=field_,
             gravity=gravity,
@@ -640,7 +641,7 @@ class _Solver:
             newton_iterations=self.newton_its,
             events=list(self.events),
             _grid=grid,
-            _full=(th.copy(), x, z),
+            _full=(thc, x, z),
         )
 
 
