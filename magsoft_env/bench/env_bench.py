@@ -25,7 +25,7 @@ def _actions(env, steps: int) -> np.ndarray:
     # the robot's open-loop gait: a realistic crawling state (contacts, moderate bending)
     base = env.unwrapped
     t = np.arange(steps) * base.n_substeps * base.sim_dt
-    if not hasattr(base, "open_loop_action"):  # shape env: a slow field sweep
+    if not hasattr(base, "gait"):  # shape env (no gait): a slow field sweep
         return np.stack([0.3 * np.sin(2 * np.pi * 0.5 * t), 0.5 * np.cos(2 * np.pi * 0.5 * t)], 1).astype(np.float32)
     return np.array([base.open_loop_action(ti) for ti in t], dtype=np.float32)
 

@@ -227,11 +227,14 @@ class Simulator:
         self._energy_scale = self._compute_energy_scale(float(np.hypot(*peak)))
 
     def _compute_energy_scale(self, bmax: float | None = None) -> float:
-        b = max(np.linalg.norm(self._B3) if bmax is None else bmax, _FIELD_FLOOR)
-        m_tot = float(self.rod.disc.mass.sum())
-        mags = np.linalg.norm(self._m_body, axis=1).sum()
-        elastic = 0.5 * float(np.sum(self._k)) * math.pi**2
-        return 2.0 * mags * b + 2.0 * m_tot * self.options.gravity * self.beam.length + elastic
+        b = max(math.hypot(self._B3[0], self._B3[2]) if bmax is None else bmax, _FIELD_FLOOR)
+        if not hasattr(self, "_energy_terms"):  # field-independent parts, computed once
+            m_tot = float(self.rod.disc.mass.sum())
+            mags = float(np.linalg.norm(self._m_body, axis=1).sum())
+            elastic = 0.5 * float(np.sum(self._k)) * math.pi**2
+            self._energy_terms = (2.0 * mags, 2.0 * m_tot * self.options.gravity * self.beam.length + elastic)
+        slope, rest = self._energy_terms
+        return slope * b + rest
 
     # ------------------------------------------------------------------ stepping
     def _couple_map(self) -> np.ndarray:
