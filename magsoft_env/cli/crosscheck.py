@@ -24,7 +24,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     )
     p.add_argument("presets", nargs="*", default=list(DEFAULT_PRESETS), help="preset names (default: Fig. 3 and 4b-d)")
     p.add_argument("--segments", type=int, nargs="+", default=[10, 20, 40], help="segment counts (default 10 20 40)")
-    p.add_argument("--grading", type=float, default=1.0, help="last/first cell length ratio (default 1: equal cells)")
+    p.add_argument("--grading", type=float, default=None,
+                   help="last/first cell length ratio (default: the rod's cantilever default, 1.5; 1 = equal cells)")
     p.add_argument("--steps", type=int, default=None, help="resample every ramp of the path to this many states")
     p.add_argument("--out", type=Path, default=None, help="folder for overlay figures (PNG) and a CSV table")
     p.set_defaults(run=run)
