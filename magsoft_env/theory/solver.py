@@ -235,6 +235,7 @@ class _Solver:
         self.events: list[dict] = []
         self._last_stable = (None, False)
         self._J_state = None
+        self._moved = 0.0
         self._mode = None  # last lowest stability mode (warm start of inverse iteration)
         self._stab = None  # (theta, model, load, cos, sin, stable, lambda, mode, f) of the last test
 
@@ -255,6 +256,7 @@ class _Solver:
         scale = self.beam.length / mdl.EI_ref
         tol = self.opt.tol
         prev_big = math.inf
+        moved = 0.0  # bound on max |theta - start| (sum of the update sizes)
         for it in range(1, maxiter + 1):
             if free:
                 R, fth = mdl.residual(th, cc, load)
@@ -274,7 +276,8 @@ class _Solver:
                 f, fth = mdl.f_fth_at(th, load)
                 R = mdl.P @ f
                 R += th
-                R -= self.theta0
+                if self.theta0:
+                    R -= self.theta0
                 d, lu = mdl.solve_newton(R, fth)
                 if d is None:
                     return False, theta, cc, it
@@ -285,12 +288,17 @@ class _Solver:
                 return False, theta, cc, it  # not converging quadratically: give up early
             if big > _MAX_STEP_RAD:
                 d *= _MAX_STEP_RAD / big
-            th -= d[:M]
+                big_applied = _MAX_STEP_RAD
+            else:
+                big_applied = big
+            moved += big_applied
+            th -= d if d.size == M else d[:M]
             if free:
                 cc -= d[M]
             # quadratic convergence: the next update would be about big^3 / prev^2
             if big < tol or (it >= 2 and big**3 < tol * prev_big**2 and big < 1e-5):
                 self._lu = lu
+                self._moved = moved
                 return True, th, cc, it
             prev_big = big
         return False, theta, cc, maxiter
@@ -476,7 +484,8 @@ class _Solver:
                     guess += (0.5 * h * h) * acc
                 ok, th_new, _, its = self.newton(guess, load)
                 self.newton_its += its
-                if ok and float(np.abs(th_new - guess).max()) > max(_JUMP_RAD, 0.5 * h * tmax):
+                jump = max(_JUMP_RAD, 0.5 * h * tmax)
+                if ok and self._moved > jump and float(np.abs(th_new - guess).max()) > jump:
                     ok = False  # converged far from the prediction: likely another branch
                 if not ok:
                     dt *= _SHRINK
