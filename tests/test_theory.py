@@ -300,3 +300,28 @@ def test_fold_within_a_large_step_is_flagged(L_mm, h_mm, levels, field, g, n, co
     assert coarse[0].snap_through and coarse[0].events[-1]["kind"] == "fold"
     assert all(r.success and r.stable for r in coarse)
     assert abs(coarse[-1].tip_angle - fine[-1].tip_angle) < 1e-8
+
+
+def test_continuation_predictor_derivatives_match_finite_differences():
+    # theta'(t) and theta''(t) along a load segment (the second-order predictor and the fold
+    # estimate rest on them) against central differences of converged equilibria
+    from magsoft_env.theory.model import Load
+    from magsoft_env.theory.solver import SolverOptions as Opt
+    from magsoft_env.theory.solver import _Solver
+
+    beam = ms.Beam(length=25e-3, width=5e-3, thickness=1.13e-3, magnetization=ms.alternating_cells(3))
+    sv = _Solver(beam, support="cantilever", coupling="rotated", extensible=False, clamp_angle=0.0, options=Opt())
+    start, target = Load(0.0, 0.0, 9.81), Load(-4e-3, 6e-3, 9.81)
+    assert sv.continue_to(start)[0] and sv.continue_to(start.lerp(target, 0.5))[0]
+    stable, tan, acc, _ = sv._point(sv.theta, sv._lu, start, target, 0.5)
+    h = 1e-3
+    sols = []
+    for t in (0.5 - h, 0.5, 0.5 + h):
+        ok, th, _, _ = sv.newton(sv.theta, start.lerp(target, t), maxiter=50)
+        assert ok
+        sols.append(th)
+    fd1 = (sols[2] - sols[0]) / (2 * h)
+    fd2 = (sols[2] - 2 * sols[1] + sols[0]) / h**2
+    assert stable
+    assert np.max(np.abs(tan - fd1)) < 1e-4 * np.max(np.abs(tan))
+    assert np.max(np.abs(acc - fd2)) < 1e-4 * np.max(np.abs(acc))
