@@ -4,7 +4,7 @@ Run: ``python -m magsoft_env.bench.theory_bench`` (add ``--quick`` for a short r
 
 For each case, a converged reference is computed with this solver on a fixed fine grid
 (degree 120 per subdomain, Newton to 1e-13) and checked against an independent reference:
-the elliptic-integral elastica where it applies, and ``solve_bvp`` at ``tol=1e-12``
+the elliptic-integral elastica where it applies, and ``solve_bvp`` at ``tol=1e-10``
 otherwise. Then both solvers run the same loading path (warm starts, one equilibrium per
 field), and the table prints the worst tip-angle error along the path beside the median
 time per equilibrium and the cold-solve time (zero field to the final field, gravity
@@ -46,7 +46,7 @@ def cases(quick: bool):
 
 
 # ---- scipy solve_bvp formulation of the same problem (rotated coupling, inextensible) -------
-def bvp_path(beam, fields, g, tol, n_mesh=41):
+def bvp_path(beam, fields, g, tol, n_mesh=41, max_nodes=20000):
     """solve_bvp along the path, non-dimensionalized (sigma = s/L, moment in EI_ref/L) so that
     its tolerance is meaningful; gravity ramped first in 4 steps, warm starts throughout."""
     L = beam.length
@@ -80,7 +80,7 @@ def bvp_path(beam, fields, g, tol, n_mesh=41):
         def bc(ya, yb):
             return np.array([ya[0], yb[1]])
 
-        return solve_bvp(rhs, bc, mesh, y, tol=tol, max_nodes=20000)
+        return solve_bvp(rhs, bc, mesh, y, tol=tol, max_nodes=max_nodes)
 
     for i, load in enumerate(loads):
         # solve_bvp has no continuation of its own: sub-step the load until each solve
@@ -157,17 +157,21 @@ def main(argv=None):
             check, check_name = np.array(indep), "elastica"
         else:
             bres, _ = bvp_path(beam, fields, g, 1e-10)
-            check, check_name = np.array([b[1] for b in bres]), "bvp@1e-12"
+            check, check_name = np.array([b[1] for b in bres]), "bvp"
+            if not all(b[0] for b in bres):  # compare where solve_bvp converged; mark the row
+                keep = np.array([b[0] for b in bres])
+                check_name = "bv*"
+                check = np.where(keep, check, ref_tips)
         ref_vs_indep = float(np.max(np.abs(np.remainder(ref_tips - check + np.pi, 2 * np.pi) - np.pi)))
 
         # this solver at default settings (best of 3 runs of the path)
         ms.solve_path(beam, fields, gravity=g)  # warm-up (grid caches)
         err_ours, t_ours = _ours(beam, fields, g, None, ref_tips)
-        t0 = time.perf_counter()
-        reps = 5
-        for _ in range(reps):
+        cold_ours = np.inf
+        for _ in range(5):  # best of 5
+            t0 = time.perf_counter()
             ms.solve_equilibrium(beam, fields[-1], gravity=g)
-        cold_ours = (time.perf_counter() - t0) / reps
+            cold_ours = min(cold_ours, time.perf_counter() - t0)
         # and at matched accuracy: the smallest fixed degree with error <= TARGET
         for n in (12, 16, 20, 24, 28, 32, 48, 64, 96):
             err_m, t_m = _ours(beam, fields, g, SolverOptions(nodes=n), ref_tips)
@@ -193,11 +197,13 @@ def main(argv=None):
 
     print(
         "\nerr: worst tip-angle error (rad) along the path against the converged reference (degree 120); "
-        "'vs indep' checks that reference against the elastica closed form (ela) or solve_bvp at tol 1e-10 (bvp)."
+        "'vs indep' checks that reference against the elastica closed form (ela) or solve_bvp at tol 1e-10 (bvp; "
+        "bv*: solve_bvp failed on some fields, compared on the others)."
         "\nms/eq: median wall time per equilibrium along the path (warm start from the previous field), best of 3 "
-        "runs; cold (ms): one solve from zero load to the last field (ours: gravity, then field ramp, adaptive; "
-        "solve_bvp: 8-field ramp). 'matched': ours with the smallest fixed degree n, solve_bvp with the loosest "
-        "tolerance, that keep the error <= 1e-8 rad; speedup: solve_bvp ms/eq over ours (default, matched)."
+        "runs; cold (ms): one solve from zero load to the last field, best of 5 (ours: gravity, then field ramp, "
+        "adaptive; solve_bvp, one run: 8-field ramp). 'matched': ours with the smallest fixed degree n, "
+        "solve_bvp with the loosest tolerance, that keep the error <= 1e-8 rad; speedup: solve_bvp ms/eq over "
+        "ours (default, matched)."
     )
     return 0
 
