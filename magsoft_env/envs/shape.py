@@ -158,6 +158,7 @@ class MagSoftShapeEnv(gym.Env):
         high = np.concatenate([np.full(n1, np.pi), np.full(n1, 1e3), np.full(2, 2.0), np.ones(2), np.full(2, 2.0),
                                np.ones(4)]).astype(np.float32)
         self.observation_space = spaces.Box(-high, high, dtype=np.float32)
+        self._obs_buf = np.zeros(high.size)
         self._field = np.zeros(2)
         self._target = np.zeros(3)
         self._target_field = np.zeros(2)
@@ -180,8 +181,8 @@ class MagSoftShapeEnv(gym.Env):
 
     def tip_pose(self) -> np.ndarray:
         """MuJoCo tip pose (x m, z m, angle rad)."""
-        x, z = self.sim.centerline()
-        return np.array([x[-1], z[-1], self.sim.tip_angle()])
+        x, z = self.sim.tip_position()
+        return np.array([x, z, self.sim.tip_angle()])
 
     def _get_obs(self, tip: np.ndarray) -> np.ndarray:
         sim = self.sim
@@ -189,11 +190,14 @@ class MagSoftShapeEnv(gym.Env):
         mujoco.mj_comVel(sim.model, sim.data)
         omega = -sim.data.cvel[self._bodies, 1]
         tgt, L = self._target, self.beam.length
-        obs = np.concatenate([
-            ang, omega, tip[:2] / L, [math.sin(tip[2]), math.cos(tip[2])], tgt[:2] / L,
-            [math.sin(tgt[2]), math.cos(tgt[2])], self._field / self.field_limit,
-        ]).astype(np.float32)
-        return np.clip(obs, self.observation_space.low, self.observation_space.high)
+        n1 = ang.size
+        obs = self._obs_buf  # filled in place: this runs every control step
+        obs[:n1] = ang
+        obs[n1:2 * n1] = omega
+        obs[2 * n1:] = (tip[0] / L, tip[1] / L, math.sin(tip[2]), math.cos(tip[2]), tgt[0] / L, tgt[1] / L,
+                        math.sin(tgt[2]), math.cos(tgt[2]), self._field[0] / self.field_limit,
+                        self._field[1] / self.field_limit)
+        return np.clip(obs, self.observation_space.low, self.observation_space.high).astype(np.float32)
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
@@ -238,7 +242,7 @@ class MagSoftShapeEnv(gym.Env):
                 target_b = self._field + np.clip(target_b - self._field, -dmax, dmax)
                 self.sim.set_waveform(Ramp(tuple(self._field), tuple(target_b), duration=self.n_substeps * self.sim_dt))
             else:
-                self.sim.set_field(tuple(target_b))
+                self.sim.set_field((float(target_b[0]), float(target_b[1])))
             self._field = target_b
             self.sim.step(self.n_substeps)
         except SimulationError as err:
@@ -248,10 +252,10 @@ class MagSoftShapeEnv(gym.Env):
             return self._last_obs.copy(), 0.0, False, True, info
         tip = self.tip_pose()
         obs = self._get_obs(tip)
-        err = float(np.hypot(*(tip[:2] - self._target[:2])))
+        err = math.hypot(tip[0] - self._target[0], tip[1] - self._target[1])
         position = -self.position_weight * err / self.beam.length
         angle = -self.angle_weight * (1.0 - math.cos(tip[2] - self._target[2]))
-        field = -self.field_cost_weight * float(np.sum(self._field**2)) / self.field_limit**2
+        field = -self.field_cost_weight * (self._field[0]**2 + self._field[1]**2) / self.field_limit**2
         reward = position + angle + field
         self._last_obs = obs
         info = self._info(tip, reward_position=position, reward_angle=angle, reward_field=field, reward=reward)

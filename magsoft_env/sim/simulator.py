@@ -10,6 +10,7 @@ import numpy as np
 
 from ..spec import Beam, Field, as_field
 from ..spec._validate import positive
+from ..spec.field import MAX_FIELD
 from . import magnetics
 from .model import RodModel, RodOptions, build_model
 from .waveforms import Waveform, as_waveform
@@ -50,6 +51,10 @@ class SimulationError(RuntimeError):
         self.time = time
         self.quantity = quantity
         self.value = value
+
+
+#: Scalar types :meth:`Simulator.set_field` accepts without building a Field.
+_FLOATS = (float, np.float64, np.float32)
 
 
 @dataclass(frozen=True)
@@ -162,7 +167,6 @@ class Simulator:
             raise RuntimeError("rod bodies must have consecutive ids")  # guaranteed by build_model
         self._S = self._couple_map()
         self._mv = np.zeros(self.model.nv)
-        self._coef = np.zeros((len(self._bodies), 9))
         #: Extra constant wrench per piece, world frame, shape (N + 1, 6): force (N) at the
         #: piece's centre of mass, then couple (N m); added to the magnetic couples each step.
         self.external_wrench = np.zeros((len(self._bodies), 6))
@@ -211,9 +215,16 @@ class Simulator:
 
     def set_field(self, field) -> None:
         """Hold a constant applied field ``(B_x, B_z)`` (T) from now on."""
-        f = as_field(field)
+        bx = bz = None
+        if type(field) is tuple and len(field) == 2:  # fast path for the per-step caller (envs)
+            bx, bz = field
+            if not (type(bx) in _FLOATS and type(bz) in _FLOATS and abs(bx) <= MAX_FIELD and abs(bz) <= MAX_FIELD):
+                bx = bz = None  # (NaN fails the comparison) full validation below
+        if bx is None:
+            f = as_field(field)
+            bx, bz = f.Bx, f.Bz
         self._waveform = None
-        self._B3[:] = (f.Bx, 0.0, f.Bz)
+        self._B3[0], self._B3[2] = bx, bz
         self._set_coefficients()
         self._energy_scale = self._compute_energy_scale()
 
@@ -272,10 +283,12 @@ class Simulator:
             #: [G_z | G_x], shape (9 pieces, 2 nv): Q = B_x (x @ G_z) - B_z (x @ G_x)
             self._gzx = np.ascontiguousarray(np.concatenate([gz, gx], axis=1))
             self._G = np.zeros((gx.shape[0], nv))
+            self._gtmp = np.zeros_like(self._G)
+            self._gz, self._gx = np.ascontiguousarray(gz), np.ascontiguousarray(gx)
         bx, bz = self._B3[0], self._B3[2]
-        np.subtract(bx * self._cz, bz * self._cx, out=self._coef)
-        nv = self.model.nv
-        np.subtract(bx * self._gzx[:, :nv], bz * self._gzx[:, nv:], out=self._G)
+        np.multiply(self._gz, bx, out=self._G)
+        np.multiply(self._gx, bz, out=self._gtmp)
+        self._G -= self._gtmp
 
     def _apply_torques(self, field=None) -> None:
         d = self.data
@@ -544,6 +557,13 @@ class Simulator:
         x = np.concatenate([p[:, 0], [tip[0]]])
         z = np.concatenate([p[:, 2], [tip[2]]])
         return x, z
+
+    def tip_position(self) -> tuple[float, float]:
+        """Tip point (x, z) (m): the last :meth:`centerline` point, without building the rest."""
+        self._sync()
+        b = self._bodies[-1]
+        p, r = self.data.xpos[b], self.data.xmat[b]
+        return float(p[0] + self._tip_len * r[0]), float(p[2] + self._tip_len * r[6])
 
     def arc_length(self) -> np.ndarray:
         """Reference arc length (m) of the :meth:`centerline` points, shape ``(N + 2,)``."""
