@@ -392,3 +392,25 @@ def test_couples_as_generalized_forces_match_the_body_couple_path(beam):
             mujoco.mj_step2(m, d)
         assert np.abs(d.qpos[ref.rod.hinge_qpos]).max() > 1e-3  # it bent
         np.testing.assert_allclose(a.data.qpos, d.qpos, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("bad", [(float("nan"), 0.0), (0.0, float("inf")), (2.0, 0.0), (np.float64(-1.5), 0.0),
+                                 (1e-3,)])
+def test_set_field_rejects_bad_fields_on_every_path(beam, bad):
+    sim = Simulator(beam, RodOptions(segments=8))
+    sim.set_field((1e-3, 2e-3))
+    with pytest.raises(ValueError, match="field"):
+        sim.set_field(bad)
+    assert sim.field.Bx == 1e-3 and sim.field.Bz == 2e-3  # the old field is kept
+
+
+def test_set_field_fast_path_matches_field_object(beam):
+    a, b = Simulator(beam, RodOptions(segments=8)), Simulator(beam, RodOptions(segments=8))
+    a.set_field((np.float64(3e-3), -2e-3))
+    from magsoft_env import Field
+
+    b.set_field(Field(3e-3, -2e-3))
+    a.step(50)
+    b.step(50)
+    np.testing.assert_array_equal(a.data.qpos, b.data.qpos)
+    assert a.tip_position() == (float(a.centerline()[0][-1]), float(a.centerline()[1][-1]))
