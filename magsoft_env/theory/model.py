@@ -19,7 +19,7 @@ The Euler-Lagrange equation ``(EI theta')' = phi_theta`` with ``theta(0) = theta
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from scipy.linalg.lapack import dgesv, dgetrs, dpotrf, dpotrs
@@ -27,9 +27,9 @@ from scipy.linalg.lapack import dgesv, dgetrs, dpotrf, dpotrs
 from .collocation import Grid
 
 
-@dataclass(frozen=True)
-class Load:
-    """One load state: field (T) and gravity (m/s^2)."""
+class Load(NamedTuple):
+    """One load state: field (T) and gravity (m/s^2). A named tuple: hashing and comparison in C,
+    as coefficient caches look loads up several times per equilibrium."""
 
     Bx: float
     Bz: float
