@@ -63,6 +63,9 @@ class BeamModel:
         self._eye = np.eye(grid.M)
         self._zeros = np.zeros(grid.M)
         self._pq = {}  # load -> coefficients (a few recent loads)
+        zero = np.zeros_like(self.mc)
+        # (Bx, Bz, g) @ _rbasis -> (r1, r2) concatenated: the coefficients of phi_theta
+        self._rbasis = np.array([np.r_[self.ms, self.mc], np.r_[-self.mc, self.ms], np.r_[self.W1, zero]])
         self.EI_ref = float(grid.w @ self.EI) / beam.length
         # energy operators on distinct nodes (for stability and energy descent)
         self.uniq = grid.unique()
@@ -90,10 +93,15 @@ class BeamModel:
         if pq is None:
             if len(self._pq) > 8:
                 self._pq.clear()
-            W = load.g * self.W1
-            p1, p2 = self.mc * load.Bx, self.mc * load.Bz - W
-            q1, q2 = self.ms * load.Bz, self.ms * load.Bx
-            r1, r2 = q2 - p2, q1 + p1
+            if self.extensible:
+                W = load.g * self.W1
+                p1, p2 = self.mc * load.Bx, self.mc * load.Bz - W
+                q1, q2 = self.ms * load.Bz, self.ms * load.Bx
+            else:  # only r1, r2 are used
+                p1 = p2 = q1 = q2 = None
+            # r1 = q2 - p2 = ms Bx - mc Bz + g W1, r2 = q1 + p1 = ms Bz + mc Bx: one product
+            r = np.dot(load, self._rbasis)
+            r1, r2 = r[: r.size // 2], r[r.size // 2 :]
             # f = r1 cos + r2 sin = A sin(theta + ph), f_theta = A cos(theta + ph)
             pq = self._pq[load] = (p1, p2, q1, q2, r1, r2, np.hypot(r1, r2), np.arctan2(r1, r2))
         return pq
