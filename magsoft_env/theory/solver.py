@@ -703,10 +703,12 @@ def solve_path(
 
     The path starts from the straight, unloaded beam: gravity is applied first (zero field),
     then the field is ramped from zero to ``fields[0]`` and on to each following field.
-    Between fields, natural-parameter continuation with secant predictors and adaptive
-    steps follows the equilibrium branch. Each step is checked for stability (smallest
-    eigenvalue of the second variation); if the branch turns unstable, or a fold ends it, the
-    solver jumps to a stable equilibrium by energy descent and reports ``snap_through``.
+    Between fields, natural-parameter continuation with tangent predictors (plus the exact
+    second derivative for inextensible beams) and adaptive steps follows the equilibrium
+    branch; steps shrink toward a fold predicted from the lowest stability eigenvalue. Each
+    step is checked for stability (smallest eigenvalue of the second variation); if the branch
+    turns unstable, or a fold ends it, the solver jumps to a stable equilibrium by energy
+    descent and reports ``snap_through``.
 
     Parameters
     ----------
