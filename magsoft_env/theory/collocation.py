@@ -126,8 +126,9 @@ class Grid:
 
     def tail(self, f: np.ndarray) -> float:
         """Largest size of the last three Chebyshev coefficients over subdomains, relative to |f|."""
-        scale = max(1.0, float(np.abs(f).max()))
-        return float(np.abs(self._Ctail @ f).max()) / scale
+        amax = np.maximum.reduce
+        scale = max(1.0, float(amax(np.abs(f))))
+        return float(amax(np.abs(self._Ctail @ f))) / scale
 
     def interpolate(self, f: np.ndarray, s_new) -> np.ndarray:
         """Barycentric interpolation of nodal values ``f`` (M,) or (M, k) at ``s_new`` (m)."""

@@ -19,6 +19,7 @@ The Euler-Lagrange equation ``(EI theta')' = phi_theta`` with ``theta(0) = theta
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -58,7 +59,8 @@ class BeamModel:
         self.W1 = grid.QL @ beam.mass_per_length(s)  # weight beyond s per unit g (kg)
         # theta = theta0 + P @ (-phi_theta):  P = Q0 diag(1/EI) QL
         self.P = grid.Q0 @ (grid.QL / self.EI[:, None])
-        self._PT = np.ascontiguousarray(self.P.T)  # J.T = I + fth[:, None] * P.T, built row-wise
+        self._PT = np.ascontiguousarray(self.P.T)
+        self._Pneg = -self.P  # J.T = I + fth[:, None] * P.T, built row-wise
         self._diag = slice(None, None, grid.M + 1)
         self._eye = np.eye(grid.M)
         self._zeros = np.zeros(grid.M)
@@ -228,7 +230,7 @@ class BeamModel:
         lam = 0.0
         for _ in range(its):
             w, _ = dpotrs(U, v, lower=0)
-            n = float(np.sqrt(w @ w))
+            n = math.sqrt(w @ w)
             lam = float(v @ w)  # Rayleigh quotient of H^-1 at the unit vector v
             v = w / n
         return 1.0 / lam, v

@@ -34,6 +34,7 @@ _CURV_RAD = 1.0  # largest second-order term of the prediction in one continuati
 _FOLD_FRAC = 0.5  # largest load step as a fraction of the estimated distance to a fold
 _GIVEUP_IT, _GIVEUP_RATIO = 3, 0.25
 _SHRINK = 0.25  # step reduction after a failed or rejected continuation step
+_abs, _amax = np.abs, np.maximum.reduce  # max |x| without ndarray.max's Python wrapper
 
 
 @dataclass(frozen=True)
@@ -252,6 +253,8 @@ class _Solver:
         free = self.support == "free"
         th = theta.copy()
         cc = self.c if c is None else c
+        if not free:
+            return self._newton_clamped(theta, th, cc, load, maxiter)
         M = th.size
         scale = self.beam.length / mdl.EI_ref
         tol = self.opt.tol
@@ -281,7 +284,7 @@ class _Solver:
                 d, lu = mdl.solve_newton(R, fth)
                 if d is None:
                     return False, theta, cc, it
-            big = float(np.abs(d).max())  # NaN or inf in R or J propagate here
+            big = float(_amax(_abs(d)))  # NaN or inf in R or J propagate here
             if not math.isfinite(big):
                 return False, theta, cc, it
             if it >= _GIVEUP_IT and big > _GIVEUP_RATIO * prev_big and maxiter <= _MAX_NEWTON:
@@ -295,6 +298,55 @@ class _Solver:
             th -= d if d.size == M else d[:M]
             if free:
                 cc -= d[M]
+            # quadratic convergence: the next update would be about big^3 / prev^2
+            if big < tol or (it >= 2 and big**3 < tol * prev_big**2 and big < 1e-5):
+                self._lu = lu
+                self._moved = moved
+                return True, th, cc, it
+            prev_big = big
+        return False, theta, cc, maxiter
+
+    def _newton_clamped(self, theta, th, cc, load: Load, maxiter: int):
+        """The cantilever branch of :meth:`newton`, with the per-iteration work kept to a few
+        numpy calls (this loop dominates the time per equilibrium along a path)."""
+        mdl = self.model
+        P, solve, theta0, tol = mdl.P, mdl.solve_newton, self.theta0, self.opt.tol
+        sin, cos, isfinite = np.sin, np.cos, math.isfinite
+        if mdl.extensible:
+            density = mdl.density
+            amp = ph = None
+        else:
+            amp, ph = mdl._coeffs(load)[6:]  # phi_theta = amp sin(theta + ph), phi_theta_theta = amp cos(...)
+        giveup = maxiter <= _MAX_NEWTON
+        prev_big = math.inf
+        moved = 0.0  # bound on max |theta - start| (sum of the update sizes)
+        for it in range(1, maxiter + 1):
+            if amp is None:
+                f, fth = density(th, load)[1:3]
+            else:
+                fth = th + ph
+                f = sin(fth)
+                f *= amp
+                cos(fth, out=fth)
+                fth *= amp
+            R = P @ f
+            R += th
+            if theta0:
+                R -= theta0
+            d, lu = solve(R, fth)
+            if d is None:
+                return False, theta, cc, it
+            big = float(_amax(_abs(d)))  # NaN or inf in R or J propagate here
+            if not isfinite(big):
+                return False, theta, cc, it
+            if it >= _GIVEUP_IT and big > _GIVEUP_RATIO * prev_big and giveup:
+                return False, theta, cc, it  # not converging quadratically: give up early
+            if big > _MAX_STEP_RAD:
+                d *= _MAX_STEP_RAD / big
+                moved += _MAX_STEP_RAD
+            else:
+                moved += big
+            th -= d
             # quadratic convergence: the next update would be about big^3 / prev^2
             if big < tol or (it >= 2 and big**3 < tol * prev_big**2 and big < 1e-5):
                 self._lu = lu
@@ -415,13 +467,16 @@ class _Solver:
         _, _, _, c, sn, stable, lam, v, f = self._stability(theta, load)
         delta = Load(target.Bx - start.Bx, target.Bz - start.Bz, target.g - start.g)
         fd, fthd = mdl.f_fth(c, sn, delta)
-        tan = mdl.lu_solve(lu, mdl.P @ fd)
-        tan *= -1.0
-        if math.isfinite(tan.sum()):
+        lu_solve, total = mdl.lu_solve, np.add.reduce
+        tan = lu_solve(lu, mdl._Pneg @ fd)  # -P @ fd, the sign exact
+        if math.isfinite(total(tan)):
             # differentiating R(theta(t), t) = 0 twice (f_theta_theta = -f):
             #   J theta'' = -P (2 f_theta,delta theta' - f theta'^2)
-            acc = mdl.lu_solve(lu, mdl.P @ ((f * tan - 2.0 * fthd) * tan))
-            if not math.isfinite(acc.sum()):
+            g = f * tan
+            g -= 2.0 * fthd
+            g *= tan
+            acc = lu_solve(lu, mdl.P @ g)
+            if not math.isfinite(total(acc)):
                 acc = None
         else:
             tan, acc = np.zeros_like(theta), None
@@ -461,14 +516,14 @@ class _Solver:
             tan, acc = self.tangent(theta, lu, start, target, t)
             d_fold = math.inf
         while t < 1.0:
-            tmax = float(np.abs(tan).max())
+            tmax = float(_amax(_abs(tan)))
             dt = min(dt, 1.0 - t, _STEP_RAD / tmax if tmax > 0 else 1.0)
             # keep the second-order term of the prediction moderate, and approach a predicted
             # fold geometrically; only a failed step declares a fold (a dip of the eigenvalue
             # that does not reach zero is crossed)
             lim = _FOLD_FRAC * d_fold
             if acc is not None:
-                amax = float(np.abs(acc).max())
+                amax = float(_amax(_abs(acc)))
                 if amax > 0:
                     lim = min(lim, math.sqrt(2.0 * _CURV_RAD / amax))
             dt = min(dt, max(lim, 4 * self.opt.min_step))
@@ -485,7 +540,7 @@ class _Solver:
                 ok, th_new, _, its = self.newton(guess, load)
                 self.newton_its += its
                 jump = max(_JUMP_RAD, 0.5 * h * tmax)
-                if ok and self._moved > jump and float(np.abs(th_new - guess).max()) > jump:
+                if ok and self._moved > jump and float(_amax(_abs(th_new - guess))) > jump:
                     ok = False  # converged far from the prediction: likely another branch
                 if not ok:
                     dt *= _SHRINK
@@ -637,14 +692,14 @@ class _Solver:
             tip_angle=float(th[-1]),
             tip_deflection=float(z[-1]),
             rotation_angle=chord,
-            max_curvature=float(np.abs(kappa).max()),
+            max_curvature=float(_amax(_abs(kappa))),
             max_strain=float(np.abs(eps).max()) if self.extensible else 0.0,
             stable=bool(stable),
             _eig=(mdl, thc, load, clamped),
             snap_through=snapped,
             field=field_,
             gravity=gravity,
-            residual=float(np.abs(R).max()),
+            residual=float(_amax(_abs(R))),
             resolution=tail,
             nodes=int(u.size),
             newton_iterations=self.newton_its,
