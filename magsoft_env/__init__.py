@@ -29,7 +29,7 @@ from .spec import (
     ramp,
 )
 
-__version__ = "0.1.0"
+__version__ = "0.3.0"
 
 # public name -> module that defines it (imported on first use)
 _LAZY = {
