@@ -21,6 +21,9 @@ Sections (run all, or pick with ``--only``):
   microseconds per step and real-time factor.
 * ``contact``: crawl distance against the contact time constant (how much the answer
   depends on the contact model rather than on the numerics).
+* ``convergence``: whether any contact setting (time constant, damping ratio, noslip,
+  impratio, refsafe, near-rigid) makes the 1 ms floor step converge: crawl at 1 and 0.5 ms
+  against the same setting at 25 us, for both crawlers.
 * ``symmetry``: numerical left/right bias, from a mirror-symmetric robot driven both ways.
 * ``batch``: ``RodBatch`` (``mujoco.batch``, one thread) against a Python loop of
   ``Simulator`` objects; the cost of computing the couples in C (site actuators) instead.
@@ -253,10 +256,13 @@ def speed(quick: bool) -> None:
     print(f"floor defaults, crawling: mj_step contact on {on:.1f} us ({ncon} contacts), contact off {off:.1f} us")
 
 
-def _crawl(beam, duration, *, waveform=None, torque_every=1, **options):
+def _crawl(beam, duration, *, waveform=None, torque_every=1, mj_opt=None, **options):
     """Crawl under ``waveform`` (default B_z = 2 mT sin(2 pi 2 t)): trajectory (every 10 ms),
-    CPU s, max penetration (m)."""
+    CPU s, max penetration (m). ``mj_opt``: MuJoCo ``opt`` fields set on the built model (settings
+    ``RodOptions`` does not expose, e.g. ``impratio``)."""
     sim = Simulator(beam, RodOptions(scene="floor", **options), torque_every=torque_every)
+    for key, value in (mj_opt or {}).items():
+        setattr(sim.model.opt, key, value)
     dt = sim.timestep
     every = max(1, int(round(0.01 / dt)))
     sim.set_waveform(Sine((0.0, 2e-3), 2.0) if waveform is None else waveform)
@@ -457,6 +463,40 @@ def contact(quick: bool) -> None:
     print("m: the material's through-thickness time; d: the default")
 
 
+def convergence(quick: bool) -> None:
+    print("\n## convergence: can a contact setting make the 1 ms step converge? Each setting against its own "
+          "fine-step reference (dt = 25 us, same setting)")
+    duration = 0.5 if quick else 2.0
+    settings = [
+        ("defaults (tc 2 ms)", {}),
+        ("tc 3 ms", dict(contact_timeconst=3e-3)),
+        ("tc 2 ms, dampratio 2", dict(contact_dampratio=2.0)),
+        ("tc 2 ms, dampratio 0.5", dict(contact_dampratio=0.5)),
+        ("tc 2 ms, noslip 10 iterations", dict(noslip_iterations=10)),
+        ("tc 2 ms, impratio 10", dict(mj_opt=dict(impratio=10.0))),
+        ("tc 2 ms, impratio 10, noslip 10", dict(noslip_iterations=10, mj_opt=dict(impratio=10.0))),
+        ("material tc (0.142 ms)", dict(contact_timeconst="material")),
+        ("material tc, refsafe on", dict(contact_timeconst="material", contact_refsafe=True)),
+        ("near-rigid tc 0.01 ms", dict(contact_timeconst=1e-5)),
+    ]
+    if quick:
+        settings = settings[:2]
+    print("crawl = centre-of-mass x travel in %g s; d = error against the same setting at 25 us; "
+          "pen = largest penetration (um)" % duration)
+    print(f"{'crawler':>4} {'setting':>32} {'ref mm':>8} {'pen':>5} {'1 ms mm':>8} {'d %':>7} {'pen':>5} "
+          f"{'0.5 ms mm':>9} {'d %':>7} {'pen':>5}")
+    for name, beam, wf in _crawlers():
+        for label, kw in settings:
+            ref = _crawl(beam, duration, waveform=wf, timestep=2.5e-5, **kw)
+            cr = 1e3 * _travel(ref)
+            cells = []
+            for dt in (1e-3, 5e-4):
+                run = _crawl(beam, duration, waveform=wf, timestep=dt, **kw)
+                c = 1e3 * _travel(run)
+                cells.append(f"{c:>8.3f} {100 * (c - cr) / cr:>+7.1f} {run[4] * 1e6:>5.0f}")
+            print(f"{name[:3]:>4} {label:>32} {cr:>8.3f} {ref[4] * 1e6:>5.0f} {cells[0]} {cells[1]:>23}")
+
+
 def symmetry(quick: bool) -> None:
     print("\n## symmetry: the cosine-jig beam (Fig. 5c, 23.9 mm) under B_z = +-2 mT sin(2 pi 2 t); turned end for end "
           "it is the same beam with B_z reversed, so the two travels must be opposite: their sum is numerical bias")
@@ -578,7 +618,8 @@ def peer(quick: bool) -> None:
 
 SECTIONS = {
     "targets": targets,
-    "static": static, "timestep": timestep, "speed": speed, "floor": floor, "contact": contact, "symmetry": symmetry,
+    "static": static, "timestep": timestep, "speed": speed, "floor": floor, "contact": contact,
+    "convergence": convergence, "symmetry": symmetry,
     "batch": batch,
     "peer": peer,
 }
