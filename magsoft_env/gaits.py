@@ -21,6 +21,7 @@ from functools import partial
 
 import numpy as np
 
+from ._signals import switched_square
 from .spec import Beam, PiecewiseConstant, jig_from_function, jig_from_polyline
 from .spec._validate import nonnegative, positive
 
@@ -39,6 +40,8 @@ GAIT_SEGMENTS = 20
 #: Rod collision shape. Capsules, not the sim's default spheres: with spheres a mirror-symmetric
 #: robot (cosine jig, pure B_z) drifts at +0.55 mm/s where symmetry demands 0 (capsules: 0.01 mm/s).
 GAIT_CONTACT_GEOM = "capsule"
+#: Drive shapes of :class:`Waveparams`.
+WAVE_SHAPES = ("sine", "square")
 #: Rod options the gaits pin explicitly, so that their speeds do not move when the sim's defaults
 #: change (the values are the sim's defaults at the time the docs/envs.md table was measured).
 #: The contact time constant is the beam's own through-thickness time, see :func:`contact_timeconst`.
@@ -62,7 +65,14 @@ def contact_timeconst(beam: Beam) -> float:
 
 @dataclass(frozen=True)
 class Waveparams:
-    """A periodic field: ``B_x = amplitude_x sin(2 pi f t + phase)``, ``B_z = amplitude_z sin(2 pi f t)``.
+    """A periodic field, sinusoidal or switched.
+
+    ``shape="sine"`` (the presets): ``B_x = amplitude_x sin(2 pi f t + phase)``,
+    ``B_z = amplitude_z sin(2 pi f t)``.
+    ``shape="square"``: each axis switched between its +- amplitude at the zero crossings of the
+    same sines, through a coil with time constant ``coil_time`` (s; 0 = an ideal square; see
+    :class:`magsoft_env.sim.SwitchedSquare`). The paper does not say which waveform drove its
+    crawlers; docs/envs.md ("The drive waveform") measures what the choice changes.
 
     Attributes
     ----------
@@ -72,24 +82,57 @@ class Waveparams:
         Frequency f (Hz).
     phase : float
         Phase of B_x ahead of B_z (rad).
+    shape : str
+        ``"sine"`` or ``"square"``.
+    coil_time : float
+        First-order coil time constant (s) of the square drive; must be 0 for ``"sine"``.
     """
 
     amplitude_x: float
     amplitude_z: float
     frequency: float
     phase: float = 0.0
+    shape: str = "sine"
+    coil_time: float = 0.0
+
+    def __post_init__(self):
+        if self.shape not in WAVE_SHAPES:
+            raise ValueError(f"Waveparams.shape must be one of {list(WAVE_SHAPES)}, got {self.shape!r}.")
+        object.__setattr__(self, "coil_time", nonnegative("Waveparams.coil_time", self.coil_time, unit="s"))
+        if self.shape == "sine" and self.coil_time != 0.0:
+            raise ValueError(
+                f"Waveparams.coil_time applies to shape='square' only (a coil only delays a sine), got "
+                f"{self.coil_time!r} s with shape='sine'."
+            )
 
     def waveform(self):
-        """The :class:`magsoft_env.sim.PhaseShifted` waveform (imports mujoco via ``magsoft_env.sim``)."""
-        from .sim.waveforms import PhaseShifted
+        """The simulator waveform (imports mujoco via ``magsoft_env.sim``): a
+        :class:`~magsoft_env.sim.PhaseShifted` sine or a :class:`~magsoft_env.sim.SwitchedSquare`."""
+        from .sim.waveforms import PhaseShifted, SwitchedSquare
 
+        if self.shape == "square":
+            return SwitchedSquare(self.amplitude_x, self.amplitude_z, self.frequency, self.phase, 0.0, self.coil_time)
         return PhaseShifted(self.amplitude_x, self.amplitude_z, self.frequency, self.phase, 0.0)
 
     def sample(self, t) -> np.ndarray:
         """Field (T) at times ``t`` (s), shape ``(n, 2)``: B_x, B_z."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
+        if self.shape == "square":
+            return np.stack([switched_square(t, self.amplitude_x, self.frequency, self.phase, self.coil_time),
+                             switched_square(t, self.amplitude_z, self.frequency, 0.0, self.coil_time)], axis=1)
         w = 2.0 * np.pi * self.frequency * t
         return np.stack([self.amplitude_x * np.sin(w + self.phase), self.amplitude_z * np.sin(w)], axis=1)
+
+    def describe(self) -> str:
+        """One line in mT, Hz and deg, e.g. ``"sine B_z 2 mT, 2 Hz"``."""
+        parts = []
+        if self.amplitude_x:
+            ph = f" {math.degrees(self.phase):+.0f} deg" if self.phase and self.amplitude_z else ""
+            parts.append(f"B_x {self.amplitude_x / MT:+g}{ph}")
+        if self.amplitude_z:
+            parts.append(f"B_z {self.amplitude_z / MT:g}")
+        coil = f" (coil {self.coil_time * 1e3:g} ms)" if self.coil_time else ""
+        return f"{self.shape}{coil} " + ", ".join(parts) + f" mT, {self.frequency:g} Hz"
 
     @property
     def peak(self) -> tuple[float, float]:
@@ -282,6 +325,9 @@ _PRESETS = {
         # - robustness: under B_z at 2 Hz the direction is right for every V count, amplitude, jig angle
         #   and face tried; the single V turns left at 4 Hz (a dynamic effect: 1 Hz barely moves).
         # The paper's direction (left) is therefore not reproduced; that is a result, not tuned away.
+        # A switched (square) B_z turns this robot left (-0.54 mm/s at 1.5 mT) but turns paper-5b right:
+        # no one drive gives both paper directions (docs/envs.md, "The drive waveform"), so the
+        # preset keeps the sine of the other gaits; Waveparams(shape="square") is the option.
         beam=partial(beam_5a, vees=PAPER_5A_VEES),
         wave=Waveparams(0.0, 2.0 * MT, 2.0),
         paper_speed=-0.85 * MM, paper_direction="left",
@@ -291,7 +337,8 @@ _PRESETS = {
             "jig of four equal pieces falling and rising 15 deg in turn (beta = +15, -15, +15, -15 deg; the "
             "former single 'V' is beam_5a(vees=1)). Field: oscillating B_z = 2 mT sin(2 pi 2 Hz t) (vertical, "
             "as the paper's 'oscillating B^a(z)' of Fig. 5c; B_x up to 5 mT barely deforms this beam). "
-            "Friction 0.5. Paper: crawls left at 0.85 mm/s; simulated: right at 2 Hz (docs/envs.md)."
+            "Friction 0.5. Paper: crawls left at 0.85 mm/s; simulated: right under this sine, left under a switched "
+            "field (--waveform square), which turns paper-5b right (docs/envs.md)."
         ),
     ),
     "paper-5b": dict(
@@ -436,5 +483,5 @@ def run_gait(
     )
 
 
-__all__ = ["PAPER_5A_VEES", "GaitPreset", "GaitResult", "Waveparams", "beam_5a", "com_x", "contact_timeconst",
-           "direction_of", "gait_preset", "list_gaits", "run_gait"]
+__all__ = ["PAPER_5A_VEES", "WAVE_SHAPES", "GaitPreset", "GaitResult", "Waveparams", "beam_5a", "com_x",
+           "contact_timeconst", "direction_of", "gait_preset", "list_gaits", "run_gait"]

@@ -11,6 +11,7 @@ MODULES = [
     "magsoft_env.spec.beam",
     "magsoft_env.spec.profiles",
     "magsoft_env.theory.solver",
+    "magsoft_env._signals",
 ]
 
 

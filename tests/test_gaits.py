@@ -48,6 +48,19 @@ def test_waveparams_sample_matches_phase_shifted_waveform():
     np.testing.assert_allclose(w.sample(t), w.waveform().sample(t), atol=1e-15)
 
 
+def test_waveparams_square_matches_switched_square_waveform_and_checks_input():
+    w = Waveparams(2e-3, 1.5e-3, 2.0, math.pi / 2, shape="square", coil_time=0.01)
+    t = np.linspace(0.0, 1.0, 101)
+    np.testing.assert_allclose(w.sample(t), w.waveform().sample(t), atol=1e-15)
+    assert w.describe() == "square (coil 10 ms) B_x +2 +90 deg, B_z 1.5 mT, 2 Hz"
+    with pytest.raises(ValueError, match="shape must be one of"):
+        Waveparams(0.0, 1e-3, 2.0, shape="triangle")
+    with pytest.raises(ValueError, match="coil_time applies to shape='square' only"):
+        Waveparams(0.0, 1e-3, 2.0, coil_time=0.01)
+    with pytest.raises(ValueError, match="coil_time must be >= 0"):
+        Waveparams(0.0, 1e-3, 2.0, shape="square", coil_time=-1.0)
+
+
 def test_direction_of():
     assert [direction_of(v) for v in (1e-3, -1e-3, 1e-7)] == ["right", "left", "none"]
 
@@ -122,6 +135,22 @@ def test_5b_moves_left():
     assert r.success and r.speed < -0.2e-3  # m/s, the paper's direction
 
 
+def test_square_drive_turns_5a_left_and_5b_right():
+    # docs/envs.md, "The drive waveform": switched at the sine's zero crossings (1.5 mT, 2 Hz), 5a
+    # goes left (the paper's direction, -0.54 mm/s at 0.1 ms) and 5b goes right (against the paper's
+    # left, +0.99 mm/s): no one drive gives both paper directions
+    import dataclasses
+
+    speeds = {}
+    for name in ("paper-5a", "paper-5b"):
+        p = gait_preset(name)
+        wave = dataclasses.replace(p.wave, amplitude_z=0.75 * p.wave.amplitude_z, shape="square")
+        r = run_gait(dataclasses.replace(p, wave=wave), 2.0, timestep=2e-4)
+        assert r.success
+        speeds[name] = r.speed
+    assert speeds["paper-5a"] < -0.3e-3 and speeds["paper-5b"] > 0.5e-3  # m/s
+
+
 def test_symmetric_robot_under_pure_bz_does_not_drift():
     # the cosine-jig beam under an oscillating B_z alone is its own mirror image: no net motion
     # (this caught a +0.55 mm/s drift of sphere colliders, hence capsules in the presets)
@@ -148,6 +177,18 @@ def test_gait_cli_text_and_bad_input(capsys):
     assert "mm/s" in text and "paper: left, -0.85 mm/s" in text
     assert main(["gait", "--preset", "paper-5a", "--seconds", "-1"]) == 2
     assert "--seconds must be > 0" in capsys.readouterr().err
+    assert main(["gait", "--preset", "paper-5a", "--coil-ms", "10"]) == 2
+    assert "--coil-ms applies to --waveform square only" in capsys.readouterr().err
+    assert main(["gait", "--preset", "paper-5a", "--field-scale", "0"]) == 2
+    assert "--field-scale must lie in (0, 10]" in capsys.readouterr().err
+
+
+def test_gait_cli_replaces_the_drive(capsys):
+    rc = main(["gait", "--preset", "paper-5a", "--waveform", "square", "--coil-ms", "10", "--field-scale", "0.75",
+               "--seconds", "0.3", "--timestep-ms", "0.5", "--segments", "6", "--json"])
+    assert rc == 0
+    f = json.loads(capsys.readouterr().out)["field_mT"]
+    assert (f["shape"], f["coil_ms"], f["amplitude_z"]) == ("square", 10.0, pytest.approx(1.5))
 
 
 def test_gaits_pin_their_rod_options():

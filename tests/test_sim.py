@@ -251,6 +251,31 @@ def test_waveforms():
     np.testing.assert_allclose(seq.sample([0.5, 2.0, 9.0]), [[0, 0.013], [-0.011, 0.013], [-0.022, 0.013]])
 
 
+def test_switched_square_is_a_first_order_coil_driven_by_a_square():
+    from magsoft_env.sim.waveforms import Square, SwitchedSquare
+
+    a, f = 2e-3, 2.0
+    t = np.linspace(0.0, 2.0, 4001) + 1.234e-5  # off the switching instants
+    ideal = SwitchedSquare(0.0, a, f)
+    np.testing.assert_array_equal(ideal.sample(t), Square((0.0, a), f).sample(t))
+    tau = 0.02
+    coil = SwitchedSquare(-a, a, f, math.pi / 2, 0.0, tau)
+    b = coil.sample(t)[:, 1]
+    # half-wave antisymmetric and periodic (the periodic steady state from t = 0)
+    np.testing.assert_allclose(SwitchedSquare(0.0, a, f, 0.0, 0.0, tau).sample(t + 0.25)[:, 1], -b, atol=1e-15)
+    np.testing.assert_allclose(coil.sample(t + 0.5), coil.sample(t), atol=1e-15)
+    # the defining ODE, tau db/dt = u - b with u = +-a the ideal square, by central differences
+    dt = t[1] - t[0]
+    u = ideal.sample(t)[:, 1]
+    inner = np.flatnonzero((u[:-2] == u[2:]) & (u[1:-1] == u[2:])) + 1  # away from switches
+    dbdt = (b[inner + 1] - b[inner - 1]) / (2 * dt)
+    np.testing.assert_allclose(tau * dbdt, u[inner] - b[inner], atol=2e-3 * a)
+    assert np.abs(np.diff(b)).max() < 2 * a * dt / tau * 1.01  # continuous: no jumps at the switches
+    # B_x with its own phase: a quarter period ahead
+    np.testing.assert_allclose(coil.sample(t)[:, 0], -SwitchedSquare(0.0, a, f, 0.0, 0.0, tau).sample(t + 0.125)[:, 1],
+                               atol=1e-15)
+
+
 def test_waveform_drives_simulator(beam):
     from magsoft_env.sim.waveforms import Ramp
 
@@ -306,6 +331,8 @@ def test_scene_typo_suggests_name():
         (lambda W: W.Ramp((0, 0), (0, 0.01), duration=-1.0), "duration"),
         (lambda W: W.Sequence((W.Sine((0, 0.01), 1.0), W.Hold((0, 0)))), "duration"),
         (lambda W: W.PhaseShifted(0.9, 0.9, 1.0), "peak"),
+        (lambda W: W.SwitchedSquare(0.0, 0.01, 1.0, time_constant=-1e-3), "time_constant"),
+        (lambda W: W.SwitchedSquare(0.0, 0.01, 0.0), "frequency"),
     ],
 )
 def test_waveforms_reject_bad_input(make, name):

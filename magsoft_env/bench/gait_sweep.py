@@ -23,6 +23,8 @@ preset (the 2-V "W" jig).
   V's, ``beam_5a(vees=n)``): both faces down, jig angle 10-30 deg, oscillating B_z 1.25-2.5 mT at
   1-4 Hz, oscillating B_x 2.5 and 5 mT, and 20 / 40 segments at 0.1 / 0.05 ms (42 rows, about
   6 minutes on one core).
+* ``waveform``: every gait under its own field as a sine (the presets), an ideal square and a
+  square through a 10 / 40 ms coil, at 0.75x and 1x the preset amplitudes (32 rows).
 * ``5a-numerics``, ``5b-numerics``, ``5c-numerics``: timestep 0.2 / 0.1 / 0.05 ms and 20 / 40
   segments, to show whether the speeds converge.
 
@@ -88,13 +90,14 @@ def cases(groups=None) -> list[Case]:
     for mu in (0.3, 1.0):
         out.append(Case("5a-friction", "paper-5a", friction=mu))
     out += polyline_cases()
+    out += waveform_cases()
     for name, rev in (("paper-5a", False), ("paper-5b", False), ("paper-5c", False), ("paper-5c", True)):
         group = name[-2:] + "-numerics"
         for seg, dt in ((20, 2e-4), (20, 1e-4), (20, 5e-5), (40, 1e-4), (40, 5e-5)):
             out.append(Case(group, name, reverse=rev, segments=seg, timestep=dt))
     # the single-V robot for the groups measured with it (the paper-5a preset before 5a-polylines)
-    out = [dataclasses.replace(c, vees=1) if c.preset == "paper-5a" and c.group not in ("presets", "5a-polylines")
-           else c for c in out]
+    own = ("presets", "5a-polylines", "waveform")  # groups that set their own robot
+    out = [dataclasses.replace(c, vees=1) if c.preset == "paper-5a" and c.group not in own else c for c in out]
     if groups:
         known = {c.group for c in out}
         bad = set(groups) - known
@@ -135,6 +138,25 @@ def polyline_cases() -> list[Case]:
     return out
 
 
+def waveform_cases() -> list[Case]:
+    """Group ``waveform``: the drive's shape. Each gait (5a with its W jig and with the single V,
+    5b, 5c) under its own field as a sine (the presets), as an ideal square (switched at the sine's
+    zero crossings) and as a square through a coil of time constant 10 and 40 ms, at 0.75x and 1x
+    the preset amplitudes. Chosen after an exploratory study of 5a (186 runs: densities by phi,
+    unipolar fields, squares, coil lags, ramps; docs/envs.md) showed that the square drive turns 5a
+    left; these rows test the same drives on every gait."""
+    out = []
+    for preset, vees, label in (("paper-5a", 2, "W jig"), ("paper-5a", 1, "V jig"), ("paper-5b", None, ""),
+                                ("paper-5c", None, "")):
+        w = gait_preset(preset).wave
+        for scale in (0.75, 1.0):
+            for shape, coil in (("sine", 0.0), ("square", 0.0), ("square", 10e-3), ("square", 40e-3)):
+                wave = dataclasses.replace(w, amplitude_x=w.amplitude_x * scale, amplitude_z=w.amplitude_z * scale,
+                                           shape=shape, coil_time=coil)
+                out.append(Case("waveform", preset, wave=wave, vees=vees, label=label))
+    return out
+
+
 def run_case(case: Case, seconds: float) -> dict:
     """Run one row; returns a JSON-ready dict (mm, mm/s, mT, ms)."""
     p = gait_preset(case.preset, reverse=case.reverse)
@@ -153,6 +175,7 @@ def run_case(case: Case, seconds: float) -> dict:
              segments=p.segments if case.segments is None else case.segments,
              timestep_ms=case.timestep * 1e3, friction=p.friction, bx_mT=w.amplitude_x / MT,
              bz_mT=w.amplitude_z / MT, frequency_Hz=w.frequency, phase_deg=math.degrees(w.phase),
+             shape=w.shape, coil_ms=w.coil_time * 1e3,
              paper_direction=p.paper_direction,
              paper_speed_mm_s=None if p.paper_speed is None else p.paper_speed * 1e3)
     return d
@@ -160,6 +183,9 @@ def run_case(case: Case, seconds: float) -> dict:
 
 def _field(d: dict) -> str:
     parts = []
+    if d.get("shape", "sine") != "sine":
+        coil = f" (coil {d['coil_ms']:g} ms)" if d.get("coil_ms") else ""
+        parts.append(f"{d['shape']}{coil}")
     if d["bx_mT"]:
         ph = f" {d['phase_deg']:+.0f} deg" if d["phase_deg"] and d["bz_mT"] else ""
         parts.append(f"B_x {d['bx_mT']:+g}{ph}")

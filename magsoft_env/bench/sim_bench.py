@@ -481,8 +481,8 @@ def convergence(quick: bool) -> None:
     ]
     if quick:
         settings = settings[:2]
-    print("crawl = centre-of-mass x travel in %g s; d = error against the same setting at 25 us; "
-          "pen = largest penetration (um)" % duration)
+    print(f"crawl = centre-of-mass x travel in {duration:g} s; d = error against the same setting at 25 us; "
+          "pen = largest penetration (um)")
     print(f"{'crawler':>4} {'setting':>32} {'ref mm':>8} {'pen':>5} {'1 ms mm':>8} {'d %':>7} {'pen':>5} "
           f"{'0.5 ms mm':>9} {'d %':>7} {'pen':>5}")
     for name, beam, wf in _crawlers():

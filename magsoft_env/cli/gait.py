@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 
 
@@ -24,6 +25,13 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--timestep-ms", type=float, default=0.1, help="simulation step in ms (default 0.1, converged)")
     p.add_argument("--segments", type=int, default=None,
                    help="rod segments (default: the preset's, 40 for paper-5b and 20 for the others)")
+    p.add_argument("--waveform", choices=["sine", "square"], default=None,
+                   help="drive shape (default: the preset's, a sine); square = switched at the sine's zero "
+                        "crossings (docs/envs.md, 'The drive waveform')")
+    p.add_argument("--coil-ms", type=float, default=0.0,
+                   help="coil time constant of the square drive in ms (default 0: an ideal square)")
+    p.add_argument("--field-scale", type=float, default=1.0,
+                   help="multiply the preset's field amplitudes by this factor (default 1)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
     p.set_defaults(run=run)
     return p
@@ -38,7 +46,20 @@ def run(args) -> int:
         raise ValueError(f"--timestep-ms must lie in (0, 10] ms, got {args.timestep_ms}.")
     if args.segments is not None and not 2 <= args.segments <= 1000:
         raise ValueError(f"--segments must be an integer in [2, 1000], got {args.segments}.")
+    if not 0 < args.field_scale <= 10:
+        raise ValueError(f"--field-scale must lie in (0, 10], got {args.field_scale}.")
+    if not 0 <= args.coil_ms <= 1000:
+        raise ValueError(f"--coil-ms must lie in [0, 1000] ms, got {args.coil_ms}.")
+    shape = args.waveform or "sine"
+    if args.coil_ms and shape != "square":
+        raise ValueError(f"--coil-ms applies to --waveform square only, got --coil-ms {args.coil_ms} with a {shape}.")
     preset = gait_preset(args.preset, reverse=args.reverse)
+    w = preset.wave
+    if shape != w.shape or args.coil_ms or args.field_scale != 1.0:
+        k = args.field_scale
+        w = dataclasses.replace(w, amplitude_x=w.amplitude_x * k, amplitude_z=w.amplitude_z * k, shape=shape,
+                                coil_time=args.coil_ms * 1e-3)
+        preset = dataclasses.replace(preset, wave=w)
     res = run_gait(preset, args.seconds, segments=args.segments, timestep=args.timestep_ms * 1e-3)
     out = res.as_dict()
     out["paper_speed_mm_s"] = None if preset.paper_speed is None else preset.paper_speed * 1e3
@@ -46,6 +67,7 @@ def run(args) -> int:
     out["field_mT"] = {
         "amplitude_x": preset.wave.amplitude_x * 1e3, "amplitude_z": preset.wave.amplitude_z * 1e3,
         "frequency_Hz": preset.wave.frequency, "phase_x_deg": preset.wave.phase * 180.0 / 3.141592653589793,
+        "shape": preset.wave.shape, "coil_ms": preset.wave.coil_time * 1e3,
     }
     out["friction"] = preset.friction
     out["segments"] = preset.segments if args.segments is None else args.segments
@@ -55,6 +77,8 @@ def run(args) -> int:
     else:
         paper = "no speed given" if preset.paper_speed is None else f"{preset.paper_speed * 1e3:+.2f} mm/s"
         print(f"{out['preset']}: {preset.description}")
+        if preset.wave != gait_preset(args.preset, reverse=args.reverse).wave:
+            print(f"field replaced: {preset.wave.describe()}")
         print(f"displacement {out['displacement_mm']:+.3f} mm in {out['seconds']:.2f} s; "
               f"speed {out['speed_mm_s']:+.3f} mm/s (after {out['warmup_s']:.2f} s warm-up), "
               f"direction {out['direction']}")

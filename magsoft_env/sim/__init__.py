@@ -13,11 +13,11 @@ from .discretize import RodDiscretization, discretize
 from .equilibrium import SimEquilibrium, mujoco_equilibrium, mujoco_path
 from .model import CHANNEL_SIZE, INTEGRATORS, OBSTACLE_SIZE, SCENES, RodModel, RodOptions, build_model, build_spec
 from .simulator import SettleResult, SimulationError, Simulator, Trajectory
-from .waveforms import Hold, PhaseShifted, Ramp, Sequence, Sine, Square, Waveform, as_waveform
+from .waveforms import Hold, PhaseShifted, Ramp, Sequence, Sine, Square, SwitchedSquare, Waveform, as_waveform
 
 __all__ = [
     "CHANNEL_SIZE", "INTEGRATORS", "OBSTACLE_SIZE", "SCENES", "Hold", "PhaseShifted", "Ramp", "RodDiscretization",
     "RodBatch", "RodModel", "RodOptions", "SettleResult", "Sequence", "SimEquilibrium", "SimulationError",
-    "Simulator", "Sine", "Square", "Trajectory", "Waveform", "as_waveform", "build_model", "build_spec", "discretize",
-    "mujoco_equilibrium", "mujoco_path",
+    "Simulator", "Sine", "Square", "SwitchedSquare", "Trajectory", "Waveform", "as_waveform", "build_model",
+    "build_spec", "discretize", "mujoco_equilibrium", "mujoco_path",
 ]

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._signals import switched_square
 from ..spec import MAX_FIELD, as_field
 from ..spec._validate import finite_number, positive
 
@@ -163,6 +164,49 @@ class Square(Waveform):
 
 
 @dataclass(frozen=True)
+class SwitchedSquare(Waveform):
+    """A switched (square) drive on each axis through a coil with a first-order time constant:
+
+    ``B_x`` is driven towards ``+amplitude_x`` while ``sin(2 pi f t + phase_x) >= 0`` and towards
+    ``-amplitude_x`` otherwise, ``B_z`` likewise with ``phase_z``; after each switch the field
+    relaxes with ``time_constant`` (s; an RL coil's L / R; 0 = an ideal square). The signal is
+    the periodic steady state, continuous from ``t = 0`` (see
+    :func:`magsoft_env._signals.switched_square`). Amplitudes in T, ``frequency`` in Hz, phases in rad.
+
+    With ``time_constant = 0`` and equal phases this is :class:`Square` with duty 0.5; the
+    phases allow a phase-shifted B_x as in :class:`PhaseShifted`.
+    """
+
+    amplitude_x: float = 0.0
+    amplitude_z: float = 0.0
+    frequency: float = 1.0
+    phase_x: float = 0.0
+    phase_z: float = 0.0
+    time_constant: float = 0.0
+    duration: float | None = None
+
+    def __post_init__(self):
+        n = type(self).__name__
+        for name in ("amplitude_x", "amplitude_z", "phase_x", "phase_z"):
+            object.__setattr__(self, name, finite_number(f"{n}.{name}", getattr(self, name)))
+        object.__setattr__(self, "frequency", positive(f"{n}.frequency", self.frequency, unit="Hz"))
+        tc = finite_number(f"{n}.time_constant", self.time_constant, unit="s")
+        if tc < 0.0:
+            raise ValueError(f"{n}.time_constant must be >= 0 s (0: an ideal square), got {self.time_constant!r}.")
+        object.__setattr__(self, "time_constant", tc)
+        if self.duration is not None:
+            object.__setattr__(self, "duration", positive(f"{n}.duration", self.duration, unit="s"))
+        _check_peak(n, math.hypot(self.amplitude_x, self.amplitude_z))
+
+    def sample(self, t):
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        out = np.empty((t.size, 2))
+        out[:, 0] = switched_square(t, self.amplitude_x, self.frequency, self.phase_x, self.time_constant)
+        out[:, 1] = switched_square(t, self.amplitude_z, self.frequency, self.phase_z, self.time_constant)
+        return out
+
+
+@dataclass(frozen=True)
 class Sequence(Waveform):
     """Parts played one after another; every part except the last needs a ``duration``.
     After the last part ends its final value is held."""
@@ -224,5 +268,5 @@ class _Callable(Waveform):
         return out.reshape(t.size, 2)
 
 
-__all__ = ["Hold", "PhaseShifted", "Ramp", "Sequence", "Sine", "Square", "Waveform", "as_waveform"]
+__all__ = ["Hold", "PhaseShifted", "Ramp", "Sequence", "Sine", "Square", "SwitchedSquare", "Waveform", "as_waveform"]
 
