@@ -282,11 +282,18 @@ def beam_5a(jig_angle: float = math.radians(15.0), *, face_down: bool = False, v
                 magnetization=jig_from_polyline(x, z))
 
 
-def _beam_5b() -> Beam:
-    # polyline jig of three equal pieces falling ever more steeply to the right: slopes -5, -10, -20 deg
-    # (beta = +5, +10, +20 deg)
+def beam_5b(*, face_down: bool = False) -> Beam:
+    """The Fig. 5b robot: 25 x 5 x 1.13 mm, phi = 20 %, polyline jig of three equal pieces falling
+    ever more steeply to the right (slopes -5, -10, -20 deg; beta = +5, +10, +20 deg).
+
+    ``face_down`` turns the beam over (beta -> -beta, left and right kept). The paper gives no
+    face; the preset is face up, whose left end lifts more under B_z. Face down the right end
+    lifts more, as the paper describes ("the right end flips at a larger speed"), and the robot
+    crawls right (docs/envs.md, "The drive waveform").
+    """
     L = 25e-3
-    angles = np.radians([-5.0, -10.0, -20.0])
+    sign = -1.0 if face_down else 1.0
+    angles = np.radians(sign * np.array([-5.0, -10.0, -20.0]))
     seg = L / 3.0
     x = np.concatenate([[0.0], np.cumsum(seg * np.cos(angles))])
     z = np.concatenate([[0.0], np.cumsum(seg * np.sin(angles))])
@@ -342,7 +349,7 @@ _PRESETS = {
         ),
     ),
     "paper-5b": dict(
-        beam=_beam_5b,
+        beam=beam_5b,
         wave=Waveparams(0.0, 2.0 * MT, 2.0),
         paper_speed=None, paper_direction="left", segments=40,
         description=(
@@ -483,5 +490,5 @@ def run_gait(
     )
 
 
-__all__ = ["PAPER_5A_VEES", "WAVE_SHAPES", "GaitPreset", "GaitResult", "Waveparams", "beam_5a", "com_x",
+__all__ = ["PAPER_5A_VEES", "WAVE_SHAPES", "GaitPreset", "GaitResult", "Waveparams", "beam_5a", "beam_5b", "com_x",
            "contact_timeconst", "direction_of", "gait_preset", "list_gaits", "run_gait"]

@@ -216,3 +216,13 @@ def test_beam_5a_jig_angle_and_face():
     assert three.length == pytest.approx(L)
     with pytest.raises(ValueError, match="vees must be a positive integer"):
         beam_5a(vees=0)
+
+
+def test_beam_5b_faces():
+    from magsoft_env.gaits import beam_5b
+
+    L = 25e-3
+    centres = (np.arange(3) + 0.5) * L / 3
+    np.testing.assert_allclose(np.degrees(beam_5b().beta(centres)), [5.0, 10.0, 20.0], atol=1e-9)
+    np.testing.assert_allclose(np.degrees(beam_5b(face_down=True).beta(centres)), [-5.0, -10.0, -20.0], atol=1e-9)
+    assert gait_preset("paper-5b").beam == beam_5b()

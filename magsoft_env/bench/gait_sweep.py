@@ -24,7 +24,8 @@ preset (the 2-V "W" jig).
   1-4 Hz, oscillating B_x 2.5 and 5 mT, and 20 / 40 segments at 0.1 / 0.05 ms (42 rows, about
   6 minutes on one core).
 * ``waveform``: every gait under its own field as a sine (the presets), an ideal square and a
-  square through a 10 / 40 ms coil, at 0.75x and 1x the preset amplitudes (32 rows).
+  square through a 10 / 40 ms coil, at 0.75x and 1x the preset amplitudes; and 5b turned over
+  (its right end flipping more, as the paper describes) under the sine and the square (36 rows).
 * ``5a-numerics``, ``5b-numerics``, ``5c-numerics``: timestep 0.2 / 0.1 / 0.05 ms and 20 / 40
   segments, to show whether the speeds converge.
 
@@ -40,7 +41,7 @@ import json
 import math
 import sys
 
-from magsoft_env.gaits import GAIT_TIMESTEP, PAPER_5A_VEES, Waveparams, beam_5a, gait_preset, run_gait
+from magsoft_env.gaits import GAIT_TIMESTEP, PAPER_5A_VEES, Waveparams, beam_5a, beam_5b, gait_preset, run_gait
 
 MT = 1e-3
 
@@ -58,7 +59,7 @@ class Case:
     timestep: float = GAIT_TIMESTEP
     label: str = ""
     jig_angle_deg: float | None = None  # paper-5a only: V-jig angle (preset 15 deg)
-    face_down: bool = False  # paper-5a only: the other face on the floor
+    face_down: bool = False  # paper-5a and paper-5b: the other face on the floor
     vees: int | None = None  # paper-5a only: V's in the symmetric zigzag jig (None: PAPER_5A_VEES)
 
 
@@ -154,6 +155,11 @@ def waveform_cases() -> list[Case]:
                 wave = dataclasses.replace(w, amplitude_x=w.amplitude_x * scale, amplitude_z=w.amplitude_z * scale,
                                            shape=shape, coil_time=coil)
                 out.append(Case("waveform", preset, wave=wave, vees=vees, label=label))
+    w = gait_preset("paper-5b").wave
+    for scale in (0.75, 1.0):  # 5b turned over: its right end flips more, as the paper describes
+        for shape in ("sine", "square"):
+            wave = dataclasses.replace(w, amplitude_z=w.amplitude_z * scale, shape=shape)
+            out.append(Case("waveform", "paper-5b", wave=wave, face_down=True, label="face down"))
     return out
 
 
@@ -164,7 +170,9 @@ def run_case(case: Case, seconds: float) -> dict:
         p = dataclasses.replace(p, wave=case.wave)
     if case.friction is not None:
         p = dataclasses.replace(p, friction=case.friction)
-    if case.jig_angle_deg is not None or case.face_down or case.vees is not None:
+    if case.preset == "paper-5b" and case.face_down:
+        p = dataclasses.replace(p, beam=beam_5b(face_down=True))
+    elif case.jig_angle_deg is not None or case.face_down or case.vees is not None:
         angle = math.radians(15.0 if case.jig_angle_deg is None else case.jig_angle_deg)
         p = dataclasses.replace(p, beam=beam_5a(angle, face_down=case.face_down,
                                                    vees=PAPER_5A_VEES if case.vees is None else case.vees))
