@@ -151,6 +151,21 @@ def test_square_drive_turns_5a_left_and_5b_right():
     assert speeds["paper-5a"] < -0.3e-3 and speeds["paper-5b"] > 0.5e-3  # m/s
 
 
+def test_5b_turned_over_goes_right_at_friction_half_and_left_when_tacky():
+    # docs/envs.md, "Tacky friction": 5b face down (its right end flips more, as the paper describes)
+    # crawls right at the presets' friction 0.5 and left at 2 (+1.17 / -0.21 mm/s at 0.1 ms)
+    import dataclasses
+
+    from magsoft_env.gaits import beam_5b
+
+    p = dataclasses.replace(gait_preset("paper-5b"), beam=beam_5b(face_down=True))
+    low = run_gait(p, 2.0, timestep=2e-4)
+    tacky = run_gait(dataclasses.replace(p, friction=2.0), 2.0, timestep=2e-4)
+    assert low.success and tacky.success
+    assert low.speed > 0.1e-3 and tacky.speed < -0.1e-3  # m/s
+    assert low.max_lift_right > low.max_lift_left
+
+
 def test_symmetric_robot_under_pure_bz_does_not_drift():
     # the cosine-jig beam under an oscillating B_z alone is its own mirror image: no net motion
     # (this caught a +0.55 mm/s drift of sphere colliders, hence capsules in the presets)

@@ -26,6 +26,8 @@ preset (the 2-V "W" jig).
 * ``waveform``: every gait under its own field as a sine (the presets), an ideal square and a
   square through a 10 / 40 ms coil, at 0.75x and 1x the preset amplitudes; and 5b turned over
   (its right end flipping more, as the paper describes) under the sine and the square (36 rows).
+* ``friction``: tacky silicone, friction 1.5-3, every robot under its sine and (1.5, 2) under
+  the 0.75x square (25 rows).
 * ``5a-numerics``, ``5b-numerics``, ``5c-numerics``: timestep 0.2 / 0.1 / 0.05 ms and 20 / 40
   segments, to show whether the speeds converge.
 
@@ -92,12 +94,13 @@ def cases(groups=None) -> list[Case]:
         out.append(Case("5a-friction", "paper-5a", friction=mu))
     out += polyline_cases()
     out += waveform_cases()
+    out += friction_cases()
     for name, rev in (("paper-5a", False), ("paper-5b", False), ("paper-5c", False), ("paper-5c", True)):
         group = name[-2:] + "-numerics"
         for seg, dt in ((20, 2e-4), (20, 1e-4), (20, 5e-5), (40, 1e-4), (40, 5e-5)):
             out.append(Case(group, name, reverse=rev, segments=seg, timestep=dt))
     # the single-V robot for the groups measured with it (the paper-5a preset before 5a-polylines)
-    own = ("presets", "5a-polylines", "waveform")  # groups that set their own robot
+    own = ("presets", "5a-polylines", "waveform", "friction")  # groups that set their own robot
     out = [dataclasses.replace(c, vees=1) if c.preset == "paper-5a" and c.group not in own else c for c in out]
     if groups:
         known = {c.group for c in out}
@@ -160,6 +163,25 @@ def waveform_cases() -> list[Case]:
         for shape in ("sine", "square"):
             wave = dataclasses.replace(w, amplitude_z=w.amplitude_z * scale, shape=shape)
             out.append(Case("waveform", "paper-5b", wave=wave, face_down=True, label="face down"))
+    return out
+
+
+def friction_cases() -> list[Case]:
+    """Group ``friction``: tacky silicone. Ecoflex on a smooth substrate has friction coefficients
+    of about 1 or more; the presets use 0.5 (the ``5a-friction`` rows go to 1.0). Each robot (5a W
+    and V, 5b both faces, 5c) under its preset sine at 1.5, 2 and 3, and under the square at 0.75x
+    the preset amplitude (the drive that turns 5a left) at 1.5 and 2."""
+    robots = (("paper-5a", dict(vees=2, label="W jig")), ("paper-5a", dict(vees=1, label="V jig")),
+              ("paper-5b", {}), ("paper-5b", dict(face_down=True, label="face down")), ("paper-5c", {}))
+    out = []
+    for preset, kw in robots:
+        w = gait_preset(preset).wave
+        for mu in (1.5, 2.0, 3.0):
+            out.append(Case("friction", preset, friction=mu, **kw))
+        square = dataclasses.replace(w, amplitude_x=0.75 * w.amplitude_x, amplitude_z=0.75 * w.amplitude_z,
+                                     shape="square")
+        for mu in (1.5, 2.0):
+            out.append(Case("friction", preset, wave=square, friction=mu, **kw))
     return out
 
 
