@@ -200,10 +200,14 @@ def test_gait_cli_text_and_bad_input(capsys):
 
 def test_gait_cli_replaces_the_drive(capsys):
     rc = main(["gait", "--preset", "paper-5a", "--waveform", "square", "--coil-ms", "10", "--field-scale", "0.75",
-               "--seconds", "0.3", "--timestep-ms", "0.5", "--segments", "6", "--json"])
+               "--friction", "1.5", "--seconds", "0.3", "--timestep-ms", "0.5", "--segments", "6", "--json"])
     assert rc == 0
-    f = json.loads(capsys.readouterr().out)["field_mT"]
+    out = json.loads(capsys.readouterr().out)
+    f = out["field_mT"]
     assert (f["shape"], f["coil_ms"], f["amplitude_z"]) == ("square", 10.0, pytest.approx(1.5))
+    assert out["friction"] == 1.5
+    assert main(["gait", "--preset", "paper-5a", "--friction", "-1"]) == 2
+    assert "--friction must lie in [0, 10]" in capsys.readouterr().err
 
 
 def test_gaits_pin_their_rod_options():

@@ -32,6 +32,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="coil time constant of the square drive in ms (default 0: an ideal square)")
     p.add_argument("--field-scale", type=float, default=1.0,
                    help="multiply the preset's field amplitudes by this factor (default 1)")
+    p.add_argument("--friction", type=float, default=None,
+                   help="floor friction coefficient (default: the preset's, 0.5; docs/envs.md, 'Tacky friction')")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
     p.set_defaults(run=run)
     return p
@@ -50,6 +52,8 @@ def run(args) -> int:
         raise ValueError(f"--field-scale must lie in (0, 10], got {args.field_scale}.")
     if not 0 <= args.coil_ms <= 1000:
         raise ValueError(f"--coil-ms must lie in [0, 1000] ms, got {args.coil_ms}.")
+    if args.friction is not None and not 0 <= args.friction <= 10:
+        raise ValueError(f"--friction must lie in [0, 10], got {args.friction}.")
     shape = args.waveform or "sine"
     if args.coil_ms and shape != "square":
         raise ValueError(f"--coil-ms applies to --waveform square only, got --coil-ms {args.coil_ms} with a {shape}.")
@@ -60,6 +64,8 @@ def run(args) -> int:
         w = dataclasses.replace(w, amplitude_x=w.amplitude_x * k, amplitude_z=w.amplitude_z * k, shape=shape,
                                 coil_time=args.coil_ms * 1e-3)
         preset = dataclasses.replace(preset, wave=w)
+    if args.friction is not None:
+        preset = dataclasses.replace(preset, friction=args.friction)
     res = run_gait(preset, args.seconds, segments=args.segments, timestep=args.timestep_ms * 1e-3)
     out = res.as_dict()
     out["paper_speed_mm_s"] = None if preset.paper_speed is None else preset.paper_speed * 1e3
