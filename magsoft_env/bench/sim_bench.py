@@ -478,6 +478,9 @@ def convergence(quick: bool) -> None:
         ("material tc (0.142 ms)", dict(contact_timeconst="material")),
         ("material tc, refsafe on", dict(contact_timeconst="material", contact_refsafe=True)),
         ("near-rigid tc 0.01 ms", dict(contact_timeconst=1e-5)),
+        # diagnostics, not contact settings: the beam's own damping (a different beam)
+        ("hinge retardation 20 ms (diag.)", dict(retardation_time=2e-2)),
+        ("hinge retardation 1 ms (diag.)", dict(retardation_time=1e-3)),
     ]
     if quick:
         settings = settings[:2]
