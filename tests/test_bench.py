@@ -1,0 +1,48 @@
+"""The benchmark scripts still run (their short modes) and print the tables the docs quote.
+
+Benchmarks are not pass/fail on their numbers (timings never are); these smoke runs catch a
+script broken by an API change, and check the invariants of their outputs that do not depend on
+the machine."""
+
+import pytest
+
+pytestmark = pytest.mark.slow
+
+
+def _rows(text: str, prefix: str) -> list[str]:
+    return [line for line in text.splitlines() if line.startswith(prefix)]
+
+
+def test_sim_bench_convergence_quick(capsys):
+    from magsoft_env.bench import sim_bench
+
+    assert sim_bench.main(["--quick", "--only", "convergence"]) == 0
+    rows = _rows(capsys.readouterr().out, (" A:", " 5c:"))
+    assert len(rows) == 4  # two settings x two crawlers in --quick
+    for row in rows:  # ref, pen, then crawl, error, pen at 1 and 0.5 ms: the last 8 columns
+        ref, pen, c1, d1, p1, c5, d5, p5 = (float(v) for v in row.split()[-8:])
+        assert ref * c1 > 0 and ref * c5 > 0  # same direction as the fine reference
+        rounding = 100 * 5e-4 * (1 / abs(ref) + abs(c1) / ref**2) + 0.05  # the mm are printed to 3 decimals
+        assert d1 == pytest.approx(100 * (c1 - ref) / ref, abs=rounding)
+        assert min(pen, p1, p5) >= 0
+
+
+def test_gait_sweep_quick_directions(capsys):
+    from magsoft_env.bench import gait_sweep
+
+    assert gait_sweep.main(["--quick", "--seconds", "1.0"]) == 0
+    rows = _rows(capsys.readouterr().out, "| presets |")
+    assert len(rows) == 4
+    speeds = {r.split("|")[2].strip(): float(r.split("|")[7]) for r in rows}
+    assert speeds["paper-5c"] < 0 < speeds["paper-5c --reverse"]  # the reversal, as docs/envs.md
+
+
+def test_env_bench_short(capsys):
+    from magsoft_env.bench import env_bench
+
+    assert env_bench.main(["--steps", "10"]) in (0, None)
+    out = capsys.readouterr().out
+    for env_id in ("MagSoftCrawl-v0", "MagSoftShape-v0"):
+        (row,) = [line for line in out.splitlines() if line.strip().startswith(env_id)]
+        assert row.rstrip().endswith(tuple("0123456789"))  # the real-time factor closes the row
+    assert "sync:" in out and "async:" in out
