@@ -208,6 +208,11 @@ def test_gait_cli_replaces_the_drive(capsys):
     assert out["friction"] == 1.5
     assert main(["gait", "--preset", "paper-5a", "--friction", "-1"]) == 2
     assert "--friction must lie in [0, 10]" in capsys.readouterr().err
+    assert main(["gait", "--preset", "paper-5c", "--face-down"]) == 2
+    assert "--face-down applies to paper-5a and paper-5b" in capsys.readouterr().err
+    assert main(["gait", "--preset", "paper-5b", "--face-down", "--seconds", "0.2", "--timestep-ms", "0.5",
+                 "--segments", "6", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["face_down"] is True
 
 
 def test_gaits_pin_their_rod_options():

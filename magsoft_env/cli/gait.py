@@ -32,11 +32,19 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="coil time constant of the square drive in ms (default 0: an ideal square)")
     p.add_argument("--field-scale", type=float, default=1.0,
                    help="multiply the preset's field amplitudes by this factor (default 1)")
+    p.add_argument("--face-down", action="store_true",
+                   help="paper-5a, paper-5b: the other face on the floor (beta -> -beta; the paper gives no face)")
     p.add_argument("--friction", type=float, default=None,
                    help="floor friction coefficient (default: the preset's, 0.5; docs/envs.md, 'Tacky friction')")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
     p.set_defaults(run=run)
     return p
+
+
+def _turned_over(name: str):
+    from magsoft_env.gaits import PAPER_5A_VEES, beam_5a, beam_5b
+
+    return beam_5a(vees=PAPER_5A_VEES, face_down=True) if name == "paper-5a" else beam_5b(face_down=True)
 
 
 def run(args) -> int:
@@ -52,6 +60,9 @@ def run(args) -> int:
         raise ValueError(f"--field-scale must lie in (0, 10], got {args.field_scale}.")
     if not 0 <= args.coil_ms <= 1000:
         raise ValueError(f"--coil-ms must lie in [0, 1000] ms, got {args.coil_ms}.")
+    if args.face_down and args.preset not in ("paper-5a", "paper-5b"):
+        raise ValueError(f"--face-down applies to paper-5a and paper-5b (paper-5c is its own mirror image), got "
+                         f"--preset {args.preset}.")
     if args.friction is not None and not 0 <= args.friction <= 10:
         raise ValueError(f"--friction must lie in [0, 10], got {args.friction}.")
     shape = args.waveform or "sine"
@@ -66,6 +77,8 @@ def run(args) -> int:
         preset = dataclasses.replace(preset, wave=w)
     if args.friction is not None:
         preset = dataclasses.replace(preset, friction=args.friction)
+    if args.face_down:
+        preset = dataclasses.replace(preset, beam=_turned_over(args.preset))
     res = run_gait(preset, args.seconds, segments=args.segments, timestep=args.timestep_ms * 1e-3)
     out = res.as_dict()
     out["paper_speed_mm_s"] = None if preset.paper_speed is None else preset.paper_speed * 1e3
@@ -76,6 +89,7 @@ def run(args) -> int:
         "shape": preset.wave.shape, "coil_ms": preset.wave.coil_time * 1e3,
     }
     out["friction"] = preset.friction
+    out["face_down"] = bool(args.face_down)
     out["segments"] = preset.segments if args.segments is None else args.segments
     out["timestep_ms"] = args.timestep_ms
     if args.json:
@@ -85,6 +99,8 @@ def run(args) -> int:
         print(f"{out['preset']}: {preset.description}")
         if preset.wave != gait_preset(args.preset, reverse=args.reverse).wave:
             print(f"field replaced: {preset.wave.describe()}")
+        if args.face_down or args.friction is not None:
+            print(f"robot: {'face down' if args.face_down else 'face up'}, friction {preset.friction:g}")
         print(f"displacement {out['displacement_mm']:+.3f} mm in {out['seconds']:.2f} s; "
               f"speed {out['speed_mm_s']:+.3f} mm/s (after {out['warmup_s']:.2f} s warm-up), "
               f"direction {out['direction']}")
