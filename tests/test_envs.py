@@ -224,3 +224,29 @@ def test_shape_open_loop_target_field_reaches_the_target():
         _, _, _, _, info = env.step(env.unwrapped.open_loop_action())
     assert np.all(np.isfinite(info["target_field"]))
     assert info["position_error"] < 0.05 * env.unwrapped.beam.length
+
+
+@pytest.mark.parametrize("env_id, past", [("MagSoftChannel-v0", "exit_x"), ("MagSoftObstacle-v0", "clear_x")])
+def test_feature_envs_reach_success_past_the_feature(env_id, past):
+    # the success condition, exercised: a beam set down beyond the box's far end (the block's
+    # right face) ends the episode with the success reward; one 0.5 mm short of it is not a
+    # success (checked on the predicate only: stepping it would push it off the block it overlaps)
+    import mujoco
+
+    env = make(env_id)
+    u = env.unwrapped
+
+    def place(shift):
+        env.reset(seed=0)
+        sim = u.sim
+        sim.data.qpos[sim.rod.base_qpos[0]] += getattr(u, past) - sim.centerline()[0].min() + shift
+        mujoco.mj_forward(sim.model, sim.data)
+
+    place(-0.5e-3)
+    assert not u._is_success() and u._success_reward() == 0.0
+    place(0.5e-3)
+    _, reward, terminated, truncated, info = env.step(np.zeros(env.action_space.shape, dtype=np.float32))
+    assert info["is_success"] and terminated and not truncated
+    assert info["reward_success"] == u.success_reward == 100.0
+    assert reward == pytest.approx(info["reward_forward"] + info["reward_field"] + info["reward_crawl"]
+                                   + info["reward_success"])
