@@ -103,6 +103,10 @@ class EvalResult:
         Highest centre of mass over the episodes (m): hopping or standing up shows here.
     final_error : float
         Shape env: mean tip-position error at the end of the episodes (m); NaN otherwise.
+    successes : int
+        Episodes that ended with ``info["is_success"]`` (channel, obstacle, shape envs).
+    success_seconds : float
+        Mean simulated time to success over the successful episodes (s); NaN if none.
     """
 
     name: str
@@ -112,18 +116,21 @@ class EvalResult:
     crawl_violations: int
     max_com_height: float = math.nan
     final_error: float = math.nan
+    successes: int = 0
+    success_seconds: float = math.nan
 
     def as_dict(self) -> dict:
         d = {"name": self.name, "speed_mm_s": self.speed * 1e3, "return": self.episode_return,
              "episode_s": self.episode_seconds, "crawl_violations": self.crawl_violations,
-             "max_com_height_mm": self.max_com_height * 1e3, "final_error_mm": self.final_error * 1e3}
+             "max_com_height_mm": self.max_com_height * 1e3, "final_error_mm": self.final_error * 1e3,
+             "successes": self.successes, "success_s": self.success_seconds}
         return {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in d.items()}
 
 
 def run_episodes(env, act, *, episodes: int = 2, seed: int = 0, name: str = "policy") -> EvalResult:
     """Run ``episodes`` episodes of ``env`` (a Gymnasium env, time limit included) with
     ``act(obs, env) -> action``; measure centre-of-mass speed (m/s, along +x)."""
-    speeds, returns, lengths, violations, zmax, errors = [], [], [], 0, -math.inf, []
+    speeds, returns, lengths, violations, zmax, errors, success_t = [], [], [], 0, -math.inf, [], []
     for k in range(int(episodes)):
         obs, info = env.reset(seed=seed + k)
         x0, t0 = info.get("x_position", math.nan), info["time"]
@@ -134,6 +141,8 @@ def run_episodes(env, act, *, episodes: int = 2, seed: int = 0, name: str = "pol
             zmax = max(zmax, float(info.get("z_position", math.nan)))
             done = term or trunc
         violations += int(bool(info.get("crawl_violation")))
+        if info.get("is_success"):
+            success_t.append(info["time"] - t0)
         errors.append(float(info.get("position_error", math.nan)))
         dt = info["time"] - t0
         speeds.append((info.get("x_position", math.nan) - x0) / dt if dt > 0 else 0.0)
@@ -141,7 +150,8 @@ def run_episodes(env, act, *, episodes: int = 2, seed: int = 0, name: str = "pol
         lengths.append(dt)
     zmax = zmax if math.isfinite(zmax) else math.nan
     return EvalResult(name, float(np.mean(speeds)), float(np.mean(returns)), float(np.mean(lengths)), violations,
-                      zmax, float(np.mean(errors)))
+                      zmax, float(np.mean(errors)), len(success_t),
+                      float(np.mean(success_t)) if success_t else math.nan)
 
 
 def open_loop_actor(wave=None):

@@ -58,6 +58,30 @@ def test_open_loop_gait_in_the_env_matches_its_definition():
 
 
 @pytest.mark.slow
+def test_run_episodes_counts_successes_and_their_times():
+    import gymnasium as gym
+
+    class Reach(gym.Env):  # succeeds at step 3 when reset with an even seed, else runs out at step 5
+        observation_space = gym.spaces.Box(-1.0, 1.0, (1,), np.float32)
+        action_space = gym.spaces.Box(-1.0, 1.0, (1,), np.float32)
+
+        def reset(self, *, seed=None, options=None):
+            self.k, self.even = 0, seed % 2 == 0
+            return np.zeros(1, np.float32), {"time": 0.0, "x_position": 0.0}
+
+        def step(self, action):
+            self.k += 1
+            done = self.even and self.k == 3
+            info = {"time": 0.1 * self.k, "x_position": 0.001 * self.k, "is_success": done}
+            return np.zeros(1, np.float32), 1.0, done, self.k == 5 and not done, info
+
+    res = run_episodes(Reach(), lambda obs, env: np.zeros(1, np.float32), episodes=3, seed=0)
+    assert (res.successes, res.success_seconds) == (2, pytest.approx(0.3))
+    assert res.as_dict()["successes"] == 2 and res.as_dict()["success_s"] == pytest.approx(0.3)
+    none = run_episodes(Reach(), lambda obs, env: np.zeros(1, np.float32), episodes=1, seed=1)
+    assert none.successes == 0 and none.as_dict()["success_s"] is None
+
+
 def test_ppo_cli_trains_saves_and_loads(tmp_path):
     cmd = [sys.executable, str(ROOT / "train" / "train.py"), "--env", "MagSoftCrawl-v0", "--algo", "ppo",
            "--timesteps", "2048", "--n-envs", "2", "--runs", str(tmp_path), "--run-id", "t", "--no-eval",
