@@ -151,7 +151,7 @@ def test_scene_builds_only_what_it_needs(beam):
     assert m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT
     assert m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY
     assert m.ncam == 0 and m.nlight == 0 and m.ntex == 0
-    assert m.ngeom == 21  # one capsule per piece, no floor, no boxes
+    assert m.ngeom == 0  # no contact: no colliders, no floor, no boxes
     mf = build_model(beam, RodOptions(scene="floor")).model
     assert not mf.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT
     assert mujoco.mj_name2id(mf, mujoco.mjtObj.mjOBJ_GEOM, "floor") >= 0
@@ -161,7 +161,7 @@ def test_scene_builds_only_what_it_needs(beam):
     oid = mujoco.mj_name2id(mo, mujoco.mjtObj.mjOBJ_GEOM, "obstacle")
     np.testing.assert_allclose(2 * mo.geom_size[oid], (7e-3, 5.5e-3, 2e-3))
     mr = build_model(beam, RodOptions(render=True)).model
-    assert mr.ncam == 1 and mr.ngeom == 42
+    assert mr.ncam == 1 and mr.ngeom == 21  # one visual box per piece
 
 
 def test_no_floor_means_no_contacts(beam):

@@ -310,7 +310,7 @@ def build_spec(beam: Beam, options: RodOptions) -> tuple[mujoco.MjSpec, RodDiscr
     spheres = o.has_contact and o.contact_geom == "sphere"
 
     def collider(g):
-        g.contype, g.conaffinity = (_ROD_CONTYPE, _ROD_CONAFFINITY) if o.has_contact else (0, 0)
+        g.contype, g.conaffinity = _ROD_CONTYPE, _ROD_CONAFFINITY
         g.friction = [o.friction, 0.005, 0.0001]
         g.solref = [tc, o.contact_dampratio]
         if o.contact_impedance is not None:
@@ -341,11 +341,12 @@ def build_spec(beam: Beam, options: RodOptions) -> tuple[mujoco.MjSpec, RodDiscr
                     name=f"sphere{i}" + ("_tip" if k else ""), type=mujoco.mjtGeom.mjGEOM_SPHERE,
                     size=[radius, 0, 0], pos=[x, 0, 0],
                 ))
-        else:
+        elif o.has_contact:
             collider(body.add_geom(
                 name=f"capsule{i}", type=mujoco.mjtGeom.mjGEOM_CAPSULE, size=[radius, 0, 0],
                 fromto=[0, 0, 0, length, 0, 0],
             ))
+        # no contact (cantilever): no colliders at all, MuJoCo would pose them every step
         if o.render:
             v = body.add_geom(
                 name=f"box{i}", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.5 * length, 0.5 * w, 0.5 * h],
