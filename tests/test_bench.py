@@ -46,3 +46,33 @@ def test_env_bench_short(capsys):
         (row,) = [line for line in out.splitlines() if line.strip().startswith(env_id)]
         assert row.rstrip().endswith(tuple("0123456789"))  # the real-time factor closes the row
     assert "sync:" in out and "async:" in out
+
+
+def test_sim_bench_targets_quick(capsys):
+    from magsoft_env.bench import sim_bench
+
+    assert sim_bench.main(["--quick", "--only", "targets", "--rounds", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "all timing targets met in the same round" in out and "/2 rounds" in out
+    for prefix in ("  A:", "    5c:"):
+        (row,) = _rows(out, prefix)
+        cells = row.split(":", 1)[1].split()
+        met_floor, dq, met_rtf = cells[-14], cells[-13], cells[-9]
+        assert met_floor.endswith("/2") and met_rtf.endswith("/2")
+        assert float(dq) == 0.0  # the C replay follows the Simulator's trajectory exactly
+        crawl, fine, d_fine = (float(v) for v in cells[-8:-5])
+        assert crawl * fine > 0
+        rounding = 100 * 5e-4 * (1 / abs(fine) + abs(crawl) / fine**2) + 0.05  # mm printed to 3 decimals
+        assert d_fine == pytest.approx(100 * (crawl - fine) / fine, abs=rounding)
+
+
+def test_sim_bench_reference_quick(capsys):
+    from magsoft_env.bench import sim_bench
+
+    assert sim_bench.main(["--quick", "--only", "reference"]) == 0
+    out = capsys.readouterr().out
+    for crawler in (" A:", " 5c:"):
+        euler = [r.split() for r in _rows(out, crawler) if r.split()[1:2] == ["euler"] and "Rich." not in r]
+        assert [float(r[2]) for r in euler] == [10.0, 5.0, 2.5]
+        shape = [float(r[4]) for r in euler]
+        assert shape[0] > shape[1] > shape[2] > 0  # Euler closes in on the discrete fine-step run

@@ -2,8 +2,11 @@
 
 Sections (run all, or pick with ``--only``):
 
-* ``targets``: end to end at the default floor settings for two 20-segment crawlers:
-  microseconds per step and real-time factor, beside the dynamic error against a fine-step
+* ``targets``: issue 3's timing targets, every timed case once in each of ``--rounds``
+  interleaved rounds (best, median, and in how many rounds each target and all of them
+  together were met): raw ``mj_step`` of the clamped rod; for two 20-segment crawlers at the
+  default floor settings, ``mj_step`` alone (a C replay of the same trajectory) and end to end
+  (microseconds per step, real-time factor), beside the dynamic error against a fine-step
   reference of the same contact model and against the stiff material-contact model; the
   couples held over 2 and 5 steps (a shortcut, measured).
 
@@ -24,13 +27,16 @@ Sections (run all, or pick with ``--only``):
 * ``convergence``: whether any contact setting (time constant, damping ratio, noslip,
   impratio, refsafe, near-rigid) makes the 1 ms floor step converge: crawl at 1 and 0.5 ms
   against the same setting at 25 us, for both crawlers.
+* ``reference``: whether the fine-step reference is right: the default crawl by the
+  ``discrete`` integrator at 50 / 25 / 12.5 us against a second integrator (``euler``, whose
+  springs and contact rows are explicit) at 10 / 5 / 2.5 us and its Richardson extrapolation.
 * ``symmetry``: numerical left/right bias, from a mirror-symmetric robot driven both ways.
 * ``batch``: ``RodBatch`` (``mujoco.batch``, one thread) against a Python loop of
   ``Simulator`` objects; the cost of computing the couples in C (site actuators) instead.
 * ``peer``: PyElastica (if installed) on the same magnetic cantilever: time to the same
   static error (``magsoft_env.bench.sim_peer``).
 
-Usage: ``python -m magsoft_env.bench.sim_bench [--quick] [--only static speed ...]``.
+Usage: ``python -m magsoft_env.bench.sim_bench [--quick] [--only static speed ...] [--rounds N]``.
 Timings depend on the machine and its load: compare numbers from one run only.
 """
 
@@ -299,105 +305,156 @@ def _travel(run) -> float:
     return float(x[-1].mean() - x[0].mean())
 
 
-def _timings(beam, waveform, duration, holds=(1, 2, 5), repeats=9) -> tuple[dict, float, float]:
-    """CPU us per step along the default crawl, best of ``repeats`` rounds, all cases interleaved in
-    each round (the machine's load changes within a run):
+class _CrawlTimer:
+    """Per-step CPU cost along one default crawl, one sample per :meth:`round`:
 
     * ``Simulator.step`` over the whole crawl (one call), magnetics every step or held over
       ``h`` steps, for each ``h`` in ``holds``;
     * ``mj_step`` alone along the same trajectory: the generalized magnetic forces of every step
       recorded from a ``Simulator`` run and replayed by ``mujoco.rollout`` (a C loop, no Python
-      per step) from the same initial state.
+      per step) from the same initial state."""
 
-    Returns ({hold: us}, replay us, largest |qpos| difference of the replay from the run)."""
-    from mujoco import rollout as mjrollout
+    def __init__(self, beam, waveform, duration, holds=(1, 2, 5)):
+        self.waveform = waveform
+        self.sims = {h: Simulator(beam, RodOptions(scene="floor"), torque_every=h) for h in holds}
+        rec = Simulator(beam, RodOptions(scene="floor"))
+        rec.set_waveform(waveform)
+        m, d = rec.model, rec.data
+        spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+        self.x0 = np.empty(mujoco.mj_stateSize(m, spec))
+        mujoco.mj_getState(m, d, self.x0, spec)
+        self.w0 = d.qacc_warmstart.copy()
+        self.n = n = int(round(duration / rec.timestep))
+        self.qfrc = np.empty((n, m.nv))
+        for k in range(n):
+            rec.step(1)
+            self.qfrc[k] = d.qfrc_applied
+        self.model, self.qend = m, d.qpos.copy()
+        self.scratch = mujoco.MjData(m)
+        self.replay_diff = math.nan
 
-    sims = {h: Simulator(beam, RodOptions(scene="floor"), torque_every=h) for h in holds}
-    rec = Simulator(beam, RodOptions(scene="floor"))
-    rec.set_waveform(waveform)
-    m, d = rec.model, rec.data
-    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
-    x0 = np.empty(mujoco.mj_stateSize(m, spec))
-    mujoco.mj_getState(m, d, x0, spec)
-    w0 = d.qacc_warmstart.copy()
-    n = int(round(duration / rec.timestep))
-    qfrc = np.empty((n, m.nv))
-    for k in range(n):
-        rec.step(1)
-        qfrc[k] = d.qfrc_applied
-    best = dict.fromkeys(holds, math.inf)
-    replay, state = math.inf, None
-    scratch = mujoco.MjData(m)
-    for _ in range(repeats):
-        for h, sim in sims.items():
+    def round(self) -> tuple[dict, float]:
+        """One sample: ({hold: Simulator.step us}, replayed mj_step us)."""
+        from mujoco import rollout as mjrollout
+
+        e2e = {}
+        for h, sim in self.sims.items():
             sim.reset()
-            sim.set_waveform(waveform)
+            sim.set_waveform(self.waveform)
             t0 = time.process_time()
-            sim.step(n)
-            best[h] = min(best[h], time.process_time() - t0)
+            sim.step(self.n)
+            e2e[h] = (time.process_time() - t0) / self.n * 1e6
         t0 = time.process_time()
-        state, _ = mjrollout.rollout(m, scratch, x0[None], qfrc[None],
-                                     control_spec=mujoco.mjtState.mjSTATE_QFRC_APPLIED, initial_warmstart=w0[None])
-        replay = min(replay, time.process_time() - t0)
-    diff = float(np.abs(state[0, -1, 1 : 1 + m.nq] - d.qpos).max())  # FULLPHYSICS rows: time, qpos, ...
-    return {h: v / n * 1e6 for h, v in best.items()}, replay / n * 1e6, diff
+        state, _ = mjrollout.rollout(self.model, self.scratch, self.x0[None], self.qfrc[None],
+                                     control_spec=mujoco.mjtState.mjSTATE_QFRC_APPLIED,
+                                     initial_warmstart=self.w0[None])
+        raw = (time.process_time() - t0) / self.n * 1e6
+        nq = self.model.nq  # FULLPHYSICS rows: time, qpos, ...
+        self.replay_diff = float(np.abs(state[0, -1, 1 : 1 + nq] - self.qend).max())
+        return e2e, raw
 
 
-def _clamped(rounds: int = 15, n: int = 1000) -> None:
-    """Raw ``mj_step`` of the clamped 20-segment rod (defaults, 5 mT + gravity, moving) against
-    ``Simulator.step``: best and median over interleaved rounds, each from the same state."""
-    sim = Simulator(_crawler(), RodOptions(segments=20), field=(0.0, 5e-3))
-    sim.step(200)
-    st = _state(sim)
-    raw_data = mujoco.MjData(sim.model)
-    raw, full = [], []
-    for _ in range(rounds):
-        mujoco.mj_setState(sim.model, raw_data, st, mujoco.mjtState.mjSTATE_INTEGRATION)
+class _ClampedTimer:
+    """Raw ``mj_step`` of the clamped 20-segment rod (defaults, 5 mT + gravity, moving) and
+    ``Simulator.step``, each sample ``n`` steps from the same state."""
+
+    def __init__(self, n: int = 1000):
+        self.sim = Simulator(_crawler(), RodOptions(segments=20), field=(0.0, 5e-3))
+        self.sim.step(200)
+        self.st = _state(self.sim)
+        self.raw_data = mujoco.MjData(self.sim.model)
+        self.n = n
+
+    def round(self) -> tuple[float, float]:
+        sim, n, st = self.sim, self.n, self.st
+        mujoco.mj_setState(sim.model, self.raw_data, st, mujoco.mjtState.mjSTATE_INTEGRATION)
+        self.raw_data.qfrc_applied[:] = sim.data.qfrc_applied
         t0 = time.process_time()
-        mujoco.mj_step(sim.model, raw_data, nstep=n)
-        raw.append((time.process_time() - t0) / n * 1e6)
+        mujoco.mj_step(sim.model, self.raw_data, nstep=n)
+        raw = (time.process_time() - t0) / n * 1e6
         mujoco.mj_setState(sim.model, sim.data, st, mujoco.mjtState.mjSTATE_INTEGRATION)
         t0 = time.process_time()
         sim.step(n)
-        full.append((time.process_time() - t0) / n * 1e6)
-    print(f"clamped 20 segments (cantilever defaults: 1 ms, grading 1.5), {rounds} interleaved rounds of {n} steps "
-          f"from the same moving state: mj_step best {min(raw):.1f} us, median {float(np.median(raw)):.1f} us; "
-          f"Simulator.step best {min(full):.1f} us ({1e3 / min(full):.0f}x real time), median "
-          f"{float(np.median(full)):.1f} us")
+        return raw, (time.process_time() - t0) / n * 1e6
 
 
-def targets(quick: bool) -> None:
+#: issue 3's timing targets: clamped mj_step (us), floor mj_step (us), end to end (x real time)
+TARGET_CLAMPED_US, TARGET_FLOOR_US, TARGET_RTF = 10.0, 30.0, 25.0
+
+
+def _met(values, ok) -> str:
+    return f"{sum(map(ok, values))}/{len(values)}"
+
+
+def targets(quick: bool, rounds: int | None = None) -> None:
     print("\n## targets")
-    _clamped()
+    duration = 0.5 if quick else 2.0
+    rounds = (5 if quick else 30) if rounds is None else rounds
+    crawlers = _crawlers()
+    clamped = _ClampedTimer()
+    timers = [_CrawlTimer(beam, wf, duration) for _, beam, wf in crawlers]
+    holds = tuple(timers[0].sims)
+    c_raw, c_full = [], []
+    e2e = [{h: [] for h in holds} for _ in timers]
+    raw = [[] for _ in timers]
+    for _ in range(rounds):  # every timed case in every round: the machine's speed drifts within a run
+        r, f = clamped.round()
+        c_raw.append(r)
+        c_full.append(f)
+        for i, t in enumerate(timers):
+            e, w = t.round()
+            raw[i].append(w)
+            for h in holds:
+                e2e[i][h].append(e[h])
+    all_met = [
+        c_raw[k] <= TARGET_CLAMPED_US
+        and all(raw[i][k] <= TARGET_FLOOR_US and 1e3 / e2e[i][1][k] >= TARGET_RTF for i in range(len(timers)))
+        for k in range(rounds)
+    ]
+    print(f"timings: CPU time of this process, {rounds} rounds, every timed case below once in each round "
+          "(interleaved); best and median over the rounds; 'met' = rounds in which the case meets its target "
+          f"(clamped mj_step <= {TARGET_CLAMPED_US:g} us, floor mj_step <= {TARGET_FLOOR_US:g} us, end to end "
+          f">= {TARGET_RTF:g}x real time)")
+    print(f"clamped 20 segments (cantilever defaults: 1 ms, grading 1.5), {clamped.n} steps from the same moving "
+          f"state: mj_step best {min(c_raw):.1f} us, median {float(np.median(c_raw)):.1f} us, met "
+          f"{_met(c_raw, lambda v: v <= TARGET_CLAMPED_US)}; Simulator.step best {min(c_full):.1f} us "
+          f"({1e3 / min(c_full):.0f}x real time), median {float(np.median(c_full)):.1f} us")
+    print(f"all timing targets met in the same round (clamped, and both crawlers' mj_step and end to end): "
+          f"{sum(all_met)}/{rounds} rounds")
     print("\nend to end at the default floor settings (N = 20, dt 1 ms, contact tc 2 ms, discrete, "
           "magnetics every step), one core")
-    duration = 0.5 if quick else 2.0
-    print(f"each crawler for {duration:g} s. us/step = best of 9 CPU time of Simulator.step over the whole run "
+    print(f"each crawler for {duration:g} s. us/step = CPU time of Simulator.step over the whole run "
           "(magnetics, checks); mj_step = the same trajectory replayed by mujoco.rollout with the recorded "
-          "generalized magnetic forces (C loop; |dq| = its distance from the run); all interleaved; "
-          "RTF = dt / (us/step)")
+          "generalized magnetic forces (C loop; |dq| = its distance from the run); best (median); "
+          "RTF = dt / best us/step")
     print("crawl = centre-of-mass x travel; d = its error vs the reference; shape = max over time of the centerline "
           "RMS distance / L vs the fine reference; pen = largest penetration (sampled every 10 ms)")
     print("fine ref: the same contact model (tc 2 ms) at dt = 50 us. stiff ref: the material contact "
           "(tc = h sqrt(rho / E)) at dt = 25 us, the 0.2 default model")
-    print(f"{'crawler':>34} {'mj_step':>7} {'|dq|':>7} {'us/step':>8} {'RTF':>6} {'crawl mm':>9} {'fine mm':>8} "
-          f"{'d fine %':>8} {'shape %L':>8} {'pen um':>7} {'stiff mm':>8} {'d stiff %':>9} {'pen stiff':>9}")
-    for name, beam, wf in _crawlers():
-        e2e, raw, dq = _timings(beam, wf, duration)
-        us = e2e[1]
+    print(f"{'crawler':>34} {'mj_step':>13} {'met':>6} {'|dq|':>7} {'us/step':>13} {'RTF':>5} {'met':>6} "
+          f"{'crawl mm':>9} {'fine mm':>8} {'d fine %':>8} {'shape %L':>8} {'pen um':>7} {'stiff mm':>8} "
+          f"{'d stiff %':>9} {'pen stiff':>9}")
+
+    def best_med(v) -> str:
+        return f"{min(v):.1f} ({float(np.median(v)):.1f})"
+
+    for (name, beam, wf), t, rw, e in zip(crawlers, timers, raw, e2e, strict=True):
+        us = e[1]
         run = _crawl(beam, duration, waveform=wf)
         fine = _crawl(beam, duration, waveform=wf, timestep=5e-5)
         stiff = _crawl(beam, duration, waveform=wf, timestep=2.5e-5, contact_timeconst="material")
         c, cf, cs = (1e3 * _travel(r) for r in (run, fine, stiff))
-        print(f"{name:>34} {raw:>7.1f} {dq:>7.0e} {us:>8.1f} {1e3 / us:>6.1f} {c:>9.3f} {cf:>8.3f} "
+        print(f"{name:>34} {best_med(rw):>13} {_met(rw, lambda v: v <= TARGET_FLOOR_US):>6} "
+              f"{t.replay_diff:>7.0e} {best_med(us):>13} {1e3 / min(us):>5.1f} "
+              f"{_met(us, lambda v: 1e3 / v >= TARGET_RTF):>6} {c:>9.3f} {cf:>8.3f} "
               f"{100 * (c - cf) / cf:>+8.1f} {100 * _shape_error(run, fine, beam.length):>8.2f} "
               f"{run[4] * 1e6:>7.1f} {cs:>8.3f} {100 * (c - cs) / cs:>+9.1f} {stiff[4] * 1e6:>7.1f}um")
-        for hold in (2, 5):
-            us_h = e2e[hold]
+        for hold in holds[1:]:
+            us_h = e[hold]
             rh = _crawl(beam, duration, waveform=wf, torque_every=hold)
             ch = 1e3 * _travel(rh)
-            print(f"{'  couples held ' + str(hold) + ' steps':>34} {'':>7} {'':>7} {us_h:>8.1f} {1e3 / us_h:>6.1f} "
-                  f"{ch:>9.3f} {cf:>8.3f} {100 * (ch - cf) / cf:>+8.1f} "
+            print(f"{'  couples held ' + str(hold) + ' steps':>34} {'':>13} {'':>6} {'':>7} {best_med(us_h):>13} "
+                  f"{1e3 / min(us_h):>5.1f} {'':>6} {ch:>9.3f} {cf:>8.3f} {100 * (ch - cf) / cf:>+8.1f} "
                   f"{100 * _shape_error(rh, fine, beam.length):>8.2f} {rh[4] * 1e6:>7.1f}")
 
 
@@ -498,6 +555,31 @@ def convergence(quick: bool) -> None:
                 c = 1e3 * _travel(run)
                 cells.append(f"{c:>8.3f} {100 * (c - cr) / cr:>+7.1f} {run[4] * 1e6:>5.0f}")
             print(f"{name[:3]:>4} {label:>32} {cr:>8.3f} {ref[4] * 1e6:>5.0f} {cells[0]} {cells[1]:>23}")
+
+
+def reference(quick: bool) -> None:
+    print("\n## reference: is the fine-step reference right? The same model (default contact, tc 2 ms) by a second "
+          "integrator")
+    duration = 0.2 if quick else 2.0
+    print("discrete (implicit in position; contact rows folded into the step) at 50 / 25 / 12.5 us against Euler "
+          "(semi-implicit: hinge springs and contact rows explicit, hinge damping implicit) at 10 / 5 / 2.5 us; "
+          "Richardson = 2 x(h / 2) - x(h) for a first-order method, from Euler's two finest runs. crawl = centre-"
+          f"of-mass x travel in {duration:g} s (mm); shape = max over time of the centerline RMS distance / L "
+          "against the discrete 12.5 us run")
+    print(f"{'crawler':>4} {'integrator':>10} {'dt us':>6} {'crawl mm':>9} {'shape %L':>9}")
+    for name, beam, wf in _crawlers():
+        ref = _crawl(beam, duration, waveform=wf, timestep=1.25e-5)
+        rows = [("discrete", dt, _crawl(beam, duration, waveform=wf, timestep=dt)) for dt in (5e-5, 2.5e-5)]
+        rows.append(("discrete", 1.25e-5, ref))
+        rows += [("euler", dt, _crawl(beam, duration, waveform=wf, timestep=dt, integrator="euler"))
+                 for dt in (1e-5, 5e-6, 2.5e-6)]
+        for integ, dt, run in rows:
+            print(f"{name[:3]:>4} {integ:>10} {dt * 1e6:>6.1f} {1e3 * _travel(run):>9.4f} "
+                  f"{100 * _shape_error(run, ref, beam.length):>9.3f}")
+        richardson = 2e3 * _travel(rows[-1][2]) - 1e3 * _travel(rows[-2][2])
+        cr = 1e3 * _travel(ref)
+        print(f"{name[:3]:>4} {'euler':>10} {'Rich.':>6} {richardson:>9.4f}   ({100 * (richardson - cr) / cr:+.1f} % "
+              "from discrete 12.5 us)")
 
 
 def symmetry(quick: bool) -> None:
@@ -622,7 +704,7 @@ def peer(quick: bool) -> None:
 SECTIONS = {
     "targets": targets,
     "static": static, "timestep": timestep, "speed": speed, "floor": floor, "contact": contact,
-    "convergence": convergence, "symmetry": symmetry,
+    "convergence": convergence, "reference": reference, "symmetry": symmetry,
     "batch": batch,
     "peer": peer,
 }
@@ -632,10 +714,17 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--quick", action="store_true", help="fewer cases, shorter runs")
     p.add_argument("--only", nargs="+", choices=sorted(SECTIONS), default=list(SECTIONS))
+    p.add_argument("--rounds", type=int, default=None,
+                   help="timing rounds of the targets section (default 30, 5 with --quick)")
     args = p.parse_args(argv)
+    if args.rounds is not None and args.rounds < 1:
+        p.error(f"--rounds must be a positive integer, got {args.rounds}")
     print(f"mujoco {mujoco.__version__}")
     for name in args.only:
-        SECTIONS[name](args.quick)
+        if name == "targets":
+            targets(args.quick, rounds=args.rounds)
+        else:
+            SECTIONS[name](args.quick)
     return 0
 
 
