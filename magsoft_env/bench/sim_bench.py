@@ -314,10 +314,10 @@ class _CrawlTimer:
       recorded from a ``Simulator`` run and replayed by ``mujoco.rollout`` (a C loop, no Python
       per step) from the same initial state."""
 
-    def __init__(self, beam, waveform, duration, holds=(1, 2, 5)):
+    def __init__(self, beam, waveform, duration, holds=(1, 2, 5), **options):
         self.waveform = waveform
-        self.sims = {h: Simulator(beam, RodOptions(scene="floor"), torque_every=h) for h in holds}
-        rec = Simulator(beam, RodOptions(scene="floor"))
+        self.sims = {h: Simulator(beam, RodOptions(scene="floor", **options), torque_every=h) for h in holds}
+        rec = Simulator(beam, RodOptions(scene="floor", **options))
         rec.set_waveform(waveform)
         m, d = rec.model, rec.data
         spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
@@ -393,10 +393,13 @@ def targets(quick: bool, rounds: int | None = None) -> None:
     crawlers = _crawlers()
     clamped = _ClampedTimer()
     timers = [_CrawlTimer(beam, wf, duration) for _, beam, wf in crawlers]
+    # the half step, within 5 % of the fine reference (convergence section): how fast can it be?
+    halves = [_CrawlTimer(beam, wf, duration, holds=(1,), timestep=5e-4) for _, beam, wf in crawlers]
     holds = tuple(timers[0].sims)
     c_raw, c_full = [], []
     e2e = [{h: [] for h in holds} for _ in timers]
     raw = [[] for _ in timers]
+    h_e2e, h_raw = [[] for _ in halves], [[] for _ in halves]
     for _ in range(rounds):  # every timed case in every round: the machine's speed drifts within a run
         r, f = clamped.round()
         c_raw.append(r)
@@ -406,6 +409,10 @@ def targets(quick: bool, rounds: int | None = None) -> None:
             raw[i].append(w)
             for h in holds:
                 e2e[i][h].append(e[h])
+        for i, t in enumerate(halves):
+            e, w = t.round()
+            h_raw[i].append(w)
+            h_e2e[i].append(e[1])
     all_met = [
         c_raw[k] <= TARGET_CLAMPED_US
         and all(raw[i][k] <= TARGET_FLOOR_US and 1e3 / e2e[i][1][k] >= TARGET_RTF for i in range(len(timers)))
@@ -426,7 +433,8 @@ def targets(quick: bool, rounds: int | None = None) -> None:
     print(f"each crawler for {duration:g} s. us/step = CPU time of Simulator.step over the whole run "
           "(magnetics, checks); mj_step = the same trajectory replayed by mujoco.rollout with the recorded "
           "generalized magnetic forces (C loop; |dq| = its distance from the run); best (median); "
-          "RTF = dt / best us/step")
+          "RTF = dt / best us/step; 'dt 0.5 ms': the same at half the default step (mj_step: the real-time "
+          "factor of mj_step alone, a bound for any per-step work)")
     print("crawl = centre-of-mass x travel; d = its error vs the reference; shape = max over time of the centerline "
           "RMS distance / L vs the fine reference; pen = largest penetration (sampled every 10 ms)")
     print("fine ref: the same contact model (tc 2 ms) at dt = 50 us. stiff ref: the material contact "
@@ -438,7 +446,8 @@ def targets(quick: bool, rounds: int | None = None) -> None:
     def best_med(v) -> str:
         return f"{min(v):.1f} ({float(np.median(v)):.1f})"
 
-    for (name, beam, wf), t, rw, e in zip(crawlers, timers, raw, e2e, strict=True):
+    for (name, beam, wf), t, rw, e, th, hr, he in zip(crawlers, timers, raw, e2e, halves, h_raw, h_e2e,
+                                                       strict=True):
         us = e[1]
         run = _crawl(beam, duration, waveform=wf)
         fine = _crawl(beam, duration, waveform=wf, timestep=5e-5)
@@ -456,6 +465,12 @@ def targets(quick: bool, rounds: int | None = None) -> None:
             print(f"{'  couples held ' + str(hold) + ' steps':>34} {'':>13} {'':>6} {'':>7} {best_med(us_h):>13} "
                   f"{1e3 / min(us_h):>5.1f} {'':>6} {ch:>9.3f} {cf:>8.3f} {100 * (ch - cf) / cf:>+8.1f} "
                   f"{100 * _shape_error(rh, fine, beam.length):>8.2f} {rh[4] * 1e6:>7.1f}")
+        rh = _crawl(beam, duration, waveform=wf, timestep=5e-4)
+        ch = 1e3 * _travel(rh)
+        print(f"{'  dt 0.5 ms (mj_step: ' + format(5e2 / min(hr), '.1f') + 'x)':>34} {best_med(hr):>13} "
+              f"{'':>6} {th.replay_diff:>7.0e} {best_med(he):>13} {5e2 / min(he):>5.1f} "
+              f"{_met(he, lambda v: 5e2 / v >= TARGET_RTF):>6} {ch:>9.3f} {cf:>8.3f} {100 * (ch - cf) / cf:>+8.1f} "
+              f"{100 * _shape_error(rh, fine, beam.length):>8.2f} {rh[4] * 1e6:>7.1f}")
 
 
 def floor(quick: bool) -> None:
