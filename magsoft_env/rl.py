@@ -22,12 +22,21 @@ def parse_override(text: str):
     (YAML 1.1 reads exponent notation without a dot as a string)."""
     import yaml
 
-    v = yaml.safe_load(text)
+    return _yaml_numbers(yaml.safe_load(text))
+
+
+def _yaml_numbers(v):
+    """``v`` with YAML 1.1's exponent strings ("1e-4", read as strings without a dot) as floats,
+    in nested dicts and lists too; other strings unchanged."""
     if isinstance(v, str):
         try:
-            return float(v)
+            return float(v) if any(c.isdigit() for c in v) else v
         except ValueError:
             return v
+    if isinstance(v, dict):
+        return {k: _yaml_numbers(x) for k, x in v.items()}
+    if isinstance(v, list):
+        return [_yaml_numbers(x) for x in v]
     return v
 
 
@@ -70,11 +79,11 @@ def load_hyperparams(path, env_id: str, algo: str) -> dict:
             merged[key] = {**merged[key], **value}
         else:
             merged[key] = value
-    algo_kwargs = dict(merged.get(algo) or {})
+    algo_kwargs = _yaml_numbers(dict(merged.get(algo) or {}))
     return {
         "env_id": env_id,
         "algo": algo,
-        "env_kwargs": dict(merged.get("env_kwargs") or {}),
+        "env_kwargs": _yaml_numbers(dict(merged.get("env_kwargs") or {})),
         "n_envs": int(merged.get("n_envs", 1)),
         "n_timesteps": int(float(algo_kwargs.pop("n_timesteps", merged.get("n_timesteps", 10000)))),
         "normalize": bool(merged.get("normalize", True)),

@@ -104,6 +104,14 @@ def test_beam_rejects_nonfinite_size():
         ms.Beam(length=float("nan"), width=0.005, thickness=0.001)
 
 
+@pytest.mark.parametrize("value, kind", [("0.02", "a string"), (True, "a bool")])
+def test_numbers_are_not_read_from_strings_or_bools(value, kind):
+    with pytest.raises(ValueError, match=f"Beam.length must be a finite number .*got {kind}"):
+        ms.Beam(length=value, width=0.005, thickness=0.001)
+    with pytest.raises(ValueError, match=f"field Bx must be a finite number .*got {kind}"):
+        ms.Field(value, 0.0)
+
+
 @pytest.mark.parametrize("phi", [-0.1, 0.6, 0.74])
 def test_beam_rejects_volume_fraction_out_of_range(phi):
     with pytest.raises(ValueError, match=r"volume_fraction must lie in \[0, 0.5\]"):

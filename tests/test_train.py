@@ -31,6 +31,15 @@ def test_hyperparams_merge_default_and_env_blocks(tmp_path):
     assert other["env_kwargs"] == {"segments": 10}
 
 
+def test_hyperparams_read_yaml_exponent_strings_as_numbers(tmp_path):
+    # YAML 1.1 reads 2e-3 (no dot) as a string; the simulator refuses strings for numbers
+    f = tmp_path / "h.yml"
+    f.write_text("default:\n  env_kwargs: {field_limit: 2e-3, robot: paper-5a}\n  ppo: {learning_rate: 3e-4}\n")
+    cfg = load_hyperparams(f, "MagSoftCrawl-v0", "ppo")
+    assert cfg["env_kwargs"] == {"field_limit": 2e-3, "robot": "paper-5a"}
+    assert cfg["algo_kwargs"] == {"learning_rate": 3e-4}
+
+
 def test_shipped_hyperparams_cover_every_id_and_algo():
     from magsoft_env.envs import ENV_SPECS
 

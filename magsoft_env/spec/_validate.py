@@ -10,7 +10,13 @@ import numpy as np
 
 
 def finite_number(name: str, value, *, unit: str = "") -> float:
-    """Return ``value`` as a float or raise a ValueError naming ``name``."""
+    """Return ``value`` as a float or raise a ValueError naming ``name``.
+
+    Numbers only: a string ("1e-3") or a bool is refused, not converted, so a quoted number or a
+    flag passed in the wrong place is reported instead of read as a value."""
+    if isinstance(value, (str, bytes, bool, np.bool_)):
+        kind = "a bool" if isinstance(value, (bool, np.bool_)) else "a string"
+        raise ValueError(f"{name} must be a finite number{_u(unit)}, got {kind}: {value!r}.")
     try:
         x = float(value)
     except (TypeError, ValueError):
