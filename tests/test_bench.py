@@ -76,3 +76,23 @@ def test_sim_bench_reference_quick(capsys):
         assert [float(r[2]) for r in euler] == [10.0, 5.0, 2.5]
         shape = [float(r[4]) for r in euler]
         assert shape[0] > shape[1] > shape[2] > 0  # Euler closes in on the discrete fine-step run
+
+
+def test_sim_bench_sweep_quick(capsys):
+    from magsoft_env.bench import sim_bench
+
+    assert sim_bench.main(["--quick", "--only", "sweep"]) == 0
+    rows = [r.split() for r in capsys.readouterr().out.splitlines() if r.split()[:1] in (["10"], ["20"])]
+    assert len(rows) == 8  # 2 N x 2 integrators x 2 timesteps in --quick
+    static = {}
+    for n, _, _, st, dyn, _, rtf in rows:
+        static.setdefault(n, set()).add(st)
+        assert 0 < float(dyn) < 10 and float(rtf) > 0
+    # the settled state is the discrete equilibrium whatever the integrator and step, and it is
+    # second order in the segment length (elastica closed form, docs/sim.md "Static error")
+    assert all(len(v) == 1 for v in static.values())
+    assert float(static["10"].pop()) / float(static["20"].pop()) == pytest.approx(4.0, rel=0.1)
+    by_dt = {(n, integ, float(dt)): float(dyn) for n, integ, dt, _, dyn, _, _ in rows}
+    for n in ("10", "20"):
+        for integ in ("discrete", "euler"):
+            assert by_dt[(n, integ, 2e-4)] < by_dt[(n, integ, 1e-3)]  # the smaller step is closer

@@ -15,6 +15,9 @@ Sections (run all, or pick with ``--only``):
   Fig. 3 paths (baseline: ``magsoft_env.solve_path``), with wall times of both.
 * ``timestep``: largest stable timestep per integrator and segment count (a 0.3 s step
   response of a gravity-loaded cantilever to 13 mT; stable = no SimulationError).
+* ``sweep``: segments x timestep x integrator on the clamped rod (a field switched on at
+  t = 0): static error of the settled state against the elastica closed form, dynamic error
+  against the same segment count at a 10 us step, microseconds per step, real-time factor.
 * ``speed``: microseconds per step, raw ``mj_step`` (baseline) against ``Simulator.step``
   (magnetics included), clamped and on a floor, explicit contact pairs against the broad
   phase, contact on and off, real-time factor.
@@ -162,6 +165,73 @@ def timestep(quick: bool) -> None:
 _CRAWLER = dict(length=25e-3, width=W, thickness=H)
 #: the floor defaults of version 0.2: the material's contact time constant at a 0.1 ms step
 MATERIAL = dict(contact_timeconst="material", timestep=1e-4)
+
+
+def _step_response(beam, n, integrator, dt, B, duration, sample=2e-3):
+    """A clamped rod from rest under a field switched on at t = 0: tip (x, z) every ``sample``
+    s, CPU us per step of ``Simulator.step``, the simulator (or the SimulationError)."""
+    options = RodOptions(segments=n, integrator=integrator, timestep=dt, gravity=0.0)
+    sim = Simulator(beam, options, field=(0.0, B))
+    every = max(1, int(round(sample / dt)))
+    tips = [sim.tip_position()]
+    try:
+        for _ in range(int(round(duration / sample))):
+            sim.step(every)
+            tips.append(sim.tip_position())
+    except SimulationError as err:
+        return None, math.nan, err
+    timed = Simulator(beam, options, field=(0.0, B))  # the same run in one call, timed
+    nsteps = every * int(round(duration / sample))
+    us = math.inf
+    for _ in range(3):
+        timed.reset()
+        t0 = time.process_time()
+        timed.step(nsteps)
+        us = min(us, (time.process_time() - t0) / nsteps * 1e6)
+    return np.array(tips), us, sim
+
+
+def sweep(quick: bool) -> None:
+    print("\n## sweep: segments x timestep x integrator, clamped rod (static error, dynamic error, cost)")
+    beam = Beam(length=25e-3, width=W, thickness=H)
+    B, duration = 5e-3, 0.2
+    EI, AM = float(beam.bending_stiffness(0.0)), float(beam.moment_per_length(0.0))
+    exact = elastica_dead_load(beam.length, EI, AM * B, math.pi / 2)
+    segs = (10, 20) if quick else (10, 20, 40)
+    dts = (1e-3, 2e-4) if quick else (2e-3, 1e-3, 5e-4, 2e-4, 1e-4)
+    integrators = ("discrete", "euler") if quick else ("discrete", "implicitfast", "euler", "rk4")
+    fine = 1e-5
+    print(f"25 mm uniform beam, no gravity, default cells (graded 1.5), B_z = {B * 1e3:g} mT switched on at t = 0 "
+          f"on the straight beam at rest, {duration:g} s")
+    print("static = tip error / L of the settled state (Simulator.settle, tol 1e-8 rad, same integrator and step) "
+          "against the elastica closed form; dynamic = max over the run of the tip distance / L from the same N "
+          f"under the discrete integrator at {fine * 1e6:g} us (tip every 2 ms); us/step = CPU time of "
+          "Simulator.step over the whole run in one call, best of 3 (magnetics and checks); RTF = dt / (us/step)")
+    refs = {}
+    for n in segs:
+        tips, _, _ = _step_response(beam, n, "discrete", fine, B, duration)
+        alt, _, _ = _step_response(beam, n, "euler", fine, B, duration)
+        refs[n] = tips
+        gap = float(np.max(np.hypot(*(alt - tips).T))) / beam.length
+        print(f"reference check, N = {n}: euler at {fine * 1e6:g} us differs from it by {100 * gap:.4f} % of L at most")
+    print(f"{'N':>4} {'integrator':>12} {'dt s':>8} {'static %L':>10} {'dynamic %L':>11} {'us/step':>8} {'RTF':>7}")
+    for n in segs:
+        for integ in integrators:
+            for dt in dts:
+                tips, us, sim = _step_response(beam, n, integ, dt, B, duration)
+                if tips is None:
+                    what = sim.quantity.split(" (")[0].removeprefix("MuJoCo warning: ")
+                    print(f"{n:>4} {integ:>12} {dt:>8g} unstable at step {sim.step}: {what}")
+                    continue
+                dyn = float(np.max(np.hypot(*(tips - refs[n]).T))) / beam.length
+                try:
+                    res = sim.settle(tol=1e-8)
+                    x, z = sim.tip_position()
+                    st = f"{100 * math.hypot(x - exact['x'], z - exact['z']) / beam.length:>10.4f}"
+                    st = st if res.success else f"{'no conv.':>10}"
+                except SimulationError:
+                    st = f"{'unstable':>10}"
+                print(f"{n:>4} {integ:>12} {dt:>8g} {st} {100 * dyn:>11.4f} {us:>8.1f} {dt * 1e6 / us:>7.1f}")
 
 
 def _crawler() -> Beam:
@@ -718,7 +788,7 @@ def peer(quick: bool) -> None:
 
 SECTIONS = {
     "targets": targets,
-    "static": static, "timestep": timestep, "speed": speed, "floor": floor, "contact": contact,
+    "static": static, "timestep": timestep, "sweep": sweep, "speed": speed, "floor": floor, "contact": contact,
     "convergence": convergence, "reference": reference, "symmetry": symmetry,
     "batch": batch,
     "peer": peer,
