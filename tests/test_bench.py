@@ -82,8 +82,15 @@ def test_sim_bench_sweep_quick(capsys):
     from magsoft_env.bench import sim_bench
 
     assert sim_bench.main(["--quick", "--only", "sweep"]) == 0
-    rows = [r.split() for r in capsys.readouterr().out.splitlines() if r.split()[:1] in (["10"], ["20"])]
+    lines = [r.split() for r in capsys.readouterr().out.splitlines()]
+    rows = [r for r in lines if r[:1] in (["10"], ["20"]) and r[1] in ("discrete", "euler")]
     assert len(rows) == 8  # 2 N x 2 integrators x 2 timesteps in --quick
+    floor = [r for r in lines if r[:1] in (["10"], ["20"]) and len(r) == 8]
+    assert len(floor) == 4  # 2 N x 2 timesteps
+    for _, _, crawl, ref, _, shape, _, _ in floor:
+        assert float(crawl) * float(ref) > 0 and float(shape) >= 0
+    fine = {(n, float(dt)): float(shape) for n, dt, _, _, _, shape, _, _ in floor}
+    assert all(fine[(n, 1e-4)] < fine[(n, 1e-3)] for n in ("10", "20"))
     static = {}
     for n, _, _, st, dyn, _, rtf in rows:
         static.setdefault(n, set()).add(st)

@@ -232,6 +232,28 @@ def sweep(quick: bool) -> None:
                 except SimulationError:
                     st = f"{'unstable':>10}"
                 print(f"{n:>4} {integ:>12} {dt:>8g} {st} {100 * dyn:>11.4f} {us:>8.1f} {dt * 1e6 / us:>7.1f}")
+    _sweep_floor(quick)
+
+
+def _sweep_floor(quick: bool) -> None:
+    duration = 0.5 if quick else 2.0
+    segs = (10, 20) if quick else (10, 20, 40)
+    dts = (1e-3, 1e-4) if quick else (1e-3, 5e-4, 2.5e-4, 1e-4)
+    fine = 2.5e-5
+    beam = _crawler()
+    print(f"\nfloor: crawler A (25 mm, phi 10 %/20 % halves, B_z = 2 mT sin(2 pi 2 t)), default contact, discrete, "
+          f"{duration:g} s; crawl = centre-of-mass x travel, d = its error and shape = max centerline RMS distance / L "
+          f"against the same N at {fine * 1e6:g} us; us/step, RTF: CPU time of the run (one run)")
+    print(f"{'N':>4} {'dt s':>8} {'crawl mm':>9} {'ref mm':>8} {'d %':>7} {'shape %L':>9} {'us/step':>8} {'RTF':>6}")
+    for n in segs:
+        ref = _crawl(beam, duration, timestep=fine, segments=n)
+        cr = 1e3 * _travel(ref)
+        for dt in dts:
+            run = _crawl(beam, duration, timestep=dt, segments=n)
+            c = 1e3 * _travel(run)
+            us = run[3] / int(round(duration / dt)) * 1e6
+            print(f"{n:>4} {dt:>8g} {c:>9.3f} {cr:>8.3f} {100 * (c - cr) / cr:>+7.1f} "
+                  f"{100 * _shape_error(run, ref, beam.length):>9.3f} {us:>8.1f} {dt * 1e6 / us:>6.1f}")
 
 
 def _crawler() -> Beam:
