@@ -245,15 +245,21 @@ def _sweep_floor(quick: bool) -> None:
           f"{duration:g} s; crawl = centre-of-mass x travel, d = its error and shape = max centerline RMS distance / L "
           f"against the same N at {fine * 1e6:g} us; us/step, RTF: CPU time of the run (one run)")
     print(f"{'N':>4} {'dt s':>8} {'crawl mm':>9} {'ref mm':>8} {'d %':>7} {'shape %L':>9} {'us/step':>8} {'RTF':>6}")
+    soft = {}
     for n in segs:
         ref = _crawl(beam, duration, timestep=fine, segments=n)
-        cr = 1e3 * _travel(ref)
+        cr = soft[n] = 1e3 * _travel(ref)
         for dt in dts:
             run = _crawl(beam, duration, timestep=dt, segments=n)
             c = 1e3 * _travel(run)
             us = run[3] / int(round(duration / dt)) * 1e6
             print(f"{n:>4} {dt:>8g} {c:>9.3f} {cr:>8.3f} {100 * (c - cr) / cr:>+7.1f} "
                   f"{100 * _shape_error(run, ref, beam.length):>9.3f} {us:>8.1f} {dt * 1e6 / us:>6.1f}")
+    print(f"fine-step crawl ({fine * 1e6:g} us) against N, both contact models: does the crawl converge in N?")
+    print(f"{'N':>4} {'default mm':>11} {'material mm':>12}")
+    for n in segs:
+        stiff = 1e3 * _travel(_crawl(beam, duration, timestep=fine, segments=n, contact_timeconst="material"))
+        print(f"{n:>4} {soft[n]:>11.4f} {stiff:>12.4f}")
 
 
 def _crawler() -> Beam:
