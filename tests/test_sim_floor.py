@@ -146,6 +146,32 @@ def test_batch_reports_non_finite_state(crawler):
         rb.step(2)
 
 
+def test_runaway_energy_is_reported_by_simulator_and_batch(crawler, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # MuJoCo would log uncaptured warnings to ./MUJOCO_LOG.TXT
+    sim = Simulator(crawler, RodOptions(scene="floor"))
+    sim.data.qvel[0] = 1e3  # base slide at 1 km/s: ~1e4 x the energy scale
+    with pytest.raises(SimulationError, match="runaway kinetic energy") as err:
+        sim.step(100)
+    assert err.value.step == 50  # the first check
+    rb = RodBatch(crawler, RodOptions(scene="floor"), nsim=3)
+    rb.qvel[1, 0] = 1e3
+    with pytest.raises(SimulationError, match=r"runaway kinetic energy .* in simulations \[1\]") as err:
+        rb.step(100)
+    assert err.value.step == 50 and err.value.value == pytest.approx(sim.energies()["kinetic"], rel=0.5)
+    rb.reset()
+    np.testing.assert_allclose(rb.kinetic_energy(), 0.0, atol=1e-15)
+
+
+def test_batch_stops_at_a_mujoco_warning(crawler, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    rb = RodBatch(crawler, RodOptions(scene="floor"), nsim=2)
+    rb.qvel[0, 0] = 1e11  # above MuJoCo's huge-value limit
+    with pytest.raises(SimulationError, match=r"MuJoCo warning: non-finite or huge qvel .* simulations \[0\]") as err:
+        rb.step(100)
+    assert err.value.step == 1  # stopped at the step that warned, not stepped through
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists()  # captured, not logged
+
+
 @pytest.mark.slow
 def test_mirror_symmetric_robot_has_no_numerical_drift():
     # the cosine-jig beam turned end for end is the same beam with m reversed, i.e. with B_z

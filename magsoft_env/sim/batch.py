@@ -17,7 +17,7 @@ import numpy as np
 from mujoco import batch as mjbatch
 
 from ..spec import Beam
-from .simulator import SimulationError, Simulator
+from .simulator import _RUNAWAY_FACTOR, _WARN_IDS, _WARNINGS, SimulationError, Simulator
 from .waveforms import as_waveform
 
 
@@ -37,9 +37,11 @@ class RodBatch:
 
     Notes
     -----
-    Stability: after every call to :meth:`step` a non-finite state raises
-    :class:`SimulationError` naming the simulations (``quantity`` lists their ids); MuJoCo
-    keeps failed simulations at their state before the call.
+    Stability, checked as :class:`Simulator` checks it, every ``check_every`` steps and at the
+    end of every :meth:`step` call: a MuJoCo warning (bad qacc, qvel or qpos, full buffers), a
+    non-finite state or a kinetic energy above 100 x the simulation's energy scale raises
+    :class:`SimulationError` naming the step and the simulations (``quantity`` lists their
+    ids). A simulation MuJoCo fails on is kept at its state before the call.
 
     Examples
     --------
@@ -52,8 +54,8 @@ class RodBatch:
     (4, 22)
     """
 
-    def __init__(self, beam: Beam, options=None, *, nsim: int = 16, nthread: int = 1):
-        for name, v, lo in (("nsim", nsim, 1), ("nthread", nthread, 0)):
+    def __init__(self, beam: Beam, options=None, *, nsim: int = 16, nthread: int = 1, check_every: int = 50):
+        for name, v, lo in (("nsim", nsim, 1), ("nthread", nthread, 0), ("check_every", check_every, 1)):
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
                 raise ValueError(f"{name} must be an integer >= {lo}, got {v!r}.")
         # one Simulator holds the model, the piece tables and the coefficient helpers
@@ -67,11 +69,17 @@ class RodBatch:
         self._xmat = self.batch.bind("xmat")
         self._xpos = self.batch.bind("xpos")
         self._qfrc = self.batch.bind("qfrc_applied")
+        self._M = self.batch.bind("M")  # mass matrices (MuJoCo's sparse layout)
         self._b0, self._b1 = t._b0, t._b1
         self._fields = np.zeros((self.nsim, 2))
         self._waveforms = None
+        self.check_every = int(check_every)
+        self._scratch = mujoco.MjData(self.model)  # holds one simulation's mass matrix for mj_mulM
+        self._mv = np.zeros(self.model.nv)
         self.time = 0.0
+        self.nstep = 0
         self.reset()
+        self._set_energy_scales()
 
     @property
     def timestep(self) -> float:
@@ -83,6 +91,60 @@ class RodBatch:
         self.batch.reset()
         self.batch.forward()
         self.time = 0.0
+        self.nstep = 0
+        self._warn0 = self._warning_counts()
+
+    def _warning_counts(self) -> np.ndarray:
+        return np.asarray(self.batch.warning)[:, _WARN_IDS, 1].copy()
+
+    def _set_energy_scales(self) -> None:
+        # per simulation, as Simulator's: its peak field (a waveform's over its first second)
+        if self._waveforms is None:
+            peaks = np.hypot(self._fields[:, 0], self._fields[:, 1])
+        else:
+            ts = np.linspace(0.0, 1.0, 257)
+            peaks = np.array([float(np.hypot(*np.abs(w.sample(ts)).max(axis=0))) for w in self._waveforms])
+        self._energy_scale = np.array([self.template._compute_energy_scale(float(b)) for b in peaks])
+
+    def kinetic_energy(self) -> np.ndarray:
+        """Kinetic energy of every simulation (J), shape ``(nsim,)``, from the mass matrix the
+        batch holds for it (the current state's after :meth:`step`)."""
+        ke = np.empty(self.nsim)
+        d, mv = self._scratch, self._mv
+        for s in range(self.nsim):
+            d.M[:] = self._M[s]
+            mujoco.mj_mulM(self.model, d, mv, self._qvel[s])
+            ke[s] = 0.5 * float(self._qvel[s] @ mv)
+        return ke
+
+    def _check(self, *, energy: bool, text=()) -> None:
+        hint = "Use a smaller timestep or integrator='discrete'."
+        new = self._warning_counts() > self._warn0
+        bad = np.nonzero(new.any(axis=1))[0]
+        if bad.size:
+            what = _WARNINGS[int(_WARN_IDS[np.argmax(new[bad[0]])])]
+            detail = f" ({text[0].strip()})" if text else ""
+            self._fail(f"MuJoCo warning: {what}", bad, math.nan, f"{detail.strip()} {hint}".strip())
+        bad = np.nonzero(~np.all(np.isfinite(self._qpos), axis=1) | ~np.all(np.isfinite(self._qvel), axis=1))[0]
+        if bad.size:
+            self._fail("non-finite state", bad, math.nan, hint)
+        if energy:
+            ke = self.kinetic_energy()
+            bad = np.nonzero(~(ke <= _RUNAWAY_FACTOR * self._energy_scale))[0]
+            if bad.size:
+                self._fail(
+                    "runaway kinetic energy (J)", bad, float(ke[bad[0]]),
+                    f"It exceeds {_RUNAWAY_FACTOR:g} x the energy scale ({self._energy_scale[bad[0]]:.3g} J in "
+                    f"simulation {bad[0]}). {hint}",
+                )
+
+    def _fail(self, what: str, ids, value: float, hint: str) -> None:
+        ids = [int(i) for i in ids]
+        raise SimulationError(
+            f"{what} at step {self.nstep} (t = {self.time:.6g} s) in simulations {ids}"
+            f"{'' if math.isnan(value) else f': {value:.4g}'}. {hint}",
+            step=self.nstep, time=self.time, quantity=f"{what} in simulations {ids}", value=value,
+        )
 
     def set_fields(self, fields) -> None:
         """Hold constant fields, shape ``(nsim, 2)`` of ``(B_x, B_z)`` (T), from now on."""
@@ -91,6 +153,7 @@ class RodBatch:
             raise ValueError(f"fields must be a finite array of shape ({self.nsim}, 2) in T, got shape {f.shape}.")
         self._fields[:] = f
         self._waveforms = None
+        self._set_energy_scales()
 
     def set_waveforms(self, waveforms) -> None:
         """Let simulation ``i`` follow ``waveforms[i](t)`` (T), ``t`` the batch time (s)."""
@@ -98,6 +161,7 @@ class RodBatch:
         if len(wfs) != self.nsim:
             raise ValueError(f"waveforms must hold {self.nsim} waveforms, got {len(wfs)}.")
         self._waveforms = [as_waveform(w, f"waveforms[{i}]") for i, w in enumerate(wfs)]
+        self._set_energy_scales()
 
     def step(self, n: int = 1) -> None:
         """Advance every simulation ``n`` steps with the couples updated each step.
@@ -105,8 +169,10 @@ class RodBatch:
         Raises
         ------
         SimulationError
-            If a simulation's state turned non-finite or MuJoCo failed on it.
+            If MuJoCo failed on a simulation or warned about it, its state turned non-finite or
+            its kinetic energy ran away (see the class notes).
         """
+        n = int(n)
         t = self.template
         nv = self.model.nv
         gzx = t._gzx
@@ -125,30 +191,39 @@ class RodBatch:
             # as Simulator._set_coefficients: G = B_x G_z - B_z G_x
             G = [np.subtract(bx * gzx[:, :nv], bz * gzx[:, nv:]) for bx, bz in self._fields]
         stage = mujoco.mjtStage.mjSTAGE_VEL
-        for k in range(int(n)):
-            for s in range(self.nsim):  # the simulator's own products, so the arithmetic is identical
-                if fields is None:
-                    dot(x[s], G[s], out=q[s])
-                else:
-                    dot(x[s], gzx, out=v[s])
-                    dot(bs[k, s], v2[s], out=q[s])
-            try:
-                self.batch.step(stage=stage)
-            except mjbatch.SimulationError as err:
-                ids = list(getattr(err, "ids", []))
-                raise SimulationError(
-                    f"batch step failed at t = {self.time:.6g} s in simulations {ids}: {err}",
-                    step=k, time=self.time, quantity=f"simulations {ids}",
-                ) from err
-            self.time += self.timestep
-        if fields is not None:
-            self._fields[:] = fields[-1]
-        bad = np.nonzero(~np.all(np.isfinite(self._qpos), axis=1) | ~np.all(np.isfinite(self._qvel), axis=1))[0]
-        if bad.size:
-            raise SimulationError(
-                f"non-finite state at t = {self.time:.6g} s in simulations {bad.tolist()}; use a smaller timestep.",
-                step=int(n), time=self.time, quantity=f"simulations {bad.tolist()}", value=math.nan,
-            )
+        # MuJoCo's warning text is captured (not printed or logged to MUJOCO_LOG.TXT), as in
+        # Simulator.step; a warning ends the loop at the step that raised it
+        prev = mujoco.get_mju_user_warning()
+        warned = []
+        mujoco.set_mju_user_warning(warned.append)
+        k = -1
+        try:
+            for k in range(n):
+                for s in range(self.nsim):  # the simulator's own products, so the arithmetic is identical
+                    if fields is None:
+                        dot(x[s], G[s], out=q[s])
+                    else:
+                        dot(x[s], gzx, out=v[s])
+                        dot(bs[k, s], v2[s], out=q[s])
+                try:
+                    self.batch.step(stage=stage)
+                except mjbatch.SimulationError as err:
+                    ids = list(getattr(err, "ids", []))
+                    raise SimulationError(
+                        f"batch step failed at step {self.nstep} (t = {self.time:.6g} s) in simulations {ids}: "
+                        f"{err}", step=self.nstep, time=self.time, quantity=f"simulations {ids}",
+                    ) from err
+                self.time += self.timestep
+                self.nstep += 1
+                if warned:
+                    break
+                if self.nstep % self.check_every == 0:
+                    self._check(energy=True)
+        finally:
+            mujoco.set_mju_user_warning(prev)
+            if fields is not None and k >= 0:
+                self._fields[:] = fields[k]
+        self._check(energy=False, text=warned)
 
     @property
     def qpos(self) -> np.ndarray:
