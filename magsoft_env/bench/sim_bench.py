@@ -17,7 +17,9 @@ Sections (run all, or pick with ``--only``):
   response of a gravity-loaded cantilever to 13 mT; stable = no SimulationError).
 * ``sweep``: segments x timestep x integrator on the clamped rod (a field switched on at
   t = 0): static error of the settled state against the elastica closed form, dynamic error
-  against the same segment count at a 10 us step, microseconds per step, real-time factor.
+  against the same segment count at a 10 us step, microseconds per step, real-time factor;
+  then segments x timestep for a crawler on the floor (crawl and shape against the same N at
+  25 us), and its fine-step crawl against N for both contact models.
 * ``speed``: microseconds per step, raw ``mj_step`` (baseline) against ``Simulator.step``
   (magnetics included), clamped and on a floor, explicit contact pairs against the broad
   phase, contact on and off, real-time factor.
