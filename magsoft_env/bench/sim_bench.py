@@ -259,7 +259,7 @@ def _sweep_floor(quick: bool) -> None:
                   f"{100 * _shape_error(run, ref, beam.length):>9.3f} {us:>8.1f} {dt * 1e6 / us:>6.1f}")
     print(f"fine-step crawl ({fine * 1e6:g} us) against N, both contact models: does the crawl converge in N?")
     print(f"{'N':>4} {'default mm':>11} {'material mm':>12}")
-    for n in (*segs, *(() if quick else (80,))):
+    for n in (*segs, *(() if quick else (80, 160))):
         if n not in soft:
             soft[n] = 1e3 * _travel(_crawl(beam, duration, timestep=fine, segments=n))
         stiff = 1e3 * _travel(_crawl(beam, duration, timestep=fine, segments=n, contact_timeconst="material"))
