@@ -77,8 +77,7 @@ class RodBatch:
         self._scratch = mujoco.MjData(self.model)  # holds one simulation's mass matrix for mj_mulM
         self._mv = np.zeros(self.model.nv)
         self.time = 0.0
-        self.nstep = 0
-        self.reset()
+        self.reset()  # sets nstep and the warning baseline
         self._set_energy_scales()
 
     @property
@@ -123,8 +122,8 @@ class RodBatch:
         bad = np.nonzero(new.any(axis=1))[0]
         if bad.size:
             what = _WARNINGS[int(_WARN_IDS[np.argmax(new[bad[0]])])]
-            detail = f" ({text[0].strip()})" if text else ""
-            self._fail(f"MuJoCo warning: {what}", bad, math.nan, f"{detail.strip()} {hint}".strip())
+            detail = f"({text[0].strip()}) " if text else ""
+            self._fail(f"MuJoCo warning: {what}", bad, math.nan, detail + hint)
         bad = np.nonzero(~np.all(np.isfinite(self._qpos), axis=1) | ~np.all(np.isfinite(self._qvel), axis=1))[0]
         if bad.size:
             self._fail("non-finite state", bad, math.nan, hint)
