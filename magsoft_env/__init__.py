@@ -4,6 +4,9 @@ Analytical equilibria (``solve_equilibrium``, ``solve_path``), inverse design
 (``design_profile``), MuJoCo rods (``mujoco_equilibrium``) and Gymnasium environments
 (registered on import). Heavy layers load lazily: importing this package does not import
 mujoco, torch, stable-baselines3 or a GL backend.
+
+Rendering chooses its headless OpenGL backend itself (:mod:`magsoft_env.gl`): EGL, else OSMesa.
+Module paths of version 0.3 still import, with a DeprecationWarning (:mod:`magsoft_env._moved`).
 """
 
 from __future__ import annotations
@@ -11,6 +14,7 @@ from __future__ import annotations
 import importlib
 import importlib.util
 
+from . import _moved
 from .spec import (
     MU0,
     Beam,
@@ -29,7 +33,9 @@ from .spec import (
     ramp,
 )
 
-__version__ = "0.3.0"
+__version__ = "0.4.0"
+
+_moved.install()  # the 0.3 module paths, with a DeprecationWarning
 
 # public name -> module that defines it (imported on first use)
 _LAZY = {
@@ -38,7 +44,7 @@ _LAZY = {
     "EquilibriumResult": "magsoft_env.theory",
     "mujoco_equilibrium": "magsoft_env.sim",
     "design_profile": "magsoft_env.design",
-    "load_preset": "magsoft_env.presets",
+    "load_preset": "magsoft_env.cases",
 }
 
 
@@ -74,15 +80,22 @@ __all__ = [
     "PiecewiseConstant",
     "PiecewiseLinear",
     "Profile",
+    "Waveparams",
     "alternating_cells",
+    "crosscheck_preset",
     "design_profile",
+    "gait_preset",
     "jig_curve",
     "jig_from_function",
     "jig_from_points",
     "jig_from_polyline",
+    "list_gaits",
+    "list_presets",
     "load_preset",
+    "mujoco_check",
     "mujoco_equilibrium",
     "ramp",
+    "run_gait",
     "solve_equilibrium",
     "solve_path",
 ]

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 import magsoft_env as ms
-from magsoft_env.design import builtin_target, mujoco_check
+from magsoft_env.compare import mujoco_check
+from magsoft_env.design import builtin_target
 
 pytest.importorskip("mujoco")
 

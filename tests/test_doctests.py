@@ -11,7 +11,12 @@ MODULES = [
     "magsoft_env.spec.beam",
     "magsoft_env.spec.profiles",
     "magsoft_env.theory.solver",
-    "magsoft_env._signals",
+    "magsoft_env.spec.drive",
+    "magsoft_env.units",
+    "magsoft_env.threads",
+    "magsoft_env.cases.statics",
+    "magsoft_env.cases.expressions",
+    "magsoft_env.cases.gaits",
 ]
 
 

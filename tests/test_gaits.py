@@ -8,8 +8,11 @@ import math
 import numpy as np
 import pytest
 
+from magsoft_env.cases.gaits import gait_preset, list_gaits
 from magsoft_env.cli import main
-from magsoft_env.gaits import Waveparams, direction_of, gait_preset, list_gaits, run_gait
+from magsoft_env.sim import as_waveform
+from magsoft_env.sim.gait import direction_of, run_gait
+from magsoft_env.spec.drive import Waveparams
 
 
 def test_presets_follow_the_paper_descriptions():
@@ -45,13 +48,13 @@ def test_unknown_preset_suggests_the_closest():
 def test_waveparams_sample_matches_phase_shifted_waveform():
     w = Waveparams(1e-3, 2e-3, 2.0, math.pi / 4)
     t = np.linspace(0.0, 1.0, 11)
-    np.testing.assert_allclose(w.sample(t), w.waveform().sample(t), atol=1e-15)
+    np.testing.assert_allclose(w.sample(t), as_waveform(w).sample(t), atol=1e-15)
 
 
 def test_waveparams_square_matches_switched_square_waveform_and_checks_input():
     w = Waveparams(2e-3, 1.5e-3, 2.0, math.pi / 2, shape="square", coil_time=0.01)
     t = np.linspace(0.0, 1.0, 101)
-    np.testing.assert_allclose(w.sample(t), w.waveform().sample(t), atol=1e-15)
+    np.testing.assert_allclose(w.sample(t), as_waveform(w).sample(t), atol=1e-15)
     assert w.describe() == "square (coil 10 ms) B_x +2 +90 deg, B_z 1.5 mT, 2 Hz"
     with pytest.raises(ValueError, match="shape must be one of"):
         Waveparams(0.0, 1e-3, 2.0, shape="triangle")
@@ -111,7 +114,7 @@ def test_5a_single_v_under_oscillating_bz_at_4hz_moves_left():
     # depends on the frequency (docs/envs.md, "Paper gaits")
     import dataclasses
 
-    from magsoft_env.gaits import beam_5a
+    from magsoft_env.cases.gaits import beam_5a
 
     p = gait_preset("paper-5a")
     p = dataclasses.replace(p, beam=beam_5a(vees=1), wave=dataclasses.replace(p.wave, frequency=4.0))
@@ -156,7 +159,7 @@ def test_5b_turned_over_goes_right_at_friction_half_and_left_when_tacky():
     # crawls right at the presets' friction 0.5 and left at 2 (+1.17 / -0.21 mm/s at 0.1 ms)
     import dataclasses
 
-    from magsoft_env.gaits import beam_5b
+    from magsoft_env.cases.gaits import beam_5b
 
     p = dataclasses.replace(gait_preset("paper-5b"), beam=beam_5b(face_down=True))
     low = run_gait(p, 2.0, timestep=2e-4)
@@ -217,18 +220,20 @@ def test_gait_cli_replaces_the_drive(capsys):
 
 def test_gaits_pin_their_rod_options():
     # the gaits must not move when the sim's defaults change: contact, solver and base are explicit
-    from magsoft_env.gaits import GAIT_ROD_OPTIONS, contact_timeconst
+    from magsoft_env.cases.gaits import GAIT_ROD_OPTIONS
+    from magsoft_env.sim.gait import gait_rod_options
+    from magsoft_env.sim.model import material_contact_timeconst
 
     p = gait_preset("paper-5a")
-    o = p.rod_options()
-    assert o.contact_timeconst == contact_timeconst(p.beam) == pytest.approx(1.42e-4, rel=0.01)
+    o = gait_rod_options(p)
+    assert o.contact_timeconst == material_contact_timeconst(p.beam) == pytest.approx(1.42e-4, rel=0.01)
     assert (o.contact_geom, o.timestep, o.segments) == ("capsule", 1e-4, 20)
     assert all(getattr(o, k) == v for k, v in GAIT_ROD_OPTIONS.items())
-    assert gait_preset("paper-5b").rod_options().segments == 40  # 5b's speed needs 40 (docs/envs.md)
+    assert gait_rod_options(gait_preset("paper-5b")).segments == 40  # 5b's speed needs 40 (docs/envs.md)
 
 
 def test_beam_5a_jig_angle_and_face():
-    from magsoft_env.gaits import beam_5a
+    from magsoft_env.cases.gaits import beam_5a
 
     L = 25e-3
     up, down = beam_5a(), beam_5a(math.radians(30.0), face_down=True)
@@ -243,7 +248,7 @@ def test_beam_5a_jig_angle_and_face():
 
 
 def test_beam_5b_faces():
-    from magsoft_env.gaits import beam_5b
+    from magsoft_env.cases.gaits import beam_5b
 
     L = 25e-3
     centres = (np.arange(3) + 0.5) * L / 3

@@ -1,4 +1,4 @@
-"""Grasp scene (magsoft_env.design.grasp): grippers close on an object in MuJoCo and lift it."""
+"""Grasp scene (magsoft_env.compare.grasp): grippers close on an object in MuJoCo and lift it."""
 
 import math
 
@@ -8,8 +8,7 @@ import pytest
 pytest.importorskip("mujoco")
 
 import magsoft_env as ms  # noqa: E402
-from magsoft_env.design import curve_length  # noqa: E402
-from magsoft_env.design.grasp import (  # noqa: E402
+from magsoft_env.compare.grasp import (  # noqa: E402
     GraspOptions,
     GraspScene,
     _polygon_properties,
@@ -18,6 +17,7 @@ from magsoft_env.design.grasp import (  # noqa: E402
     hanging_target,
     max_lift_mass,
 )
+from magsoft_env.design import curve_length  # noqa: E402
 
 FAST = GraspOptions(segments=10, timestep=2e-4, ramp_time=0.2, settle_time=0.1, lift_time=0.2, hold_time=0.2)
 

@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.integrate import quad
 
-from magsoft_env.presets import (
+from magsoft_env.cases import (
     compile_expression,
     list_presets,
     load_preset,

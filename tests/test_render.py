@@ -10,7 +10,7 @@ import sys
 import numpy as np
 import pytest
 
-from magsoft_env.render import backend
+from magsoft_env import gl as backend
 
 
 def test_backend_error_names_the_debian_packages(monkeypatch):
@@ -44,7 +44,7 @@ import json, sys
 import numpy as np
 import imageio.v2 as iio
 from magsoft_env.render.video import render_gait
-from magsoft_env.gaits import gait_preset
+from magsoft_env.cases.gaits import gait_preset
 import gymnasium as gym
 import magsoft_env
 out = sys.argv[1]

@@ -367,21 +367,6 @@ def test_import_is_light():
     assert r.returncode == 0, r.stdout + r.stderr
 
 
-def test_sim_sources_do_not_import_gymnasium():
-    # layering: sim never imports the environment layer or gymnasium (static check of the sources)
-    import ast
-    from pathlib import Path
-
-    import magsoft_env.sim
-
-    for path in Path(magsoft_env.sim.__file__).parent.glob("*.py"):
-        tree = ast.parse(path.read_text())
-        names = [a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names]
-        names += [n.module or "" for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)]
-        bad = [m for m in names if m.split(".")[0] in ("gymnasium", "torch", "stable_baselines3") or "envs" in m]
-        assert not bad, (path.name, bad)
-
-
 def test_planar_fast_path_matches_general_couples(beam):
     # the simulator writes the couples as generalized forces (a constant planar map); they must
     # equal MuJoCo's own projection of the general cross-product couples (R m) x B

@@ -86,9 +86,9 @@ def test_run_episodes_counts_successes_and_their_times():
 
     res = run_episodes(Reach(), lambda obs, env: np.zeros(1, np.float32), episodes=3, seed=0)
     assert (res.successes, res.success_seconds) == (2, pytest.approx(0.3))
-    assert res.as_dict()["successes"] == 2 and res.as_dict()["success_s"] == pytest.approx(0.3)
+    assert res.to_dict()["successes"] == 2 and res.to_dict()["success_s"] == pytest.approx(0.3)
     none = run_episodes(Reach(), lambda obs, env: np.zeros(1, np.float32), episodes=1, seed=1)
-    assert none.successes == 0 and none.as_dict()["success_s"] is None
+    assert none.successes == 0 and none.to_dict()["success_s"] is None
 
 
 def test_ppo_cli_trains_saves_and_loads(tmp_path):

@@ -19,7 +19,7 @@ def main(argv=None) -> int:
     p.add_argument("--seed", type=int, default=0)
     args = p.parse_args(argv)
     # the GL backend must be chosen before mujoco is imported
-    from magsoft_env.render.backend import RenderBackendError, select_gl_backend
+    from magsoft_env.gl import RenderBackendError, select_gl_backend
 
     try:
         select_gl_backend()

@@ -45,7 +45,7 @@ def run(objects, *, field_max_mT: float, family: str, starts: int, seed: int, co
         mujoco: bool = False) -> list[dict]:
     import magsoft_env as ms
     from magsoft_env.design import ProfileFamily, builtin_target, curve_length
-    from magsoft_env.design._blas import single_threaded_blas
+    from magsoft_env.threads import single_threaded_blas
 
     rows = []
     for name in objects:
@@ -65,7 +65,7 @@ def run(objects, *, field_max_mT: float, family: str, starts: int, seed: int, co
             "baseline_rms_mm": base * MM, "baseline_rms_pct": 100 * base / L,
         })
         if mujoco:
-            from magsoft_env.design import mujoco_check
+            from magsoft_env.compare import mujoco_check
 
             chk = mujoco_check(res, segments=20)
             rows[-1].update({"mj_max_mm": chk["max_to_analytical"] * MM,
@@ -114,7 +114,7 @@ def main(argv=None) -> int:
     a = p.parse_args(argv)
     rows = run(a.objects, field_max_mT=a.field_max_mT, family=a.family, starts=a.starts, seed=a.seed,
                coupling=a.coupling, mujoco=a.mujoco)
-    from magsoft_env.cli.solve import format_table
+    from magsoft_env.io import format_table
 
     env = (f"{platform.processor() or platform.machine()}, {os.cpu_count()} CPUs visible, "
            f"python {platform.python_version()}, numpy {np.__version__}")

@@ -43,7 +43,9 @@ import json
 import math
 import sys
 
-from magsoft_env.gaits import GAIT_TIMESTEP, PAPER_5A_VEES, Waveparams, beam_5a, beam_5b, gait_preset, run_gait
+from magsoft_env.cases.gaits import GAIT_TIMESTEP, PAPER_5A_VEES, beam_5a, beam_5b, gait_preset
+from magsoft_env.sim.gait import run_gait
+from magsoft_env.spec.drive import Waveparams
 
 MT = 1e-3
 
@@ -200,7 +202,7 @@ def run_case(case: Case, seconds: float) -> dict:
                                                    vees=PAPER_5A_VEES if case.vees is None else case.vees))
     r = run_gait(p, seconds, segments=case.segments, timestep=case.timestep)
     w = p.wave
-    d = r.as_dict()
+    d = r.to_dict()
     d.update(preset=case.preset, group=case.group, label=case.label, reverse=case.reverse,
              segments=p.segments if case.segments is None else case.segments,
              timestep_ms=case.timestep * 1e3, friction=p.friction, bx_mT=w.amplitude_x / MT,

@@ -1,10 +1,10 @@
 """Benchmark of the grasp scene (paper Fig. S11): heaviest object lifted, optimized against contour-magnetized grippers.
 
 Run ``python -m magsoft_env.bench.grasp_bench`` (``--help`` for options). For each object, a hanging
-finger is designed with :func:`magsoft_env.design.grasp.design_gripper` (5 x 1.13 mm, phi = 0.2,
+finger is designed with :func:`magsoft_env.compare.grasp.design_gripper` (5 x 1.13 mm, phi = 0.2,
 field 1-20 mT along +z by default); the unoptimized gripper is the same beam magnetized straight from
 the contour (beta = pi/2 - theta_target) under the same field. Both are closed on the object in MuJoCo
-and lifted; the object mass is bisected (:func:`magsoft_env.design.grasp.max_lift_mass`). Prints the
+and lifted; the object mass is bisected (:func:`magsoft_env.compare.grasp.max_lift_mass`). Prints the
 design's fit, each gripper's shape error under the field (analytical), and the heaviest mass lifted
 over the gripper mass, with wall times.
 """
@@ -37,8 +37,7 @@ def _shape_rms(beam, fld, target, gravity):
 
 def run(objects, *, field_max_mT: float, friction: float, segments: int, timestep: float, rel_tol: float,
         seed: int = 0) -> list[dict]:
-    from magsoft_env.design._blas import single_threaded_blas
-    from magsoft_env.design.grasp import (
+    from magsoft_env.compare.grasp import (
         GraspOptions,
         GraspScene,
         contour_aligned_beam,
@@ -46,6 +45,7 @@ def run(objects, *, field_max_mT: float, friction: float, segments: int, timeste
         hanging_target,
         max_lift_mass,
     )
+    from magsoft_env.threads import single_threaded_blas
 
     opts = GraspOptions(segments=segments, timestep=timestep, friction=friction)
     rows = []

@@ -55,7 +55,7 @@ import mujoco
 import numpy as np
 
 from magsoft_env import Beam, Field, PiecewiseConstant, ramp
-from magsoft_env.sim import RodOptions, SimulationError, Simulator, Sine, mujoco_path
+from magsoft_env.sim import RodOptions, SimulationError, Simulator, Sine, as_waveform, mujoco_path
 from magsoft_env.sim.reference import elastica_dead_load
 
 W, H = 5e-3, 1.13e-3
@@ -116,8 +116,8 @@ def static(quick: bool) -> None:
                     g = "1.5 (d)" if grading is None else f"{grading:.1f}"
                     print(f"{L * 1e3:>5.0f} {name:>4} {g:>7} {n:>4} {100 * err / L:>12.3f} "
                           f"{t_sim:>9.3f} {t_th:>9.3f}")
-    from magsoft_env.presets import load_preset
-    from magsoft_env.sim.crosscheck import crosscheck_preset
+    from magsoft_env.cases import load_preset
+    from magsoft_env.compare.crosscheck import crosscheck_preset
 
     print("\nFig. 4b-d jig beams (presets), max tip error / L over the path, N = 20; baseline solve_path (rotated)")
     print(f"{'preset':>17} {'grading':>7} {'max err/L %':>12} {'MuJoCo s':>9} {'theory s':>9}")
@@ -272,12 +272,12 @@ def _crawler() -> Beam:
 
 def _crawlers():
     """The two 20-segment crawlers of the floor benchmarks: (name, beam, waveform)."""
-    from magsoft_env.gaits import gait_preset
+    from magsoft_env.cases.gaits import gait_preset
 
     p5c = gait_preset("paper-5c")
     return [
         ("A: 10/20 % halves, B_z 2 mT 2 Hz", _crawler(), Sine((0.0, 2e-3), 2.0)),
-        ("5c: cosine jig, paper-5c field", p5c.beam, p5c.wave.waveform()),
+        ("5c: cosine jig, paper-5c field", p5c.beam, as_waveform(p5c.wave)),
     ]
 
 

@@ -15,17 +15,10 @@ import math
 
 import numpy as np
 
-from .solve import (
-    DEFAULT_OUT,
-    _check_flag,
-    check_out_dir,
-    format_table,
-    metrics_row,
-    write_csv,
-    write_json,
-)
+from ..io import check_out_dir, format_table, write_csv, write_json
+from ..units import MM
+from .solve import DEFAULT_OUT, _check_flag, metrics_row
 
-MM = 1e-3
 JIG_PRESETS = ("fig4b_quadratic", "fig4c_sinusoidal", "fig4d_piecewise")
 
 
@@ -49,7 +42,7 @@ def add_parser(subparsers) -> None:
 
 
 def build_presets(args) -> list:
-    from magsoft_env.presets import load_preset
+    from magsoft_env.cases import load_preset
 
     _check_flag("--levels", args.levels, lo=1, hi=20, integer=True)
     _check_flag("--steps", args.steps, lo=2, hi=10_000, integer=True)
@@ -73,13 +66,15 @@ def _levels(n_states: int, levels: int) -> list[int]:
 
 
 def run(args) -> int:
+    from magsoft_env.theory import solve_path
+
     out = check_out_dir(args.out)
     presets = build_presets(args)
     rows, cases = [], []
     failed = 0
     for preset in presets:
-        rot = preset.replace(coupling="rotated").solve()
-        pap = preset.replace(coupling="paper").solve()
+        rot = solve_path(preset.beam, preset.fields, **{**preset.solver_options(), "coupling": "rotated"})
+        pap = solve_path(preset.beam, preset.fields, **{**preset.solver_options(), "coupling": "paper"})
         idx = _levels(len(rot), args.levels)
         s_fine = np.linspace(0.0, preset.beam.length, 801)
         cases.append({
@@ -117,7 +112,7 @@ def run(args) -> int:
 
     files = []
     if not args.no_plot:
-        from magsoft_env.plotting import couplings_figure
+        from magsoft_env.render.figures import couplings_figure
 
         files.append(couplings_figure(cases, out / "couplings.png"))
     files.append(write_csv(out / "couplings.csv", rows))

@@ -33,8 +33,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def run(args) -> int:
-    from magsoft_env.presets import list_presets, load_preset
-    from magsoft_env.sim.crosscheck import crosscheck_preset
+    from magsoft_env.cases import list_presets, load_preset
+    from magsoft_env.compare.crosscheck import crosscheck_preset
+    from magsoft_env.render.figures import crosscheck_figure
 
     for n in args.segments:
         if not 2 <= n <= 1000:
@@ -62,7 +63,7 @@ def run(args) -> int:
         sys.stdout.flush()
         rows_all.extend(rows)
         if args.out is not None:
-            _figure(args.out, preset, th, sims)
+            crosscheck_figure(preset.name, th, sims, args.out / f"crosscheck_{preset.name}.png")
     if args.out is not None:
         args.out.mkdir(parents=True, exist_ok=True)
         with open(args.out / "crosscheck.csv", "w") as fh:
@@ -74,31 +75,3 @@ def run(args) -> int:
                 )
         print(f"wrote {args.out}/crosscheck.csv and overlay figures")
     return 0 if all(r.success for r in rows_all) else 1
-
-
-def _figure(out: Path, preset, theory_results, sims) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    out.mkdir(parents=True, exist_ok=True)
-    fig, ax = plt.subplots(figsize=(5, 5))
-    idx = sorted({0, len(theory_results) // 2, len(theory_results) - 1})
-    for i in idx:
-        t = theory_results[i]
-        ax.plot(t.x * 1e3, t.z * 1e3, "k-", lw=1.5, label="theory" if i == idx[0] else None)
-        for n, style in zip(sorted(sims), ("C0o", "C1s", "C2^", "C3v"), strict=False):
-            s = sims[n][i]
-            ax.plot(s.x * 1e3, s.z * 1e3, style, ms=3, mfc="none",
-                    label=f"MuJoCo N={n}" if i == idx[0] else None)
-        f = t.field
-        ax.annotate(f"({f.Bx * 1e3:.3g}, {f.Bz * 1e3:.3g}) mT", (t.x[-1] * 1e3, t.z[-1] * 1e3), fontsize=7)
-    ax.set_aspect("equal")
-    ax.set_xlabel("x (mm)")
-    ax.set_ylabel("z (mm)")
-    ax.set_title(f"{preset.name}: theory vs MuJoCo rod")
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(out / f"crosscheck_{preset.name}.png", dpi=120)
-    plt.close(fig)

@@ -9,10 +9,11 @@ from __future__ import annotations
 
 import time
 
-from .solve import DEFAULT_OUT, METRIC_COLUMNS, check_out_dir, format_table, metrics_row, write_json
+from ..io import check_out_dir, format_table, write_json
+from ..units import MM
+from .solve import DEFAULT_OUT, METRIC_COLUMNS, metrics_row
 
 DEMO_PRESETS = ("fig3a_L25", "fig4b_quadratic")
-MM = 1e-3
 
 
 def add_parser(subparsers) -> None:
@@ -27,7 +28,8 @@ def add_parser(subparsers) -> None:
 
 
 def run(args) -> int:
-    from magsoft_env.presets import load_preset
+    from magsoft_env.cases import load_preset
+    from magsoft_env.theory import solve_path
 
     out = check_out_dir(args.out)
     presets = [load_preset(n) for n in DEMO_PRESETS]
@@ -35,7 +37,7 @@ def run(args) -> int:
     failed = 0
     for preset in presets:
         t0 = time.perf_counter()
-        results = preset.solve()
+        results = solve_path(preset.beam, preset.fields, **preset.solver_options())
         dt = time.perf_counter() - t0
         rows = [metrics_row(r, preset.beam, axis=preset.sweep_axis) for r in results]
         failed += sum(not r["success"] for r in rows)
@@ -49,7 +51,7 @@ def run(args) -> int:
 
     files = []
     if not args.no_plot:
-        from magsoft_env.plotting import path_figure
+        from magsoft_env.render.figures import path_figure
 
         files.append(path_figure(panels, out / "demo.png"))
     files.append(write_json(out / "demo.json", {"cases": summary}))

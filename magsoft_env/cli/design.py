@@ -5,8 +5,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-MM = 1e-3
-MT = 1e-3
+from ..io import check_out_dir, write_json
+from ..units import MM, MT
 
 
 def add_parser(subparsers) -> None:
@@ -57,9 +57,8 @@ def add_parser(subparsers) -> None:
 def run(args) -> int:
     import magsoft_env as ms
     from magsoft_env.design import builtin_target, read_curve_csv, validate_target
-    from magsoft_env.design.output import write_design
+    from magsoft_env.render.design import write_design
 
-    from .solve import check_out_dir
 
     out = check_out_dir(args.out)
     for flag, v in (("--width-mm", args.width_mm), ("--thickness-mm", args.thickness_mm)):
@@ -93,8 +92,7 @@ def run(args) -> int:
           f"max {res.max_error / MM:.4f} mm ({res.max_error_percent:.3f}% of L)")
     print(f"{res.nfev} equilibrium solves in {res.wall_time:.1f} s; {res.message}")
     if args.mujoco:
-        from magsoft_env.cli.solve import write_json
-        from magsoft_env.design import mujoco_check
+        from magsoft_env.compare import mujoco_check
 
         chk = mujoco_check(res, segments=20)
         print(f"MuJoCo (20 segments): max distance to the analytical shape {chk['max_to_analytical'] / MM:.4f} mm, "
@@ -110,8 +108,9 @@ def run(args) -> int:
 
 
 def _run_letters(args, out) -> int:
-    from magsoft_env.design.letters import LETTERS, design_letters, letters_figure
-    from magsoft_env.design.output import write_design
+    from magsoft_env.design.letters import LETTERS, design_letters
+    from magsoft_env.render.design import write_design
+    from magsoft_env.render.figures import letters_figure
 
     text = args.letters.upper()
     bad = sorted(set(text) - set(LETTERS))

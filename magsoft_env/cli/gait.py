@@ -8,7 +8,7 @@ import json
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
-    from magsoft_env.gaits import list_gaits
+    from magsoft_env.cases.gaits import list_gaits
 
     p = subparsers.add_parser(
         "gait",
@@ -42,13 +42,14 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def _turned_over(name: str):
-    from magsoft_env.gaits import PAPER_5A_VEES, beam_5a, beam_5b
+    from magsoft_env.cases.gaits import PAPER_5A_VEES, beam_5a, beam_5b
 
     return beam_5a(vees=PAPER_5A_VEES, face_down=True) if name == "paper-5a" else beam_5b(face_down=True)
 
 
 def run(args) -> int:
-    from magsoft_env.gaits import gait_preset, run_gait
+    from magsoft_env.cases.gaits import gait_preset
+    from magsoft_env.sim.gait import run_gait
 
     if not args.seconds > 0:
         raise ValueError(f"--seconds must be > 0 (s), got {args.seconds}.")
@@ -80,7 +81,7 @@ def run(args) -> int:
     if args.face_down:
         preset = dataclasses.replace(preset, beam=_turned_over(args.preset))
     res = run_gait(preset, args.seconds, segments=args.segments, timestep=args.timestep_ms * 1e-3)
-    out = res.as_dict()
+    out = res.to_dict()
     out["paper_speed_mm_s"] = None if preset.paper_speed is None else preset.paper_speed * 1e3
     out["paper_direction"] = preset.paper_direction
     out["field_mT"] = {

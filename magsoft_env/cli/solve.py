@@ -1,20 +1,17 @@
 """``magsoft solve``: equilibrium shapes along a loading path, from a preset or from parameters in mm and mT.
 
-Also holds the small output helpers the other subcommands share (metrics rows, atomic
-JSON/CSV writers, output-folder checks, solver flags).
+Also holds what the other subcommands share: metrics rows, solver flags, flag checks (the
+file writers are :mod:`magsoft_env.io`).
 """
 
 from __future__ import annotations
 
 import argparse
-import csv
-import io
-import json
 import math
-import os
-import tempfile
 import textwrap
-from pathlib import Path
+
+from ..io import check_out_dir, format_table, write_json
+from ..units import MM, MT
 
 DEFAULT_OUT = "magsoft_out"
 # beam flags of ``magsoft solve``: (flag, default, help); defaults are the paper's 25 mm beam
@@ -26,8 +23,6 @@ BEAM_FLAGS = (
     ("--beta-deg", 0.0, "uniform magnetization angle in deg, from +x toward +z"),
     ("--density-kg-per-m3", 1940.0, "composite density in kg/m^3"),
 )
-MM = 1e-3
-MT = 1e-3
 
 
 # ---------------------------------------------------------------------------------------------
@@ -47,72 +42,6 @@ def add_solver_flags(p, *, preset_defaults: bool, support: bool = True) -> None:
     if support:
         p.add_argument("--support", choices=("cantilever", "free"), default=None,
                        help="cantilever (clamped at s = 0) or free-free (needs --gravity 0)")
-
-
-def check_out_dir(out) -> Path:
-    """The output folder as a Path; raises ValueError (before any work) if it cannot be one."""
-    path = Path(out)
-    if path.exists() and not path.is_dir():
-        raise ValueError(f"--out must be a folder, got {str(path)!r}, which is an existing file.")
-    probe = path
-    while not probe.exists():
-        probe = probe.parent
-    if not os.access(probe, os.W_OK):
-        raise ValueError(f"--out {str(path)!r} is not writable (checked {str(probe)!r}).")
-    return path
-
-
-def write_text_atomic(path, text: str) -> Path:
-    """Write ``text`` to ``path`` via a temporary file in the same folder, so it is complete or absent."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=path.suffix, dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
-
-
-def write_json(path, data) -> Path:
-    return write_text_atomic(path, json.dumps(_jsonable(data), indent=2, allow_nan=False) + "\n")
-
-
-def write_csv(path, rows: list[dict]) -> Path:
-    buf = io.StringIO()
-    keys = list(rows[0]) if rows else []
-    w = csv.DictWriter(buf, fieldnames=keys, lineterminator="\n")
-    w.writeheader()
-    for r in rows:
-        w.writerow({k: _csv_value(r[k]) for k in keys})
-    return write_text_atomic(path, buf.getvalue())
-
-
-def _csv_value(v):
-    if isinstance(v, float):
-        return f"{v:.10g}"
-    return v
-
-
-def _jsonable(obj):
-    import numpy as np
-
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
-    if isinstance(obj, (np.bool_,)):
-        return bool(obj)
-    if isinstance(obj, np.integer):
-        return int(obj)
-    if isinstance(obj, (float, np.floating)):
-        return float(obj) if math.isfinite(obj) else None  # strict JSON: NaN/inf (failed solves) -> null
-    return obj
 
 
 def load_parameter(beam, field, axis: str = "magnitude") -> float:
@@ -149,16 +78,6 @@ def metrics_row(result, beam, *, axis: str = "magnitude") -> dict:
         "status": int(result.status),
         "message": str(result.message),
     }
-
-
-def format_table(rows: list[dict], columns: list[tuple[str, str, str]]) -> str:
-    """Plain-text table; ``columns`` are (key, header, format)."""
-    head = [h for _, h, _ in columns]
-    body = [[format(r[k], f) if f else str(r[k]) for k, _, f in columns] for r in rows]
-    widths = [max(len(h), *(len(b[i]) for b in body)) if body else len(h) for i, h in enumerate(head)]
-    lines = ["  ".join(h.rjust(w) for h, w in zip(head, widths, strict=True))]
-    lines += ["  ".join(c.rjust(w) for c, w in zip(b, widths, strict=True)) for b in body]
-    return "\n".join(lines)
 
 
 METRIC_COLUMNS = [
@@ -211,7 +130,7 @@ def add_parser(subparsers) -> None:
 
 def build_case(args):
     """(preset, overrides) from parsed arguments; every check happens here, before any solving."""
-    from magsoft_env.presets import PathSegment, Preset, load_preset
+    from magsoft_env.cases import PathSegment, Preset, load_preset
     from magsoft_env.spec import Beam, Field, Material
 
     _check_flag("--steps", args.steps, lo=2, hi=10_000, integer=True)
@@ -277,7 +196,8 @@ def _check_flag(flag, value, *, lo, hi, open_lo=False, integer=False):
 
 
 def run(args) -> int:
-    from magsoft_env.presets import list_presets, load_preset
+    from magsoft_env.cases import list_presets, load_preset
+    from magsoft_env.theory import solve_path
 
     if args.list:
         for name in list_presets():
@@ -285,7 +205,7 @@ def run(args) -> int:
         return 0
     out = check_out_dir(args.out)
     preset = build_case(args)
-    results = preset.solve()
+    results = solve_path(preset.beam, preset.fields, **preset.solver_options())
     rows = [metrics_row(r, preset.beam, axis=preset.sweep_axis) for r in results]
 
     print(textwrap.fill(f"{preset.name}: {preset.description}", width=110))
@@ -296,7 +216,7 @@ def run(args) -> int:
     stem = f"solve_{preset.name}"
     files = []
     if not args.no_plot:
-        from magsoft_env.plotting import path_figure
+        from magsoft_env.render.figures import path_figure
 
         files.append(path_figure([(f"{preset.name} ({preset.source or 'custom'})", results, preset.beam.length)],
                                  out / f"{stem}.png"))

@@ -8,18 +8,10 @@ the resolved configuration ``sweep_config.json``.
 
 from __future__ import annotations
 
-from .solve import (
-    DEFAULT_OUT,
-    _check_flag,
-    add_solver_flags,
-    apply_overrides,
-    check_out_dir,
-    metrics_row,
-    write_csv,
-    write_json,
-)
+from ..io import check_out_dir, format_table, write_csv, write_json
+from ..units import MM
+from .solve import DEFAULT_OUT, _check_flag, add_solver_flags, apply_overrides, metrics_row
 
-MM = 1e-3
 PATHS = {"a": "fig3a_L{L}", "b": "fig3b_L{L}"}
 BASE_LENGTH_MM = 25  # preset whose path and beam are used for lengths without their own preset
 
@@ -47,7 +39,7 @@ def add_parser(subparsers) -> None:
 
 def build_cases(args) -> list[tuple[str, float, object]]:
     """(path name, length in mm, preset) for every curve; all input checks happen here."""
-    from magsoft_env.presets import list_presets, load_preset
+    from magsoft_env.cases import list_presets, load_preset
 
     _check_flag("--steps", args.steps, lo=2, hi=10_000, integer=True)
     lengths = []
@@ -77,6 +69,8 @@ def build_cases(args) -> list[tuple[str, float, object]]:
 def run(args) -> int:
     from tqdm.auto import tqdm
 
+    from magsoft_env.theory import solve_path
+
     out = check_out_dir(args.out)
     cases = build_cases(args)
     rows = []
@@ -84,7 +78,7 @@ def run(args) -> int:
     with tqdm(total=sum(len(p.fields) for *_, p in cases), desc="sweep", unit="eq", disable=args.quiet) as bar:
         for path, L, preset in cases:
             bar.set_postfix_str(f"path {path}, L = {L:g} mm, g = {preset.gravity:g}")
-            results = preset.solve()
+            results = solve_path(preset.beam, preset.fields, **preset.solver_options())
             for r in results:
                 row = {"path": path, "preset": preset.name, "length_mm": L, "l_over_h": preset.beam.slenderness,
                        "gravity_m_per_s2": preset.gravity}
@@ -95,7 +89,7 @@ def run(args) -> int:
 
     files = []
     if not args.no_plot:
-        from magsoft_env.plotting import sweep_figure
+        from magsoft_env.render.figures import sweep_figure
 
         files.append(sweep_figure(rows, out / "sweep.png"))
     files.append(write_csv(out / "sweep.csv", rows))
@@ -117,7 +111,6 @@ def run(args) -> int:
 
 def _print_summary(rows: list[dict]) -> None:
     """Last state of every curve: one line each."""
-    from .solve import format_table
 
     last = {}
     for r in rows:

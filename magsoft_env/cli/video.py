@@ -39,7 +39,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def run(args) -> int:
     # choose the GL backend before anything imports mujoco
-    from magsoft_env.render.backend import RenderBackendError, select_gl_backend
+    from magsoft_env.gl import RenderBackendError, select_gl_backend
     from magsoft_env.render.video import VIDEO_SUFFIXES
 
     if args.out.suffix.lower() not in VIDEO_SUFFIXES:
@@ -62,7 +62,7 @@ def run(args) -> int:
     from magsoft_env.render.video import render_gait, render_policy
 
     if args.preset is not None:
-        from magsoft_env.gaits import gait_preset
+        from magsoft_env.cases.gaits import gait_preset
 
         preset = gait_preset(args.preset, reverse=args.reverse)
         _, summary = render_gait(preset, args.seconds, args.out, fps=args.fps, width=args.width, height=args.height,

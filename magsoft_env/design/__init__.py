@@ -1,6 +1,8 @@
-"""Inverse design: target curves, point-to-curve objective, parametrized profiles, optimizer, jig output."""
+"""Inverse design (pure computation): target curves, point-to-curve objective, parametrized profiles,
+optimizer, the jig as SVG. Checking a design in MuJoCo is :func:`magsoft_env.compare.mujoco_check`;
+writing it to files is :func:`magsoft_env.render.design.write_design`.
+"""
 
-from .check import mujoco_check
 from .distance import point_to_polyline
 from .families import FAMILIES, BasisProfile, ProfileFamily
 from .optimize import STATUS_MESSAGES, DesignResult, design_profile
@@ -24,7 +26,6 @@ __all__ = [
     "builtin_target",
     "curve_length",
     "design_profile",
-    "mujoco_check",
     "point_to_polyline",
     "prepare_target",
     "read_curve_csv",

@@ -14,7 +14,7 @@ from functools import cached_property
 import numpy as np
 
 from ..spec import PiecewiseLinear, Profile
-from ..spec._validate import choice
+from ..validate import choice
 
 FAMILIES = ("polynomial", "fourier", "piecewise_linear", "spline")
 

@@ -12,9 +12,8 @@ import math
 
 import numpy as np
 
+from ..units import MM
 from .targets import curve_length, turtle_curve
-
-MM = 1e-3
 
 #: (first tangent in degrees, pieces) per letter; pieces as in turtle_curve (mm, degrees)
 LETTERS: dict[str, tuple[float, list]] = {
@@ -27,7 +26,7 @@ LETTERS: dict[str, tuple[float, list]] = {
 
 def letter_target(letter: str) -> np.ndarray:
     """One-stroke curve (m) of ``letter`` (S, J, T or U), starting at the clamp at the origin."""
-    from ..spec._validate import choice
+    from ..validate import choice
 
     letter = choice("letter", letter, list(LETTERS))
     heading, pieces = LETTERS[letter]
@@ -49,27 +48,3 @@ def design_letters(letters: str = "SJTU", *, field_bounds=(1e-3, 40e-3), width: 
         opts = {"beta_bounds": (-2 * math.pi, 2 * math.pi), "size": 11, "n_starts": 6, "max_nfev": 80, **kw}
         out[ch] = design_profile(target, beam, field_bounds=field_bounds, clamp_angle=None, progress=progress, **opts)
     return out
-
-
-def letters_figure(results: dict, path, *, spacing_mm: float = 22.0):
-    """Designed letters side by side (target dots, predicted centreline), with their fields and errors."""
-    from ..plotting import _figure, save_figure
-
-    fig, axes = _figure(1, 1, size=(2.6 * len(results) + 1.0, 4.2))
-    ax = axes[0, 0]
-    for k, (ch, r) in enumerate(results.items()):
-        off = np.array([k * spacing_mm, 0.0])
-        t = r.target_xz * 1e3 - r.target_xz.min(axis=0) * 1e3 + off
-        p = r.predicted_xz * 1e3 - r.target_xz.min(axis=0) * 1e3 + off
-        ax.plot(t[:, 0], t[:, 1], "o", ms=2.5, mfc="none", color="tab:blue", label="target" if k == 0 else None)
-        ax.plot(p[:, 0], p[:, 1], "-", lw=4, color="tab:green", alpha=0.8, label="designed beam" if k == 0 else None)
-        ax.plot(*p[0], "s", color="k", ms=5, label="clamp" if k == 0 else None)
-        ax.text(off[0], -3.0, f"{ch}: |B| {r.field.magnitude * 1e3:.1f} mT\nRMS {r.rms_error_percent:.2f}% L",
-                fontsize=7, va="top")
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.set_xlabel("x (mm)")
-    ax.set_ylabel("z (mm)")
-    ax.set_title("SJTU letters (paper Fig. 4e): one designed beam per letter, vertical field", fontsize=10)
-    ax.legend(fontsize=7, loc="upper right")
-    ax.grid(True, lw=0.4, alpha=0.4)
-    return save_figure(fig, path)

@@ -10,9 +10,10 @@ from dataclasses import field as dc_field
 import numpy as np
 
 from ..spec import MAX_FIELD, Beam, Field, jig_curve
-from ..spec._validate import choice, finite_number
+from ..spec.loading import check_loading
 from ..spec.material import MAX_VOLUME_FRACTION
-from ._blas import single_threaded_blas
+from ..threads import single_threaded_blas
+from ..validate import choice, finite_number
 from .distance import point_to_polyline
 from .families import ProfileFamily
 from .targets import curve_length, prepare_target, tangent_angle
@@ -97,7 +98,7 @@ class DesignResult:
     def max_error_percent(self) -> float:
         return 100.0 * self.max_error / self.beam.length
 
-    def summary(self) -> dict:
+    def to_dict(self) -> dict:
         """Plain numbers (mm, mT, %) for JSON and tables."""
         return {
             "success": bool(self.success),
@@ -263,16 +264,11 @@ def design_profile(
     rms_tol = finite_number("rms_tol", rms_tol)
     if rms_tol < 0:
         raise ValueError(f"rms_tol must be >= 0 (fraction of L), got {rms_tol!r}.")
-    g = finite_number("gravity", gravity, unit="m/s^2")
-    if g < 0:
-        raise ValueError(f"gravity must be >= 0 (m/s^2, acting along -z), got {gravity!r}.")
-    coupling = choice("coupling", coupling, ("rotated", "paper"))
-    if not isinstance(extensible, (bool, np.bool_)):
-        raise ValueError(f"extensible must be True or False, got {extensible!r}.")
     target = prepare_target(target_xz, n_points)
     if clamp_angle is None:
         clamp_angle = float(tangent_angle(target)[1][0])
-    th0 = finite_number("clamp_angle", clamp_angle, unit="rad")
+    lo = check_loading(gravity=gravity, coupling=coupling, extensible=extensible, clamp_angle=clamp_angle)
+    g, coupling, extensible, th0 = lo["gravity"], lo["coupling"], lo["extensible"], lo["clamp_angle"]
     raw_length = curve_length(np.asarray(target_xz, dtype=float))
     if match_length:
         beam = beam.replace(length=raw_length)

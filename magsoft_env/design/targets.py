@@ -233,7 +233,7 @@ def read_curve_csv(path) -> np.ndarray:
 def builtin_target(name: str) -> np.ndarray:
     """Contour of a built-in object (``ball``, ``vase``, ``calabash``, ``dumbbell``) in metres, ``(n, 2)``."""
     from ..assets import asset_path
-    from ..spec._validate import choice
+    from ..validate import choice
 
     choice("target", name, BUILTIN_TARGETS)
     return read_curve_csv(asset_path("contours", f"{name}.csv"))

@@ -51,8 +51,8 @@ class MagSoftChannelEnv(MagSoftCrawlEnv):
 
     def __init__(self, robot: str = "paper-5a", *, entrance_gap: float = DEFAULT_ENTRANCE_GAP,
                  success_reward: float = 100.0, crawl_mode: str = "height", **kwargs):
-        from ..gaits import gait_preset
-        from ..spec._validate import finite_number, nonnegative
+        from ..cases.gaits import gait_preset
+        from ..validate import finite_number, nonnegative
 
         length = gait_preset(robot).beam.length if isinstance(robot, str) else 0.0
         gap = finite_number("entrance_gap", entrance_gap, unit="m")

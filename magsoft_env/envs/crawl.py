@@ -5,25 +5,15 @@ from __future__ import annotations
 import math
 
 import gymnasium as gym
+import mujoco
+import numpy as np
+from gymnasium import spaces
 
-from ..render.backend import preselect_gl_backend
-
-preselect_gl_backend()  # MUJOCO_GL must be set before mujoco is imported (for render_mode="rgb_array")
-
-import mujoco  # noqa: E402
-import numpy as np  # noqa: E402
-from gymnasium import spaces  # noqa: E402
-
-from ..gaits import (  # noqa: E402
-    GAIT_CONTACT_GEOM,
-    GAIT_ROD_OPTIONS,
-    Waveparams,
-    contact_timeconst,
-    gait_preset,
-    list_gaits,
-)
-from ..sim import PhaseShifted, Ramp, RodOptions, SimulationError, Simulator  # noqa: E402
-from ..spec._validate import choice, nonnegative, positive  # noqa: E402
+from ..cases.gaits import gait_preset, list_gaits
+from ..sim import PhaseShifted, Ramp, SimulationError, Simulator
+from ..sim.gait import gait_rod_options
+from ..spec.drive import Waveparams
+from ..validate import choice, nonnegative, positive
 
 #: Default coil limit per axis (T): +-20 mT.
 DEFAULT_FIELD_LIMIT = 20e-3
@@ -224,13 +214,10 @@ class MagSoftCrawlEnv(gym.Env):
 
         self.robot = robot
         self.gait = gait_preset(robot)
-        options = RodOptions(
-            scene=self._scene, segments=segments, timestep=self.sim_dt, friction=friction,
-            render=render_mode is not None, feature_x=feature_x, contact_geom=GAIT_CONTACT_GEOM,
-            # the gaits' contact model (the beam's own stiff contact, not the sim's fast 2 ms
-            # default) so that env results and the open-loop gait table describe the same physics
-            contact_timeconst=contact_timeconst(self.gait.beam), **GAIT_ROD_OPTIONS,
-        )
+        # the gaits' rod (the beam's own stiff contact, not the sim's fast 2 ms default), so that
+        # env results and the open-loop gait table describe the same physics
+        options = gait_rod_options(self.gait, scene=self._scene, segments=segments, timestep=self.sim_dt,
+                                   friction=friction, render=render_mode is not None, feature_x=feature_x)
         self.sim = Simulator(self.gait.beam, options)
         self.segments = options.segments
         self._mass = self.sim.rod.disc.mass
@@ -256,9 +243,7 @@ class MagSoftCrawlEnv(gym.Env):
     # ------------------------------------------------------------------ physics readouts
     def com_position(self) -> np.ndarray:
         """Centre of mass (x, z) of the rod (m)."""
-        self.sim.centerline()  # brings positions up to date with the state
-        p = self.sim.data.xipos[self._bodies]
-        return np.array([self._mass @ p[:, 0], self._mass @ p[:, 2]]) / self._mass.sum()
+        return self.sim.center_of_mass()
 
     def piece_angular_velocities(self) -> np.ndarray:
         """Angular velocity of every piece about -y (rad/s), shape ``(N + 1,)``."""

@@ -49,8 +49,8 @@ class MagSoftObstacleEnv(MagSoftCrawlEnv):
 
     def __init__(self, robot: str = "paper-5b", *, obstacle_gap: float = DEFAULT_OBSTACLE_GAP,
                  success_reward: float = 100.0, **kwargs):
-        from ..gaits import gait_preset
-        from ..spec._validate import finite_number, nonnegative
+        from ..cases.gaits import gait_preset
+        from ..validate import finite_number, nonnegative
 
         length = gait_preset(robot).beam.length if isinstance(robot, str) else 0.0
         gap = finite_number("obstacle_gap", obstacle_gap, unit="m")

@@ -5,18 +5,13 @@ from __future__ import annotations
 import math
 
 import gymnasium as gym
+import mujoco
+import numpy as np
+from gymnasium import spaces
 
-from ..render.backend import preselect_gl_backend
-
-preselect_gl_backend()  # MUJOCO_GL must be set before mujoco is imported (for render_mode="rgb_array")
-
-import mujoco  # noqa: E402
-import numpy as np  # noqa: E402
-from gymnasium import spaces  # noqa: E402
-
-from ..sim import RodOptions, SimulationError, Simulator  # noqa: E402
-from ..spec import Beam  # noqa: E402
-from ..spec._validate import nonnegative, positive  # noqa: E402
+from ..sim import RodOptions, SimulationError, Simulator
+from ..spec import Beam
+from ..validate import nonnegative, positive
 
 #: Default coil limit per axis (T).
 DEFAULT_FIELD_LIMIT = 20e-3

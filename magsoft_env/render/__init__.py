@@ -1,8 +1,9 @@
 """Offscreen frames and videos of the rod: side camera, mm grid, field arrow, analytical overlay.
 
-The OpenGL backend must be chosen before mujoco is imported (mujoco reads ``MUJOCO_GL`` once,
-at import). :func:`select_gl_backend` does that (``egl``, then ``osmesa``); the Gymnasium
-environments call :func:`preselect_gl_backend` before importing mujoco. Importing this
+The headless OpenGL backend (EGL, then OSMesa) is chosen by :mod:`magsoft_env.gl`: programs that
+know they will render call :func:`~magsoft_env.gl.select_gl_backend` before mujoco is imported;
+:class:`RodRenderer` binds one late otherwise. Figures (matplotlib) are :mod:`.figures`;
+a design written to files is :func:`magsoft_env.render.design.write_design`. Importing this
 package does not import mujoco: :class:`RodRenderer` and :func:`write_video` load lazily.
 """
 
@@ -10,7 +11,7 @@ from __future__ import annotations
 
 import importlib
 
-from .backend import GL_BACKENDS, RenderBackendError, preselect_gl_backend, select_gl_backend
+from ..gl import GL_BACKENDS, RenderBackendError, preselect_gl_backend, select_gl_backend
 
 _LAZY = {"RodRenderer": "magsoft_env.render.frames", "write_video": "magsoft_env.render.video",
          "render_gait": "magsoft_env.render.video", "render_policy": "magsoft_env.render.video"}

@@ -2,20 +2,17 @@
 
 from __future__ import annotations
 
+import mujoco
 import numpy as np
 
-from .backend import context_error, preselect_gl_backend
-
-preselect_gl_backend()  # before mujoco is imported (no-op if the user chose MUJOCO_GL)
-
-import mujoco  # noqa: E402
+from ..gl import bind_headless_context, context_error
+from ..units import MM
 
 _MINOR_RGBA = np.array([0.75, 0.78, 0.82, 1.0], dtype=np.float32)
 _MAJOR_RGBA = np.array([0.45, 0.50, 0.58, 1.0], dtype=np.float32)
 _ARROW_RGBA = np.array([0.85, 0.15, 0.10, 1.0], dtype=np.float32)
 _OVERLAY_RGBA = np.array([0.10, 0.45, 0.95, 1.0], dtype=np.float32)
 _TARGET_RGBA = np.array([0.10, 0.75, 0.25, 1.0], dtype=np.float32)
-MM = 1e-3
 
 
 class RodRenderer:
@@ -62,6 +59,7 @@ class RodRenderer:
         vis.offwidth = max(int(vis.offwidth), self.width)
         vis.offheight = max(int(vis.offheight), self.height)
         try:
+            bind_headless_context()  # EGL or OSMesa when mujoco was imported without MUJOCO_GL
             self._renderer = mujoco.Renderer(sim.model, self.height, self.width)
         except Exception as exc:  # noqa: BLE001  (any GL failure gets the same explanation)
             raise context_error(exc) from exc

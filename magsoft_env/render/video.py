@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .backend import select_gl_backend
+from ..gl import select_gl_backend
 
 VIDEO_SUFFIXES = (".mp4", ".gif")
 
@@ -70,18 +70,19 @@ def render_gait(
     if path is not None:
         path = _check_path(path)
     select_gl_backend()
-    from ..gaits import com_x
-    from ..sim import SimulationError, Simulator
+    from ..sim import SimulationError, Simulator, as_waveform
+    from ..sim.gait import gait_rod_options
     from .frames import RodRenderer
 
     if not seconds > 0:
         raise ValueError(f"seconds must be > 0 (s), got {seconds!r}.")
-    sim = Simulator(preset.beam, preset.rod_options(scene=scene, segments=segments, timestep=timestep, render=True))
-    sim.set_waveform(preset.wave.waveform())
+    sim = Simulator(preset.beam, gait_rod_options(preset, scene=scene, segments=segments, timestep=timestep,
+                                                 render=True))
+    sim.set_waveform(as_waveform(preset.wave))
     renderer = RodRenderer(sim, width=width, height=height)
     n_frames = int(round(seconds * fps))
     per_frame = max(1, int(round(1.0 / (fps * sim.timestep))))
-    x0 = com_x(sim)
+    x0 = sim.center_of_mass()[0]
     frames, message = [renderer.render(label=preset.name)], "ok"
     try:
         for _ in range(n_frames):
@@ -91,7 +92,7 @@ def render_gait(
         message = str(err)
     finally:
         renderer.close()
-    dx = com_x(sim) - x0
+    dx = float(sim.center_of_mass()[0] - x0)
     summary = {"displacement_mm": dx * 1e3, "speed_mm_s": dx / max(sim.time, 1e-12) * 1e3, "frames": len(frames),
                "fps": fps, "path": None if path is None else str(path), "message": message}
     if path is not None:
@@ -109,9 +110,7 @@ def render_policy(env_id: str, policy=None, seconds: float = 4.0, path=None, *, 
     if path is not None:
         path = _check_path(path)
     select_gl_backend()
-    import gymnasium as gym
-
-    import magsoft_env  # noqa: F401  (registers the ids)
+    import gymnasium as gym  # the ids are registered by importing magsoft_env, which ran first
 
     env = gym.make(env_id, render_mode="rgb_array", **(env_kwargs or {}))
     base = env.unwrapped

@@ -17,7 +17,8 @@ import numpy as np
 from mujoco import batch as mjbatch
 
 from ..spec import Beam
-from .simulator import _RUNAWAY_FACTOR, _WARN_IDS, _WARNINGS, SimulationError, Simulator
+from .health import STABILITY_HINT, WARNING_IDS, SimulationError, new_warning, runaway, runaway_hint
+from .simulator import Simulator
 from .waveforms import as_waveform
 
 
@@ -94,7 +95,7 @@ class RodBatch:
         self._warn0 = self._warning_counts()
 
     def _warning_counts(self) -> np.ndarray:
-        return np.asarray(self.batch.warning)[:, _WARN_IDS, 1].copy()
+        return np.asarray(self.batch.warning)[:, WARNING_IDS, 1].copy()
 
     def _set_energy_scales(self) -> None:
         # per simulation, as Simulator's: its peak field (a waveform's over its first second)
@@ -117,11 +118,11 @@ class RodBatch:
         return ke
 
     def _check(self, *, energy: bool, text=()) -> None:
-        hint = "Use a smaller timestep or integrator='discrete'."
-        new = self._warning_counts() > self._warn0
-        bad = np.nonzero(new.any(axis=1))[0]
+        hint = STABILITY_HINT
+        counts = self._warning_counts()
+        bad = np.nonzero((counts > self._warn0).any(axis=1))[0]
         if bad.size:
-            what = _WARNINGS[int(_WARN_IDS[np.argmax(new[bad[0]])])]
+            what = new_warning(counts[bad[0]], self._warn0[bad[0]])
             detail = f"({text[0].strip()}) " if text else ""
             self._fail(f"MuJoCo warning: {what}", bad, math.nan, detail + hint)
         bad = np.nonzero(~np.all(np.isfinite(self._qpos), axis=1) | ~np.all(np.isfinite(self._qvel), axis=1))[0]
@@ -129,13 +130,10 @@ class RodBatch:
             self._fail("non-finite state", bad, math.nan, hint)
         if energy:
             ke = self.kinetic_energy()
-            bad = np.nonzero(~(ke <= _RUNAWAY_FACTOR * self._energy_scale))[0]
+            bad = np.nonzero(runaway(ke, self._energy_scale))[0]
             if bad.size:
-                self._fail(
-                    "runaway kinetic energy (J)", bad, float(ke[bad[0]]),
-                    f"It exceeds {_RUNAWAY_FACTOR:g} x the energy scale ({self._energy_scale[bad[0]]:.3g} J in "
-                    f"simulation {bad[0]}). {hint}",
-                )
+                self._fail("runaway kinetic energy (J)", bad, float(ke[bad[0]]),
+                           runaway_hint(self._energy_scale[bad[0]], f" in simulation {bad[0]}"))
 
     def _fail(self, what: str, ids, value: float, hint: str) -> None:
         ids = [int(i) for i in ids]

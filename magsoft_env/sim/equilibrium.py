@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..spec import Beam, Field, as_field, as_fields
-from ..spec._validate import nonnegative, positive
+from ..validate import nonnegative, positive
 from .model import RodOptions
 from .simulator import SettleResult, Simulator
 

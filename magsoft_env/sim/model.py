@@ -14,7 +14,7 @@ import mujoco
 import numpy as np
 
 from ..spec import Beam
-from ..spec._validate import choice, finite_number, nonnegative, positive
+from ..validate import choice, finite_number, nonnegative, positive
 from .discretize import RodDiscretization, discretize
 
 SCENES = ("cantilever", "floor", "channel", "obstacle")

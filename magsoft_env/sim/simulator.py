@@ -9,48 +9,15 @@ import mujoco
 import numpy as np
 
 from ..spec import Beam, Field, as_field
-from ..spec._validate import positive
 from ..spec.field import MAX_FIELD
+from ..validate import positive
 from . import magnetics
+from .health import STABILITY_HINT, WARNING_IDS, SimulationError, new_warning, runaway, runaway_hint
 from .model import RodModel, RodOptions, build_model
 from .waveforms import Waveform, as_waveform
 
-_WARNINGS = {
-    mujoco.mjtWarning.mjWARN_BADQACC: "non-finite or huge qacc (acceleration)",
-    mujoco.mjtWarning.mjWARN_BADQVEL: "non-finite or huge qvel (velocity)",
-    mujoco.mjtWarning.mjWARN_BADQPOS: "non-finite or huge qpos (position)",
-    mujoco.mjtWarning.mjWARN_CONTACTFULL: "contact buffer full",
-    mujoco.mjtWarning.mjWARN_CNSTRFULL: "constraint buffer full",
-    mujoco.mjtWarning.mjWARN_INERTIA: "singular inertia or failed effective-metric solve",
-}
-_WARN_IDS = np.array([int(w) for w in _WARNINGS])
-#: kinetic energy above this multiple of the system's energy scale is runaway
-_RUNAWAY_FACTOR = 100.0
 #: field magnitude (T) below which the energy scale uses this floor instead
 _FIELD_FLOOR = 0.05
-
-
-class SimulationError(RuntimeError):
-    """The simulation became unstable; stepping stopped.
-
-    Attributes
-    ----------
-    step : int
-        Index of the step (since construction or reset) at which the problem was detected.
-    time : float
-        Simulation time (s) at detection.
-    quantity : str
-        What went wrong (``"qvel"``, ``"kinetic energy"``, a MuJoCo warning, ...).
-    value : float
-        The offending value where one exists (NaN otherwise).
-    """
-
-    def __init__(self, message: str, *, step: int, time: float, quantity: str, value: float = math.nan):
-        super().__init__(message)
-        self.step = step
-        self.time = time
-        self.quantity = quantity
-        self.value = value
 
 
 #: Scalar types :meth:`Simulator.set_field` accepts without building a Field.
@@ -413,7 +380,7 @@ class Simulator:
             self._stale = False
 
     def _warning_counts(self) -> np.ndarray:
-        return self.data.warning.number[_WARN_IDS]
+        return self.data.warning.number[WARNING_IDS]
 
     def _fail(self, quantity: str, value: float, hint: str) -> None:
         o = self.options
@@ -427,13 +394,11 @@ class Simulator:
 
     def _check(self, *, energy: bool) -> None:
         d = self.data
-        hint = "Use a smaller timestep or integrator='discrete'."
-        counts = self._warning_counts()
-        new = np.nonzero(counts > self._warn0)[0]
-        if new.size:
-            wid = int(_WARN_IDS[new[0]])
+        hint = STABILITY_HINT
+        what = new_warning(self._warning_counts(), self._warn0)
+        if what is not None:
             text = f" ({self._warning_text[0].strip()})" if self._warning_text else ""
-            self._fail(f"MuJoCo warning: {_WARNINGS[wid]}{text}", math.nan, hint)
+            self._fail(f"MuJoCo warning: {what}{text}", math.nan, hint)
         for name in ("qpos", "qvel"):
             arr = getattr(d, name)
             if not math.isfinite(arr.sum()):  # a NaN or an infinity anywhere makes the sum non-finite
@@ -444,11 +409,8 @@ class Simulator:
             mv = self._mv
             mujoco.mj_mulM(self.model, d, mv, d.qvel)
             ke = 0.5 * float(d.qvel @ mv)
-            if not ke <= _RUNAWAY_FACTOR * self._energy_scale:
-                self._fail(
-                    "runaway kinetic energy (J)", ke,
-                    f"It exceeds {_RUNAWAY_FACTOR:g} x the energy scale {self._energy_scale:.3g} J. {hint}",
-                )
+            if runaway(ke, self._energy_scale):
+                self._fail("runaway kinetic energy (J)", ke, runaway_hint(self._energy_scale))
 
     def run(self, waveform, duration: float, *, record_every: int = 10) -> Trajectory:
         """Follow ``waveform`` (or a constant field) for ``duration`` (s), recording every
@@ -564,6 +526,13 @@ class Simulator:
         b = self._bodies[-1]
         p, r = self.data.xpos[b], self.data.xmat[b]
         return float(p[0] + self._tip_len * r[0]), float(p[2] + self._tip_len * r[6])
+
+    def center_of_mass(self) -> np.ndarray:
+        """Centre of mass (x, z) of the rod (m), shape ``(2,)``, of the current state."""
+        self._sync()
+        m = self.rod.disc.mass
+        p = self.data.xipos[self.rod.body_ids]
+        return np.array([m @ p[:, 0], m @ p[:, 2]]) / m.sum()
 
     def arc_length(self) -> np.ndarray:
         """Reference arc length (m) of the :meth:`centerline` points, shape ``(N + 2,)``."""

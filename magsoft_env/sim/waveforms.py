@@ -20,9 +20,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._signals import switched_square
 from ..spec import MAX_FIELD, as_field
-from ..spec._validate import finite_number, positive
+from ..spec.drive import Waveparams, switched_square
+from ..validate import finite_number, positive
 
 
 def _pair(name: str, value) -> tuple[float, float]:
@@ -171,7 +171,7 @@ class SwitchedSquare(Waveform):
     ``-amplitude_x`` otherwise, ``B_z`` likewise with ``phase_z``; after each switch the field
     relaxes with ``time_constant`` (s; an RL coil's L / R; 0 = an ideal square). The signal is
     the periodic steady state, continuous from ``t = 0`` (see
-    :func:`magsoft_env._signals.switched_square`). Amplitudes in T, ``frequency`` in Hz, phases in rad.
+    :func:`magsoft_env.spec.drive.switched_square`). Amplitudes in T, ``frequency`` in Hz, phases in rad.
 
     With ``time_constant = 0`` and equal phases this is :class:`Square` with duty 0.5; the
     phases allow a phase-shifted B_x as in :class:`PhaseShifted`.
@@ -249,10 +249,16 @@ class Sequence(Waveform):
 
 
 def as_waveform(value, name: str = "field") -> Waveform:
-    """A :class:`Waveform`, a Field or a pair (B_x, B_z) in T (held constant), or a callable
-    ``t -> (B_x, B_z)``."""
+    """A :class:`Waveform`, a Field or a pair (B_x, B_z) in T (held constant), a callable
+    ``t -> (B_x, B_z)``, or a :class:`~magsoft_env.spec.drive.Waveparams` (its
+    :class:`PhaseShifted` sine or :class:`SwitchedSquare`, starting at t = 0)."""
     if isinstance(value, Waveform):
         return value
+    if isinstance(value, Waveparams):
+        w = value
+        if w.shape == "square":
+            return SwitchedSquare(w.amplitude_x, w.amplitude_z, w.frequency, w.phase, 0.0, w.coil_time)
+        return PhaseShifted(w.amplitude_x, w.amplitude_z, w.frequency, w.phase, 0.0)
     if callable(value):
         return _Callable(value)
     return Hold(_pair(name, value))

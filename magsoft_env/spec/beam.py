@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._validate import finite_number, positive
+from ..validate import finite_number, positive
 from .field import as_field
 from .material import MAX_VOLUME_FRACTION, Material
 from .profiles import Profile, as_profile

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validate import finite_number
+from ..validate import finite_number
 
 #: Largest field magnitude accepted (T). Coil systems for these robots give tens of mT;
 #: anything near a tesla is almost surely a unit mistake (mT given as T).

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validate import finite_number, positive
+from ..validate import finite_number, positive
 
 MU0 = 4e-7 * math.pi  # vacuum permeability (T m / A)
 

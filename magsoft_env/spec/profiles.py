@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from ._validate import finite_array, finite_number, positive
+from ..validate import finite_array, finite_number, positive
 
 _COVER_RTOL = 1e-9
 

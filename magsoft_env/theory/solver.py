@@ -13,7 +13,9 @@ import scipy.linalg
 import scipy.optimize
 
 from ..spec import Beam, Field, as_field, as_fields
-from ..spec._validate import choice, finite_number, positive
+from ..spec.loading import check_loading
+from ..threads import single_threaded_blas
+from ..validate import choice, positive
 from .collocation import Grid, make_grid
 from .model import BeamModel, Load
 
@@ -188,19 +190,6 @@ class EquilibriumResult:
 
 
 # ----------------------------------------------------------------------------------------
-_BLAS = []
-
-
-def _one_blas_thread():
-    """Context: BLAS on one thread. Multi-threaded OpenBLAS on these ~50 x 50 systems is slower,
-    and on a busy machine its spinning threads slowed one solve by 10-100x (measured)."""
-    if not _BLAS:
-        from threadpoolctl import ThreadpoolController
-
-        _BLAS.append(ThreadpoolController())
-    return _BLAS[0].limit(limits=1, user_api="blas")
-
-
 @lru_cache(maxsize=32)
 def _model_cached(beam, grid, coupling, extensible):
     return BeamModel(beam, grid, coupling=coupling, extensible=extensible)
@@ -719,19 +708,9 @@ def _regrid(grid: Grid, n: int) -> Grid:
 def _check_common(beam, gravity, support, coupling, extensible, clamp_angle, options):
     if not isinstance(beam, Beam):
         raise ValueError(f"beam must be a magsoft_env.Beam, got {type(beam).__name__}.")
-    g = finite_number("gravity", gravity, unit="m/s^2")
-    if g < 0:
-        raise ValueError(f"gravity must be >= 0 (m/s^2, acting along -z), got {gravity!r}.")
-    support = choice("support", support, ["cantilever", "free"])
-    coupling = choice("coupling", coupling, ["rotated", "paper"])
-    if not isinstance(extensible, (bool, np.bool_)):
-        raise ValueError(f"extensible must be True or False, got {extensible!r}.")
-    th0 = finite_number("clamp_angle", clamp_angle, unit="rad")
-    if support == "free" and g != 0.0:
-        raise ValueError(
-            "support='free' has no static equilibrium under gravity: expected gravity=0, "
-            f"got {gravity!r}. Use the MuJoCo floor scene for beams on the ground."
-        )
+    lo = check_loading(gravity=gravity, support=support, coupling=coupling, extensible=extensible,
+                       clamp_angle=clamp_angle)
+    g, support, coupling, th0 = lo["gravity"], lo["support"], lo["coupling"], lo["clamp_angle"]
     if options is None:
         options = SolverOptions()
     elif not isinstance(options, SolverOptions):
@@ -803,7 +782,7 @@ def solve_path(
         beam, gravity, support, coupling, extensible, clamp_angle, options
     )
     fields = as_fields(fields)
-    with _one_blas_thread():
+    with single_threaded_blas():
         return _solve_path(beam, fields, g, support, coupling, extensible, th0, options, progress)
 
 
@@ -899,7 +878,7 @@ def solve_equilibrium(
     )
     if support != "cantilever":
         raise ValueError(f"start='straight' supports only support='cantilever', got {support!r}.")
-    with _one_blas_thread():
+    with single_threaded_blas():
         solver = _Solver(
             beam, support=support, coupling=coupling, extensible=extensible, clamp_angle=th0, options=options
         )

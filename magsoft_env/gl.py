@@ -1,8 +1,20 @@
-"""Choose MuJoCo's headless OpenGL backend (EGL, then OSMesa) before mujoco is imported."""
+"""MuJoCo's headless OpenGL backend (EGL, then OSMesa): chosen before mujoco is imported where a
+program knows it will render, or bound late where rendering starts (imports nothing from the package).
+
+mujoco reads ``MUJOCO_GL`` once, when it is first imported, and binds its offscreen context
+class then. Programs that render (``magsoft video``, ``train/record.py``) call
+:func:`select_gl_backend` first, which probes EGL and OSMesa in subprocesses. Where mujoco was
+imported with ``MUJOCO_GL`` unset (a Gymnasium env made with ``render_mode="rgb_array"``, which
+imports the simulator first), it bound GLFW, which needs a display: :func:`bind_headless_context`,
+called by :class:`~magsoft_env.render.RodRenderer` before it opens a context, then switches this
+process to EGL or OSMesa. Importing the package or the simulator chooses nothing, so a program that
+never renders never loads OpenGL.
+"""
 
 from __future__ import annotations
 
 import ctypes.util
+import importlib
 import os
 import subprocess
 import sys
@@ -90,6 +102,47 @@ def select_gl_backend() -> str:
             return b
         errors[b] = err
     raise RenderBackendError(_message(errors))
+
+
+def _bound_backend() -> str:
+    """The backend mujoco's offscreen context class belongs to (``"egl"``, ``"osmesa"``, ``"glfw"``, ...)."""
+    try:
+        from mujoco.rendering.classic import gl_context
+    except ImportError:  # pragma: no cover - another mujoco layout
+        return ""
+    parts = getattr(getattr(gl_context, "GLContext", None), "__module__", "").split(".")
+    return parts[1] if len(parts) > 1 and parts[0] == "mujoco" else ""
+
+
+def bind_headless_context() -> str:
+    """Make sure ``mujoco.Renderer`` opens a headless context in this process; returns the backend.
+
+    Before mujoco is imported this is :func:`preselect_gl_backend`. After, when mujoco bound GLFW
+    because ``MUJOCO_GL`` was unset at its import, and there is no display: the first of EGL and
+    OSMesa whose library exists is imported and made mujoco's context class (as if ``MUJOCO_GL``
+    had named it), unless PyOpenGL was already loaded for another platform. A backend the user
+    named in ``MUJOCO_GL`` before mujoco's import is never changed. Cheap: no context is created.
+    """
+    if "mujoco" not in sys.modules:
+        return preselect_gl_backend()
+    bound = _bound_backend()
+    if bound != "glfw" or os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"):
+        return bound
+    if os.environ.get("MUJOCO_GL", "").lower() == "glfw":
+        return bound  # the user's choice
+    platform = os.environ.get("PYOPENGL_PLATFORM", "").lower()
+    for b in GL_BACKENDS:
+        if platform not in ("", b) or not ctypes.util.find_library(_LIBRARIES[b]):
+            continue  # PyOpenGL is set (or loaded) for another platform and cannot switch
+        try:
+            mod = importlib.import_module(f"mujoco.{b}")
+            from mujoco.rendering.classic import gl_context
+        except ImportError:
+            continue
+        gl_context.GLContext = mod.GLContext
+        os.environ["MUJOCO_GL"] = b
+        return b
+    return bound
 
 
 def context_error(exc: BaseException) -> RenderBackendError:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .distance import point_to_polyline
+from ..design.distance import point_to_polyline
 
 
 def mujoco_check(result, *, segments: int = 20) -> dict:

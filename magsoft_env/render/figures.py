@@ -8,14 +8,14 @@ atomically: a figure file is either complete or absent.
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
-MM = 1e3  # mm per m
+from ..io import atomic_path
+from ..units import MM, MT
+
 _SHAPE_SAMPLES = 201
 
 
@@ -30,26 +30,19 @@ def _figure(nrows: int = 1, ncols: int = 1, *, size=(6.4, 4.8)):
 def save_figure(fig, path) -> Path:
     """Write ``fig`` to ``path`` (format from the suffix) through a temporary file; returns the path."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    try:
+    with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=150)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
     return path
 
 
 def shape_mm(result, n: int = _SHAPE_SAMPLES) -> tuple[np.ndarray, np.ndarray]:
     """Centerline (x, z) of an equilibrium in mm, ``n`` evenly spaced points base to tip."""
     _, x, z, _ = result.sample(n)
-    return np.asarray(x) * MM, np.asarray(z) * MM
+    return np.asarray(x) / MM, np.asarray(z) / MM
 
 
 def _field_label(field) -> str:
-    return f"B = ({field.Bx * 1e3:.3g}, {field.Bz * 1e3:.3g}) mT"
+    return f"B = ({field.Bx / MT:.3g}, {field.Bz / MT:.3g}) mT"
 
 
 def _pick(n_total: int, n_max: int) -> list[int]:
@@ -69,9 +62,9 @@ def draw_path_shapes(ax, results: Sequence, *, length: float, max_shapes: int = 
 
     colours = matplotlib.colormaps[cmap]
     if reference is None:
-        ax.plot([0.0, length * MM], [0.0, 0.0], color="0.6", ls="--", lw=1.0, label="undeformed")
+        ax.plot([0.0, length / MM], [0.0, 0.0], color="0.6", ls="--", lw=1.0, label="undeformed")
     else:
-        ax.plot(np.asarray(reference[0]) * MM, np.asarray(reference[1]) * MM, color="0.6", ls="--", lw=1.0,
+        ax.plot(np.asarray(reference[0]) / MM, np.asarray(reference[1]) / MM, color="0.6", ls="--", lw=1.0,
                 label="undeformed")
     idx = _pick(len(results), max_shapes)
     for k, i in enumerate(idx):
@@ -174,13 +167,13 @@ def couplings_figure(cases: Sequence[dict], path) -> Path:
     if with_beta:
         for ax, case in zip(axes[1], cases, strict=True):
             s, beta = case["beta"]
-            ax.plot(np.asarray(s) * MM, np.degrees(beta), color="k", lw=1.4)
+            ax.plot(np.asarray(s) / MM, np.degrees(beta), color="k", lw=1.4)
             ax.set_xlabel("s (mm)")
             ax.set_ylabel("magnetization angle beta (deg)")
             ax.grid(True, lw=0.4, alpha=0.5)
     for ax, case in zip(axes[0], cases, strict=True):
         ref = case["reference"]
-        ax.plot(np.asarray(ref[0]) * MM, np.asarray(ref[1]) * MM, color="0.6", ls="--", lw=1.0, label="undeformed")
+        ax.plot(np.asarray(ref[0]) / MM, np.asarray(ref[1]) / MM, color="0.6", ls="--", lw=1.0, label="undeformed")
         m = len(case["rotated"])
         for k, (rr, rp) in enumerate(zip(case["rotated"], case["paper"], strict=True)):
             c = colours(k / max(m - 1, 1))
@@ -192,4 +185,48 @@ def couplings_figure(cases: Sequence[dict], path) -> Path:
         _shape_axes(ax)
         ax.set_title(case["title"], fontsize=10)
         ax.legend(fontsize=6, loc="best")
+    return save_figure(fig, path)
+
+
+def letters_figure(results: dict, path, *, spacing_mm: float = 22.0):
+    """Designed letters side by side (target dots, predicted centreline), with their fields and errors."""
+    fig, axes = _figure(1, 1, size=(2.6 * len(results) + 1.0, 4.2))
+    ax = axes[0, 0]
+    for k, (ch, r) in enumerate(results.items()):
+        off = np.array([k * spacing_mm, 0.0])
+        t = r.target_xz / MM - r.target_xz.min(axis=0) / MM + off
+        p = r.predicted_xz / MM - r.target_xz.min(axis=0) / MM + off
+        ax.plot(t[:, 0], t[:, 1], "o", ms=2.5, mfc="none", color="tab:blue", label="target" if k == 0 else None)
+        ax.plot(p[:, 0], p[:, 1], "-", lw=4, color="tab:green", alpha=0.8, label="designed beam" if k == 0 else None)
+        ax.plot(*p[0], "s", color="k", ms=5, label="clamp" if k == 0 else None)
+        ax.text(off[0], -3.0, f"{ch}: |B| {r.field.magnitude / MT:.1f} mT\nRMS {r.rms_error_percent:.2f}% L",
+                fontsize=7, va="top")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("z (mm)")
+    ax.set_title("SJTU letters (paper Fig. 4e): one designed beam per letter, vertical field", fontsize=10)
+    ax.legend(fontsize=7, loc="upper right")
+    ax.grid(True, lw=0.4, alpha=0.4)
+    return save_figure(fig, path)
+
+
+def crosscheck_figure(name: str, theory_results: Sequence, sims: dict, path) -> Path:
+    """Analytical shapes (lines) against MuJoCo rods (markers, one per segment count) at the first,
+    middle and last state of a loading path (``magsoft crosscheck --out``)."""
+    fig, axes = _figure(1, 1, size=(5, 5))
+    ax = axes[0, 0]
+    idx = sorted({0, len(theory_results) // 2, len(theory_results) - 1})
+    for i in idx:
+        t = theory_results[i]
+        ax.plot(t.x / MM, t.z / MM, "k-", lw=1.5, label="theory" if i == idx[0] else None)
+        for n, style in zip(sorted(sims), ("C0o", "C1s", "C2^", "C3v"), strict=False):
+            s = sims[n][i]
+            ax.plot(s.x / MM, s.z / MM, style, ms=3, mfc="none", label=f"MuJoCo N={n}" if i == idx[0] else None)
+        f = t.field
+        ax.annotate(f"({f.Bx / MT:.3g}, {f.Bz / MT:.3g}) mT", (t.x[-1] / MM, t.z[-1] / MM), fontsize=7)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("z (mm)")
+    ax.set_title(f"{name}: theory vs MuJoCo rod")
+    ax.legend(fontsize=7)
     return save_figure(fig, path)

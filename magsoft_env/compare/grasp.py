@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..spec import Beam, Field
-from ..spec._validate import finite_number, nonnegative, positive
+from ..validate import finite_number, nonnegative, positive
 
 _SHELL_RADIUS = 0.25e-3  # capsule radius of the object's shell (m)
 _SHELL_POINTS = 41  # points per half-contour of the object's shell
@@ -112,7 +112,7 @@ def hanging_target(name_or_xz) -> np.ndarray:
     bottom centre (finger under the object, as in ``assets/contours``), translated to start at the
     origin and mirrored in z: the same object held upside down by a finger above it.
     """
-    from .targets import builtin_target, validate_target
+    from ..design.targets import builtin_target, validate_target
 
     xz = builtin_target(name_or_xz) if isinstance(name_or_xz, str) else validate_target(name_or_xz)
     xz = xz - xz[0]
@@ -131,8 +131,8 @@ def design_gripper(name_or_xz, *, width: float = 5e-3, thickness: float = 1.13e-
     -------
     DesignResult
     """
-    from .optimize import design_profile
-    from .targets import curve_length
+    from ..design.optimize import design_profile
+    from ..design.targets import curve_length
 
     target = hanging_target(name_or_xz)
     beam = Beam(length=curve_length(target), width=width, thickness=thickness, volume_fraction=volume_fraction)
@@ -147,8 +147,8 @@ def contour_aligned_beam(target_xz, beam: Beam, *, family: str = "spline", size:
     ``beta(s) = pi/2 - theta_target(s)`` (the strong-field alignment, also the optimizer's first
     start), fitted to the profile ``family``; no optimization.
     """
-    from .families import ProfileFamily
-    from .targets import prepare_target, tangent_angle
+    from ..design.families import ProfileFamily
+    from ..design.targets import prepare_target, tangent_angle
 
     fam = ProfileFamily(family, size)
     u, theta = tangent_angle(prepare_target(target_xz, 50))
@@ -245,9 +245,9 @@ class GraspScene:
     def __init__(self, beam: Beam, field, target_xz, options: GraspOptions | None = None):
         import mujoco
 
+        from ..design.targets import resample, validate_target
         from ..sim.discretize import discretize
         from ..sim.magnetics import body_moments_3d
-        from .targets import resample, validate_target
 
         if not isinstance(beam, Beam):
             raise ValueError(f"beam must be a magsoft_env.Beam, got {type(beam).__name__}.")

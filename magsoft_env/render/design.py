@@ -1,4 +1,4 @@
-"""Files from a design: profile, field and jig as CSV, the jig as a true-scale SVG, a summary, figures."""
+"""A design written to a folder: profile, field and jig as CSV, the jig as a true-scale SVG, a summary, figures."""
 
 from __future__ import annotations
 
@@ -7,32 +7,11 @@ from pathlib import Path
 
 import numpy as np
 
-MM = 1e3  # mm per m
-MT = 1e3  # mT per T
-
-
-def jig_svg(jig_xz, *, margin_mm: float = 3.0, stroke_mm: float = 0.3, label: str = "") -> str:
-    """SVG text of the jig curve at true scale (1 user unit = 1 mm), to print or machine.
-
-    The curve is ``jig_xz`` (m), drawn with z up (SVG's y axis points down, so it is flipped).
-    The clamp end (s = 0) is marked by a small circle.
-    """
-    p = np.asarray(jig_xz, dtype=float) * MM
-    x, y = p[:, 0], -p[:, 1]
-    x0, x1, y0, y1 = x.min() - margin_mm, x.max() + margin_mm, y.min() - margin_mm, y.max() + margin_mm
-    w, h = x1 - x0, y1 - y0
-    pts = " ".join(f"{a:.4f},{b:.4f}" for a, b in zip(x, y, strict=True))
-    title = f"<title>{label}</title>\n" if label else ""
-    return (
-        '<?xml version="1.0" encoding="UTF-8"?>\n'
-        f'<svg xmlns="http://www.w3.org/2000/svg" width="{w:.4f}mm" height="{h:.4f}mm" '
-        f'viewBox="{x0:.4f} {y0:.4f} {w:.4f} {h:.4f}">\n'
-        f"{title}"
-        f'<polyline points="{pts}" fill="none" stroke="black" stroke-width="{stroke_mm}" '
-        'stroke-linejoin="round" stroke-linecap="round"/>\n'
-        f'<circle cx="{x[0]:.4f}" cy="{y[0]:.4f}" r="{2 * stroke_mm:.4f}" fill="red"/>\n'
-        "</svg>\n"
-    )
+from ..design.svg import jig_svg
+from ..io import write_csv, write_json, write_text_atomic
+from ..threads import single_threaded_blas
+from ..units import MM, MT
+from .figures import _figure, _shape_axes, draw_path_shapes, save_figure
 
 
 def write_design(result, out, *, name: str = "design", ramp_steps: int = 8, figures: bool = True) -> list[Path]:
@@ -45,9 +24,7 @@ def write_design(result, out, *, name: str = "design", ramp_steps: int = 8, figu
     ``fit.png`` (target against prediction, profile, jig) and ``ramp.png`` (shapes along the
     field ramp, paper Fig. 6 III).
     """
-    from ..cli.solve import write_csv, write_json, write_text_atomic
     from ..theory import solve_path
-    from ._blas import single_threaded_blas
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -56,16 +33,16 @@ def write_design(result, out, *, name: str = "design", ramp_steps: int = 8, figu
     beta = result.beam.beta(s)
     written = [
         write_csv(out / "profile.csv", [
-            {"s_mm": a * MM, "beta_rad": float(b), "beta_deg": math.degrees(b)} for a, b in zip(s, beta, strict=True)
+            {"s_mm": a / MM, "beta_rad": float(b), "beta_deg": math.degrees(b)} for a, b in zip(s, beta, strict=True)
         ]),
         write_csv(out / "field.csv", [{
-            "Bx_mT": result.field.Bx * MT, "Bz_mT": result.field.Bz * MT,
-            "magnitude_mT": result.field.magnitude * MT, "angle_deg": math.degrees(result.field.angle),
+            "Bx_mT": result.field.Bx / MT, "Bz_mT": result.field.Bz / MT,
+            "magnitude_mT": result.field.magnitude / MT, "angle_deg": math.degrees(result.field.angle),
         }]),
-        write_csv(out / "jig.csv", [{"x_mm": a * MM, "z_mm": b * MM} for a, b in result.jig_xz]),
+        write_csv(out / "jig.csv", [{"x_mm": a / MM, "z_mm": b / MM} for a, b in result.jig_xz]),
         write_text_atomic(out / "jig.svg", jig_svg(result.jig_xz, label=f"{name} jig (eq. 1), mm")),
-        write_csv(out / "target.csv", [{"x_mm": a * MM, "z_mm": b * MM} for a, b in result.target_xz]),
-        write_csv(out / "prediction.csv", [{"x_mm": a * MM, "z_mm": b * MM} for a, b in result.predicted_xz]),
+        write_csv(out / "target.csv", [{"x_mm": a / MM, "z_mm": b / MM} for a, b in result.target_xz]),
+        write_csv(out / "prediction.csv", [{"x_mm": a / MM, "z_mm": b / MM} for a, b in result.predicted_xz]),
     ]
     st = result.settings
     fields = [(result.field.Bx * t, result.field.Bz * t) for t in np.linspace(0.0, 1.0, ramp_steps + 1)[1:]]
@@ -76,10 +53,10 @@ def write_design(result, out, *, name: str = "design", ramp_steps: int = 8, figu
     for r in path:
         if r.success:
             _, xs, zs, _ = r.sample(101)
-            rows += [{"Bx_mT": r.field.Bx * MT, "Bz_mT": r.field.Bz * MT, "x_mm": a * MM, "z_mm": b * MM}
+            rows += [{"Bx_mT": r.field.Bx / MT, "Bz_mT": r.field.Bz / MT, "x_mm": a / MM, "z_mm": b / MM}
                      for a, b in zip(xs, zs, strict=True)]
     written.append(write_csv(out / "ramp.csv", rows))
-    summary = {"name": name, **result.summary(), "settings": result.settings, "history": result.history}
+    summary = {"name": name, **result.to_dict(), "settings": result.settings, "history": result.history}
     written.append(write_json(out / "summary.json", summary))
     if figures:
         written += [fit_figure(result, out / "fit.png", title=name), ramp_figure(result, path, out / "ramp.png")]
@@ -88,30 +65,29 @@ def write_design(result, out, *, name: str = "design", ramp_steps: int = 8, figu
 
 def fit_figure(result, path, *, title: str = ""):
     """Target against prediction (left), the profile beta(s) (middle) and the jig curve (right)."""
-    from ..plotting import _figure, _shape_axes, save_figure
 
     fig, axes = _figure(1, 3, size=(14.0, 4.4))
     ax = axes[0, 0]
-    t, p = result.target_xz * MM, result.predicted_xz * MM
+    t, p = result.target_xz / MM, result.predicted_xz / MM
     th0 = result.settings.get("clamp_angle_rad", 0.0)
-    end = result.beam.length * MM * np.array([math.cos(th0), math.sin(th0)])
+    end = result.beam.length / MM * np.array([math.cos(th0), math.sin(th0)])
     ax.plot([0, end[0]], [0, end[1]], color="0.6", ls="--", lw=1.0, label="undeformed")
     ax.plot(t[:, 0], t[:, 1], "o", ms=3.5, mfc="none", color="tab:blue", label="target")
     ax.plot(p[:, 0], p[:, 1], "-", color="tab:green", lw=1.8,
-            label=f"prediction, |B| = {result.field.magnitude * MT:.3g} mT")
+            label=f"prediction, |B| = {result.field.magnitude / MT:.3g} mT")
     _shape_axes(ax)
-    ax.set_title(f"{title}: RMS {result.rms_error * MM:.3f} mm ({result.rms_error_percent:.2f}% of L), "
-                 f"max {result.max_error * MM:.3f} mm", fontsize=9)
+    ax.set_title(f"{title}: RMS {result.rms_error / MM:.3f} mm ({result.rms_error_percent:.2f}% of L), "
+                 f"max {result.max_error / MM:.3f} mm", fontsize=9)
     ax.legend(fontsize=7)
     ax = axes[0, 1]
     s = np.linspace(0.0, result.beam.length, 201)
-    ax.plot(s * MM, np.degrees(result.beam.beta(s)), color="tab:red")
+    ax.plot(s / MM, np.degrees(result.beam.beta(s)), color="tab:red")
     ax.set_xlabel("s (mm)")
     ax.set_ylabel(r"magnetization angle $\beta$ (deg)")
     ax.set_title(f"profile: {result.family.kind}, {result.family.size} parameters", fontsize=9)
     ax.grid(True, lw=0.4, alpha=0.5)
     ax = axes[0, 2]
-    j = result.jig_xz * MM
+    j = result.jig_xz / MM
     ax.plot(j[:, 0], j[:, 1], color="k")
     ax.plot(j[0, 0], j[0, 1], "o", color="red", ms=4, label="s = 0 (clamp end)")
     _shape_axes(ax)
@@ -122,14 +98,13 @@ def fit_figure(result, path, *, title: str = ""):
 
 def ramp_figure(result, path_results, path):
     """Predicted shapes as the field ramps up to the designed field, with the target (paper Fig. 6 III)."""
-    from ..plotting import _figure, draw_path_shapes, save_figure
 
     fig, axes = _figure(1, 1, size=(6.0, 5.0))
     ax = axes[0, 0]
     th0 = result.settings.get("clamp_angle_rad", 0.0)
     ref = (np.array([0.0, result.beam.length * math.cos(th0)]), np.array([0.0, result.beam.length * math.sin(th0)]))
     draw_path_shapes(ax, path_results, length=result.beam.length, max_shapes=8, reference=ref)
-    t = result.target_xz * MM
+    t = result.target_xz / MM
     ax.plot(t[:, 0], t[:, 1], "o", ms=3, mfc="none", color="tab:red", label="target")
     ax.legend(fontsize=6)
     ax.set_title("shapes along the field ramp", fontsize=10)

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .equilibrium import SimEquilibrium, mujoco_path
+from ..sim.equilibrium import SimEquilibrium, mujoco_path
 
 
 @dataclass(frozen=True)
@@ -45,7 +45,7 @@ def crosscheck_preset(preset, segments=(10, 20, 40), *, grading: float | None = 
 
     Parameters
     ----------
-    preset : magsoft_env.presets.Preset
+    preset : magsoft_env.cases.Preset
         A cantilever preset.
     segments : sequence of int
         Segment counts to run.
@@ -63,15 +63,15 @@ def crosscheck_preset(preset, segments=(10, 20, 40), *, grading: float | None = 
     """
     if preset.support != "cantilever":
         raise ValueError(f"preset {preset.name!r} has support={preset.support!r}; the MuJoCo rod is clamped only.")
-    from .. import theory as th
-    from .model import RodOptions
+    from ..sim.model import RodOptions
+    from ..theory import solve_path
 
     grading = RodOptions(scene="cantilever", grading=grading).grading
     fields = preset.fields
     t_th = math.nan
     if theory_results is None:
         t0 = time.perf_counter()
-        theory_results = th.solve_path(
+        theory_results = solve_path(
             preset.beam, fields, gravity=preset.gravity, coupling="rotated", extensible=False,
             clamp_angle=preset.clamp_angle,
         )

@@ -1,0 +1,43 @@
+"""How a beam is held and loaded, checked in one place: support, gravity, coupling, extensibility, clamp angle.
+
+The analytical solver, the inverse design and the statics presets take the same loading options;
+:func:`check_loading` validates them for all three (``where`` names the caller in messages).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..validate import choice, finite_number
+
+#: Boundary conditions: clamped at s = 0 and free at s = L, or free at both ends.
+SUPPORTS = ("cantilever", "free")
+#: Magnetic couplings: the complete one (magnetization turns with the section) and the paper's eq. (10).
+COUPLINGS = ("rotated", "paper")
+
+
+def check_loading(*, gravity, support: str = "cantilever", coupling: str = "rotated", extensible=False,
+                  clamp_angle=0.0, where: str = "") -> dict:
+    """The loading options, checked: ``{"gravity", "support", "coupling", "extensible", "clamp_angle"}``.
+
+    ``gravity`` (m/s^2, >= 0, acting along -z; 0 for a free-free beam), ``support`` in
+    :data:`SUPPORTS`, ``coupling`` in :data:`COUPLINGS`, ``extensible`` a bool, ``clamp_angle``
+    (rad) finite. Raises ValueError naming the option (prefixed by ``where``) otherwise.
+    """
+    support = choice(f"{where}support", support, SUPPORTS)
+    coupling = choice(f"{where}coupling", coupling, COUPLINGS)
+    g = finite_number(f"{where}gravity", gravity, unit="m/s^2")
+    if g < 0:
+        raise ValueError(f"{where}gravity must be >= 0 (m/s^2, acting along -z), got {gravity!r}.")
+    if support == "free" and g != 0.0:
+        raise ValueError(
+            f"{where}support='free': a free-free beam needs gravity 0 (it has no static equilibrium under "
+            f"gravity), got {gravity!r}. Use the MuJoCo floor scene for beams on the ground."
+        )
+    if not isinstance(extensible, (bool, np.bool_)):
+        raise ValueError(f"{where}extensible must be true or false (a bool), got {extensible!r}.")
+    th0 = finite_number(f"{where}clamp_angle", clamp_angle, unit="rad")
+    return {"gravity": g, "support": support, "coupling": coupling, "extensible": bool(extensible), "clamp_angle": th0}
+
+
+__all__ = ["COUPLINGS", "SUPPORTS", "check_loading"]
