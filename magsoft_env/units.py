@@ -33,9 +33,11 @@ MT = 1e-3
 MS = 1e-3
 #: One degree (rad).
 DEG = math.pi / 180.0
+#: One gram (kg).
+GRAM = 1e-3
 #: One megapascal (Pa).
 MPA = 1e6
 #: One kiloampere per metre (A/m).
 KA_PER_M = 1e3
 
-__all__ = ["DEG", "KA_PER_M", "MM", "MPA", "MS", "MT", "UM"]
+__all__ = ["DEG", "GRAM", "KA_PER_M", "MM", "MPA", "MS", "MT", "UM"]

@@ -18,7 +18,7 @@ import time
 
 import numpy as np
 
-MM = 1e3
+from magsoft_env.units import MM, MT
 
 
 def _baseline(target, beam, b_hi, family, coupling):
@@ -59,16 +59,16 @@ def run(objects, *, field_max_mT: float, family: str, starts: int, seed: int, co
             base = _baseline(target, res.beam, field_max_mT * 1e-3, ProfileFamily(family, res.family.size), coupling)
         L = res.beam.length
         rows.append({
-            "object": name, "L_mm": L * MM, "rms_mm": res.rms_error * MM, "rms_pct": 100 * res.rms_error / L,
-            "max_mm": res.max_error * MM, "max_pct": 100 * res.max_error / L, "B_mT": res.field.magnitude * MM,
+            "object": name, "L_mm": L / MM, "rms_mm": res.rms_error / MM, "rms_pct": 100 * res.rms_error / L,
+            "max_mm": res.max_error / MM, "max_pct": 100 * res.max_error / L, "B_mT": res.field.magnitude / MT,
             "starts": len(res.history), "solves": res.nfev, "time_s": wall, "success": res.success,
-            "baseline_rms_mm": base * MM, "baseline_rms_pct": 100 * base / L,
+            "baseline_rms_mm": base / MM, "baseline_rms_pct": 100 * base / L,
         })
         if mujoco:
             from magsoft_env.compare import mujoco_check
 
             chk = mujoco_check(res, segments=20)
-            rows[-1].update({"mj_max_mm": chk["max_to_analytical"] * MM,
+            rows[-1].update({"mj_max_mm": chk["max_to_analytical"] / MM,
                              "mj_target_pct": 100 * chk["rms_to_target"] / L, "mj_ok": chk["success"]})
     return rows
 

@@ -10,8 +10,8 @@ after the first field period. Groups:
 * ``presets``: the three presets as shipped (``--reverse`` for 5c), defaults of ``magsoft gait``.
 
 The groups ``5a-field``, ``5a-robot``, ``5a-frequency``, ``5a-friction`` and ``5a-numerics``
-run the single-V 5a robot (``beam_5a(vees=1)``, the paper-5a preset until the ``5a-polylines``
-study), so that they reproduce the docs table measured with it; ``presets`` runs the shipped
+run the single-V 5a robot (``beam_5a(vees=1)``), so that they reproduce the docs table measured
+with it; ``presets`` runs the shipped
 preset (the 2-V "W" jig).
 * ``5a-field``: paper-5a under oscillating B_z, oscillating B_x, a field oscillating along a
   tilted axis (B_x and B_z in phase or in antiphase) and rotating fields (B_x 90 deg ahead of
@@ -46,8 +46,7 @@ import sys
 from magsoft_env.cases.gaits import GAIT_TIMESTEP, PAPER_5A_VEES, beam_5a, beam_5b, gait_preset
 from magsoft_env.sim.gait import run_gait
 from magsoft_env.spec.drive import Waveparams
-
-MT = 1e-3
+from magsoft_env.units import MT
 
 
 @dataclasses.dataclass(frozen=True)
@@ -101,7 +100,7 @@ def cases(groups=None) -> list[Case]:
         group = name[-2:] + "-numerics"
         for seg, dt in ((20, 2e-4), (20, 1e-4), (20, 5e-5), (40, 1e-4), (40, 5e-5)):
             out.append(Case(group, name, reverse=rev, segments=seg, timestep=dt))
-    # the single-V robot for the groups measured with it (the paper-5a preset before 5a-polylines)
+    # the single-V robot for the groups measured with it
     own = ("presets", "5a-polylines", "waveform", "friction")  # groups that set their own robot
     out = [dataclasses.replace(c, vees=1) if c.preset == "paper-5a" and c.group not in own else c for c in out]
     if groups:

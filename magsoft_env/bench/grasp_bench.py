@@ -19,7 +19,7 @@ import time
 
 import numpy as np
 
-MM = 1e3
+from magsoft_env.units import GRAM, MM, MT
 
 
 def _shape_rms(beam, fld, target, gravity):
@@ -66,9 +66,9 @@ def run(objects, *, field_max_mT: float, friction: float, segments: int, timeste
             lift = max_lift_mass(scene, rel_tol=rel_tol)
             off = scene.trial(0.05 * scene.gripper_mass, field_on=False)
             rows.append({
-                "object": name, "gripper": kind, "L_mm": beam.length * MM, "B_mT": res.field.magnitude * MM,
-                "design_ok": res.success, "shape_rms_mm": rms * MM, "shape_rms_pct": 100 * rms / beam.length,
-                "gripper_g": scene.gripper_mass * MM, "max_g": lift.max_mass * MM, "ratio": lift.ratio,
+                "object": name, "gripper": kind, "L_mm": beam.length / MM, "B_mT": res.field.magnitude / MT,
+                "design_ok": res.success, "shape_rms_mm": rms / MM, "shape_rms_pct": 100 * rms / beam.length,
+                "gripper_g": scene.gripper_mass / GRAM, "max_g": lift.max_mass / GRAM, "ratio": lift.ratio,
                 "upper_ratio": lift.upper_ratio, "trials": len(lift.trials),
                 "field_off_lifts": off.lifted, "unstable": sum(not t.stable for t in lift.trials),
                 "design_s": t_design if kind == "optimized" else 0.0, "grasp_s": time.perf_counter() - t0,

@@ -133,21 +133,21 @@ def _beam_5c() -> Beam:
     return Beam(length=jig.length, width=WIDTH, thickness=THICKNESS, volume_fraction=0.2, magnetization=jig)
 
 
-#: V's in the paper-5a preset's zigzag jig (``beam_5a(vees=...)``): 2, a "W" (1, a "V", until the
-#: multiple-polyline study in docs/envs.md).
+#: V's in the paper-5a preset's zigzag jig (``beam_5a(vees=...)``): 2, a "W" (docs/envs.md,
+#: "5a with multiple polylines").
 PAPER_5A_VEES = 2
 
 _PRESETS = {
     "paper-5a": dict(
         # The robot: the paper's 5a "is programmed using multiple symmetric polylines", so the jig is a
-        # zigzag of V's, here two ("W", beta = +15, -15, +15, -15 deg on four equal pieces). The single
-        # V (beam_5a(vees=1)) was the preset before; docs/envs.md, "5a with multiple polylines", has the
-        # 40-row study of 1-4 V's: same gait (the right end curls up, then the left end less), same
-        # direction (right at every amplitude, frequency 1-3 Hz, angle 10-30 deg, face), converged
-        # (+0.43 to +0.58 mm/s over 20/40 segments and 0.1/0.05 ms); the W lifts less (12.0 vs 14.7 mm
-        # at 2 mT) and crawls at half the V's speed. The number of V's is not given by the paper; 2-4
-        # V's differ little (+0.45 / +0.46 / +0.54 mm/s, lifts 12.0 / 12.1 / 11.7 mm), so the preset
-        # takes the smallest number that is "multiple".
+        # zigzag of V's, here two ("W", beta = +15, -15, +15, -15 deg on four equal pieces); the single
+        # V is beam_5a(vees=1). docs/envs.md, "5a with multiple polylines", has the 40-row study of
+        # 1-4 V's: same gait (the right end curls up, then the left end less), same direction (right at
+        # every amplitude, frequency 1-3 Hz, angle 10-30 deg, face), converged (+0.43 to +0.58 mm/s over
+        # 20/40 segments and 0.1/0.05 ms); the W lifts less (12.0 vs 14.7 mm at 2 mT) and crawls at half
+        # the V's speed. The number of V's is not given by the paper; 2-4 V's differ little (+0.45 /
+        # +0.46 / +0.54 mm/s, lifts 12.0 / 12.1 / 11.7 mm), so the preset takes the smallest number that
+        # is "multiple".
         # Why an oscillating B_z (docs/envs.md, "Paper gaits", has the measured table):
         # - the paper's text: section IV.B introduces 5c's B_x as added "besides an oscillating B^a(z)",
         #   and sets 5a's mechanism (asymmetric phi) apart from 5c's (asymmetric field); so 5a's
@@ -169,7 +169,7 @@ _PRESETS = {
             "Fig. 5a: 25 x 5 x 1.13 mm beam, phi = 10 % left half / 20 % right half (composite density 1940 "
             "kg/m^3 throughout, the paper's measured value), magnetized by multiple symmetric polylines: a 'W' "
             "jig of four equal pieces falling and rising 15 deg in turn (beta = +15, -15, +15, -15 deg; the "
-            "former single 'V' is beam_5a(vees=1)). Field: oscillating B_z = 2 mT sin(2 pi 2 Hz t) (vertical, "
+            "single 'V' is beam_5a(vees=1)). Field: oscillating B_z = 2 mT sin(2 pi 2 Hz t) (vertical, "
             "as the paper's 'oscillating B^a(z)' of Fig. 5c; B_x up to 5 mT barely deforms this beam). "
             "Friction 0.5. Paper: crawls left at 0.85 mm/s; simulated: right under this sine, left under a switched "
             "field (--waveform square), which turns paper-5b right (docs/envs.md)."

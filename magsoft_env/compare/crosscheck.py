@@ -13,19 +13,23 @@ from ..sim.equilibrium import SimEquilibrium, mujoco_path
 
 @dataclass(frozen=True)
 class CrosscheckRow:
-    """One preset at one segment count.
+    """One preset at one segment count (frozen).
 
     Attributes
     ----------
     preset : str
+        Name of the statics preset.
     segments : int
+        Number of cells N of the MuJoCo rod (dimensionless count).
     grading : float
+        Last / first cell length of the rod (dimensionless; see :class:`~magsoft_env.sim.RodOptions`).
     max_tip_error : float
         Largest tip-position distance over the path, divided by L (dimensionless).
     mean_tip_error : float
-        Mean of the same over the path states.
+        Mean of the same over the path states (dimensionless, fraction of L).
     sim_seconds, theory_seconds : float
-        Wall time of the MuJoCo path and of the analytical path (s), same process.
+        Wall time of the MuJoCo path and of the analytical path (s), same process;
+        ``theory_seconds`` is NaN when the analytical path was given precomputed.
     success : bool
         Both sides converged at every state.
     """
@@ -38,6 +42,19 @@ class CrosscheckRow:
     sim_seconds: float
     theory_seconds: float
     success: bool
+
+    def to_dict(self) -> dict:
+        """Plain numbers with the unit in the key (the columns of ``crosscheck.csv``), for JSON."""
+        return {
+            "preset": self.preset,
+            "segments": int(self.segments),
+            "grading": float(self.grading),
+            "max_tip_error_over_L": float(self.max_tip_error),
+            "mean_tip_error_over_L": float(self.mean_tip_error),
+            "mujoco_s": float(self.sim_seconds),
+            "theory_s": float(self.theory_seconds),
+            "success": bool(self.success),
+        }
 
 
 def crosscheck_preset(preset, segments=(10, 20, 40), *, grading: float | None = None, theory_results=None):

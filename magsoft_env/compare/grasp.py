@@ -177,21 +177,22 @@ def _polygon_properties(poly: np.ndarray) -> tuple[float, np.ndarray, float]:
     return abs(a), np.array([cx, cz]), abs(j)
 
 
-@dataclass
+@dataclass(frozen=True)
 class GraspTrial:
-    """One lift attempt.
+    """One lift attempt (frozen). Units are SI.
 
     Attributes
     ----------
     lifted : bool
         The object rose by at least ``hold_fraction * lift_height``.
     object_mass : float
-        kg.
+        Mass of the object (kg).
     rise : float
-        Object's rise (m) from the start to the end of the trial.
+        Object's rise (m) from the start to the end of the trial (NaN when not ``stable``).
     stable : bool
         False if the state became non-finite (then ``lifted`` is False).
     message : str
+        ``"lifted"``, ``"not lifted"``, or where the state became non-finite.
     """
 
     lifted: bool
@@ -200,22 +201,34 @@ class GraspTrial:
     stable: bool = True
     message: str = ""
 
+    def to_dict(self) -> dict:
+        """Plain numbers (SI, unit in the key), for JSON."""
+        return {
+            "lifted": bool(self.lifted),
+            "object_mass_kg": float(self.object_mass),
+            "rise_m": float(self.rise),
+            "stable": bool(self.stable),
+            "message": self.message,
+        }
 
-@dataclass
+
+@dataclass(frozen=True)
 class LiftResult:
-    """Heaviest object lifted, from :func:`max_lift_mass`.
+    """Heaviest object lifted, from :func:`max_lift_mass` (frozen). Units are SI.
 
     Attributes
     ----------
     max_mass : float
         Heaviest mass lifted (kg); 0 if even ``min_ratio`` times the gripper mass fell.
     ratio : float
-        ``max_mass / gripper_mass``.
+        ``max_mass / gripper_mass`` (dimensionless).
     upper_ratio : float
-        Lightest mass that fell, over the gripper mass (``inf`` if none fell up to ``max_ratio``).
+        Lightest mass that fell, over the gripper mass (dimensionless; ``inf`` if none fell up
+        to ``max_ratio``).
     gripper_mass : float
         Mass of both fingers (kg).
     trials : list of GraspTrial
+        Every trial, in the order run.
     """
 
     max_mass: float
@@ -223,6 +236,16 @@ class LiftResult:
     upper_ratio: float
     gripper_mass: float
     trials: list = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        """Plain numbers (SI, unit in the key; ratios dimensionless), with every trial, for JSON."""
+        return {
+            "max_mass_kg": float(self.max_mass),
+            "ratio": float(self.ratio),
+            "upper_ratio": float(self.upper_ratio),
+            "gripper_mass_kg": float(self.gripper_mass),
+            "trials": [t.to_dict() for t in self.trials],
+        }
 
 
 class GraspScene:

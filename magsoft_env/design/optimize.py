@@ -31,9 +31,9 @@ STATUS_MESSAGES = {
 }
 
 
-@dataclass
+@dataclass(frozen=True)
 class DesignResult:
-    """Outcome of :func:`design_profile`.
+    """Outcome of :func:`design_profile` (frozen). Units are SI.
 
     Attributes
     ----------
@@ -48,23 +48,36 @@ class DesignResult:
     field : Field
         The designed applied field (T).
     family : ProfileFamily
-        The profile family; ``params`` are its parameters (rad).
+        The profile family of the magnetization angle beta(s).
+    params : (p,) ndarray
+        The family's parameters (rad), ``p = family.size``.
     rms_error, max_error : float
-        RMS and largest distance (m) from the target points to the predicted centreline.
-    target_xz : (n, 2) array
-        Target points used (m), resampled evenly in arc length, starting at the origin.
-    predicted_xz : (m, 2) array
-        Predicted centreline of the designed beam under the designed field (m).
-    jig_xz : (k, 2) array
-        Jig curve (m) that produces the designed magnetization (paper eq. 1).
+        RMS and largest distance (m) from the target points to the predicted centreline
+        (NaN when the final equilibrium failed).
+    target_xz : (n, 2) ndarray
+        Target points used (m), resampled evenly in arc length, starting at the origin;
+        ``n = n_points``.
+    predicted_xz : (m, 2) ndarray
+        Predicted centreline of the designed beam under the designed field (m), ``m = 241``
+        points (a (2, 2) array of NaN when the final equilibrium failed).
+    jig_xz : (k, 2) ndarray
+        Jig curve (m) that produces the designed magnetization (paper eq. 1), ``k = 201``.
     equilibrium : EquilibriumResult
         The analytical solution behind ``predicted_xz``.
     history : list of dict
-        One record per start: initial and final RMS error (m), field (T), evaluations, status.
+        One record per start (local, then the global stage if run): initial and final RMS
+        error (m), field (T), evaluations, status, time (s); the unit is in each key that has one.
     nfev : int
-        Equilibrium solves in total.
+        Equilibrium solves in total (dimensionless count).
     wall_time : float
-        Seconds.
+        Wall time of the whole design (s).
+    settings : dict
+        The options the design ran with, JSON-ready, the unit in each key that has one
+        (``field_bounds_T``, ``beta_bounds_rad``, ``gravity_m_s2``, ``target_length_m``, ...).
+    length : float
+        (property) Beam length L (m).
+    rms_error_percent, max_error_percent : float
+        (property) ``rms_error`` and ``max_error`` as a percentage of L.
     """
 
     success: bool

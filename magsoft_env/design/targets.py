@@ -15,8 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..units import MM
+
 MIN_POINTS = 4  # fewest distinct points a target may have
-MM = 1e-3
 
 # Built-in objects: turtle pieces (radius of curvature in mm, or None for a straight piece; turn
 # angle in degrees, or length in mm for a straight piece). Positive turns curl toward +z.

@@ -44,7 +44,7 @@ class MagSoftCrawlEnv(gym.Env):
     :mod:`magsoft_env.sim` (planar, ``segments`` cells, magnetic couples ``(R m) x B``).
 
     Above about 2.5-3 mT a 20-30 mm beam stops crawling and tumbles end over end at tens of
-    mm/s (DESIGN.md section 6). The default ``crawl_mode="rotation"`` ends the episode when a
+    mm/s (docs/envs.md, "Crawl mode"). The default ``crawl_mode="rotation"`` ends the episode when a
     piece turns more than ``max_link_rotation`` from the floor, so that rewards compare
     crawling with crawling; ``"height"`` limits the highest point to ``max_height`` (the
     paper's 7.6 mm channel ceiling), ``"none"`` allows tumbling.

@@ -12,25 +12,26 @@ import numpy as np
 
 @dataclass(frozen=True)
 class EvalResult:
-    """Speeds of one controller in one environment.
+    """Speeds of one controller in one environment (frozen). Units are SI.
 
     Attributes
     ----------
     name : str
+        The controller's label (e.g. ``"policy"`` or ``"open-loop paper-5a"``).
     speed : float
         Mean centre-of-mass speed along +x over the episodes (m/s).
     episode_return : float
-        Mean return.
+        Mean undiscounted return per episode (dimensionless, the environment's reward units).
     episode_seconds : float
         Mean simulated episode length (s).
     crawl_violations : int
-        Episodes that ended by breaking the crawl limit.
+        Episodes that ended by breaking the crawl limit (dimensionless count).
     max_com_height : float
         Highest centre of mass over the episodes (m): hopping or standing up shows here.
     final_error : float
         Shape env: mean tip-position error at the end of the episodes (m); NaN otherwise.
     successes : int
-        Episodes that ended with ``info["is_success"]`` (channel, obstacle, shape envs).
+        Episodes that ended with ``info["is_success"]`` (channel, obstacle, shape envs; count).
     success_seconds : float
         Mean simulated time to success over the successful episodes (s); NaN if none.
     """
@@ -46,6 +47,7 @@ class EvalResult:
     success_seconds: float = math.nan
 
     def to_dict(self) -> dict:
+        """JSON-ready summary with units in the keys (mm, mm/s, s); NaN becomes None."""
         d = {"name": self.name, "speed_mm_s": self.speed * 1e3, "return": self.episode_return,
              "episode_s": self.episode_seconds, "crawl_violations": self.crawl_violations,
              "max_com_height_mm": self.max_com_height * 1e3, "final_error_mm": self.final_error * 1e3,

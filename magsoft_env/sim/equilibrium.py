@@ -15,20 +15,24 @@ from .simulator import SettleResult, Simulator
 
 @dataclass(frozen=True)
 class SimEquilibrium:
-    """A settled MuJoCo rod.
+    """A settled MuJoCo rod (frozen).
+
+    The rod has ``N`` cells (``segments``): ``N + 1`` rigid pieces joined by ``N`` hinges, so
+    the centreline has ``N + 2`` points (the clamp, every hinge, the tip). Units are SI.
 
     Attributes
     ----------
     success : bool
         Every settle along the path passed its convergence test.
     message : str
+        ``"converged"``, or the settles that failed, separated by ``"; "``.
     field : Field
         Applied field (T).
-    s : ndarray, shape (N + 2,)
+    s : (N + 2,) ndarray
         Reference arc length of the centerline points (m): clamp, hinges, tip.
-    x, z : ndarray, shape (N + 2,)
+    x, z : (N + 2,) ndarray
         Centerline (m), base to tip.
-    theta : ndarray, shape (N + 1,)
+    theta : (N + 1,) ndarray
         Tangent angle of each rigid piece (rad), base half-cell first.
     tip_angle : float
         Tangent angle of the tip piece (rad).
@@ -37,7 +41,7 @@ class SimEquilibrium:
     residual : float
         Final static residual (rad; see :meth:`Simulator.static_residual`).
     steps : int
-        Simulation steps spent settling along the whole path so far.
+        Simulation steps spent settling along the whole path so far (dimensionless count).
     """
 
     success: bool
@@ -51,6 +55,23 @@ class SimEquilibrium:
     tip_deflection: float
     residual: float
     steps: int
+
+    def to_dict(self) -> dict:
+        """Metrics as plain numbers (SI and degrees), for JSON."""
+        return {
+            "success": bool(self.success),
+            "message": self.message,
+            "field_T": [float(self.field.Bx), float(self.field.Bz)],
+            "segments": len(self.theta) - 1,
+            "tip_deflection_m": float(self.tip_deflection),
+            "v_over_L": float(self.tip_deflection) / float(self.s[-1]),
+            "tip_angle_rad": float(self.tip_angle),
+            "tip_angle_deg": math.degrees(self.tip_angle),
+            "tip_x_m": float(self.x[-1]),
+            "tip_z_m": float(self.z[-1]),
+            "residual_rad": float(self.residual),
+            "steps": int(self.steps),
+        }
 
 
 def _snapshot(sim: Simulator, ok: bool, msg: str, res: float, steps: int) -> SimEquilibrium:

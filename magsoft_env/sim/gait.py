@@ -42,13 +42,14 @@ def gait_rod_options(preset: GaitPreset, *, scene: str = "floor", segments: int 
 
 @dataclass(frozen=True)
 class GaitResult:
-    """Outcome of :func:`run_gait`.
+    """Outcome of :func:`run_gait` (frozen). Units are SI.
 
     Attributes
     ----------
     name : str
+        The preset's name, with ``" (reverse)"`` for a reversed gait.
     seconds : float
-        Simulated time (s).
+        Simulated time (s) actually run (shorter than asked when the rod became unstable).
     warmup : float
         Time (s) excluded from the speed (the first cycle, a start-up transient).
     displacement : float
@@ -67,12 +68,14 @@ class GaitResult:
         "displacement on the right side of the beam is larger" (Fig. 5a) reads as
         ``max_lift_right > max_lift_left``.
     wall_time : float
-        Seconds of computing.
-    time, com_x : ndarray
-        Recorded times (s) and centre-of-mass x (m).
+        Wall time of the run (s).
+    time, com_x : (n,) ndarray
+        Recorded times (s) and centre-of-mass x (m), ``n`` samples (the first state, then one
+        per ``sample_dt`` rounded to whole steps).
     success : bool
         False when the simulation became unstable (then ``message`` says why).
     message : str
+        ``"ok"``, or the instability that stopped the run early.
     """
 
     name: str

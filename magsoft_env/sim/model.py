@@ -67,8 +67,10 @@ class RodOptions:
         solve; under the others the hinge springs are explicit (see docs/sim.md for the
         measured stable timesteps).
     timestep : float or None
-        Simulation step (s), in (0, 0.1]. ``None``: 1 ms for every scene (before version 0.3
-        the contact scenes used 0.1 ms; see docs/sim.md for the measured errors of each).
+        Simulation step (s), in (0, 0.1]. ``None``: 1 ms for every scene (docs/sim.md has the
+        measured errors of each step).
+
+        .. versionchanged:: 0.3 the contact scenes' default was 0.1 ms.
     gravity : float
         Gravitational acceleration along -z (m/s^2); 0 turns gravity off.
     clamp_angle : float
@@ -83,9 +85,9 @@ class RodOptions:
         simulated at every timestep and a finer step converges to it. ``"material"``: the
         beam's own through-thickness time ``h sqrt(rho / E)`` (about 0.14 ms for the paper's
         1.13 mm phi = 0.2 beam; :func:`material_contact_timeconst`), a much stiffer contact
-        that needs dt <= 0.1 ms and crawls differently (docs/sim.md, "contact"); it was the
-        default of version 0.2, with a 0.1 ms step. Before version 0.2 the default was
-        ``2 * timestep``; pass that explicitly to get it back.
+        that needs dt <= 0.1 ms and crawls differently (docs/sim.md, "contact").
+
+        .. versionchanged:: 0.3 the default was ``"material"`` (0.2) and ``2 * timestep`` (0.1).
     contact_refsafe : bool
         Keep MuJoCo's ``refsafe`` (which raises every contact time constant to at least
         ``2 * timestep``, so the contact softens as the step grows). Off by default: the
@@ -100,11 +102,13 @@ class RodOptions:
         Last cell length / first cell length, in [0.1, 10]; 1 gives equal cells, > 1 finer
         cells at the clamp (more accurate cantilevers in strong fields, see docs/sim.md).
         ``None`` (default): 1.5 for the cantilever (the largest grading that improves every
-        static cross-check but one, measured in docs/sim.md; equal cells before version 0.3),
-        1 (equal cells) for the contact scenes.
+        static cross-check but one, measured in docs/sim.md), 1 (equal cells) for the contact
+        scenes.
+
+        .. versionchanged:: 0.3 the cantilever's default was equal cells.
     base : {"middle", "first"}
         Floor scenes: which piece carries the planar base joint (the root of the kinematic
-        tree). ``middle`` (default) is the least biased with soft contact (DESIGN.md section 5);
+        tree). ``middle`` (default) is the least biased with soft contact (docs/sim.md, "symmetry");
         ``first`` is the base half-cell. The cantilever always clamps the first piece.
     contact_geom : {"capsule", "sphere"}
         Collision shape of the rod. ``capsule``: one capsule per piece (two contacts per piece

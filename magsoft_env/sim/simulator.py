@@ -26,20 +26,21 @@ _FLOATS = (float, np.float64, np.float32)
 
 @dataclass(frozen=True)
 class SettleResult:
-    """Outcome of :meth:`Simulator.settle`.
+    """Outcome of :meth:`Simulator.settle` (frozen).
 
     Attributes
     ----------
     success : bool
         Whether the convergence test passed within ``max_time``.
     steps : int
-        Steps taken.
+        Simulation steps taken (dimensionless count).
     residual : float
         Final static residual: ``max_j |Q_j| / k_j`` (rad), the largest hinge-angle change
         that would balance the net generalized force ``Q`` at zero velocity.
     max_speed : float
         Final largest hinge angular speed (rad/s).
     message : str
+        ``"converged"``, or why the rod did not settle within ``max_time``.
     """
 
     success: bool
@@ -48,20 +49,33 @@ class SettleResult:
     max_speed: float
     message: str
 
+    def to_dict(self) -> dict:
+        """Plain numbers (SI, unit in the key), for JSON."""
+        return {
+            "success": bool(self.success),
+            "steps": int(self.steps),
+            "residual_rad": float(self.residual),
+            "max_speed_rad_s": float(self.max_speed),
+            "message": self.message,
+        }
+
 
 @dataclass(frozen=True)
 class Trajectory:
-    """Samples recorded by :meth:`Simulator.run`.
+    """Samples recorded by :meth:`Simulator.run` (frozen).
+
+    ``n`` samples (the first state and every ``record_every`` steps) of a rod with ``N`` cells,
+    whose centerline has ``N + 2`` points. Units are SI.
 
     Attributes
     ----------
-    time : ndarray, shape (n,)
+    time : (n,) ndarray
         Times (s).
-    field : ndarray, shape (n, 2)
+    field : (n, 2) ndarray
         Applied field B_x, B_z (T).
-    x, z : ndarray, shape (n, N + 2)
+    x, z : (n, N + 2) ndarray
         Centerline points (m), base to tip (see :meth:`Simulator.centerline`).
-    tip_angle : ndarray, shape (n,)
+    tip_angle : (n,) ndarray
         Tangent angle of the tip (rad).
     """
 
@@ -70,6 +84,16 @@ class Trajectory:
     x: np.ndarray
     z: np.ndarray
     tip_angle: np.ndarray
+
+    def to_dict(self) -> dict:
+        """The samples as nested lists of plain numbers (SI, unit in the key), for JSON."""
+        return {
+            "time_s": np.asarray(self.time, dtype=float).tolist(),
+            "field_T": np.asarray(self.field, dtype=float).tolist(),
+            "x_m": np.asarray(self.x, dtype=float).tolist(),
+            "z_m": np.asarray(self.z, dtype=float).tolist(),
+            "tip_angle_rad": np.asarray(self.tip_angle, dtype=float).tolist(),
+        }
 
 
 class Simulator:
@@ -530,9 +554,8 @@ class Simulator:
     def center_of_mass(self) -> np.ndarray:
         """Centre of mass (x, z) of the rod (m), shape ``(2,)``, of the current state."""
         self._sync()
-        m = self.rod.disc.mass
-        p = self.data.xipos[self.rod.body_ids]
-        return np.array([m @ p[:, 0], m @ p[:, 2]]) / m.sum()
+        m, ids, p = self.rod.disc.mass, self.rod.body_ids, self.data.xipos
+        return np.array([m @ p[ids, 0], m @ p[ids, 2]]) / m.sum()
 
     def arc_length(self) -> np.ndarray:
         """Reference arc length (m) of the :meth:`centerline` points, shape ``(N + 2,)``."""

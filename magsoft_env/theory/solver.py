@@ -6,7 +6,7 @@ import math
 import time
 from dataclasses import dataclass
 from dataclasses import field as dc_field
-from functools import lru_cache
+from functools import cached_property, lru_cache
 
 import numpy as np
 import scipy.linalg
@@ -67,9 +67,13 @@ class SolverOptions:
     min_step: float = 1e-5
 
 
-@dataclass
+@dataclass(frozen=True)
 class EquilibriumResult:
-    """Equilibrium of a beam under one field, in the style of scipy's ``BVPResult``.
+    """Equilibrium of a beam under one field, in the style of scipy's ``BVPResult`` (frozen).
+
+    Arrays hold one value per distinct collocation node, ``n = nodes`` of them, ordered from the
+    clamp (or left end) to the tip; :meth:`sample` and :meth:`at` interpolate spectrally between
+    them. Units are SI.
 
     Attributes
     ----------
@@ -78,14 +82,14 @@ class EquilibriumResult:
     status : int
         0 converged; 1 continuation stalled; 2 converged but under-resolved; 3 direct solve failed.
     message : str
-        Human-readable status.
-    s : (n,) array
+        Human-readable status (:data:`TERMINATION_MESSAGES`, plus passed folds and the resolution).
+    s : (n,) ndarray
         Reference arc length of the nodes (m), from the clamp (or left end) to the tip.
-    theta : (n,) array
+    theta : (n,) ndarray
         Tangent angle (rad) from +x toward +z.
-    strain : (n,) array
-        Axial strain (zero unless ``extensible``).
-    x, z : (n,) arrays
+    strain : (n,) ndarray
+        Axial strain (dimensionless; zero unless ``extensible``).
+    x, z : (n,) ndarray
         Deformed centreline (m), eq. (17).
     tip_angle : float
         theta(L) (rad).
@@ -94,16 +98,36 @@ class EquilibriumResult:
     rotation_angle : float
         Overall rotation gamma (rad): the chord angle atan2(z(L), x(L)), taken on the branch
         nearest the mean tangent angle so that it can exceed 180 degrees continuously.
+    max_curvature : float
+        Largest |d theta / ds| over the nodes (1/m).
+    max_strain : float
+        Largest |axial strain| (dimensionless; 0 unless ``extensible``).
     stable : bool
-        Smallest eigenvalue of the discrete second variation is positive.
-    min_eigenvalue : float
-        That eigenvalue in units of EI/L^2 (dimensionless).
+        Smallest eigenvalue of the discrete second variation is positive (a Cholesky test).
     snap_through : bool
         A fold (or a bifurcation onto an unstable branch) was passed on the way to this field
         and the solver jumped to a stable branch by energy descent.
+    field : Field
+        The applied field (T).
+    gravity : float
+        Gravitational acceleration along -z (m/s^2).
+    residual : float
+        Largest |residual| of the discrete equilibrium equations at the nodes (rad).
+    resolution : float
+        Size of theta's trailing Chebyshev coefficients on the final grid (rad): the
+        discretization error estimate (NaN when the solve failed).
+    nodes : int
+        Number of distinct collocation nodes, ``n``.
+    newton_iterations : int
+        Newton iterations spent by the solver up to this result (cumulative along a path).
     wall_time : float
         Seconds spent reaching this equilibrium from the previous one (or from the unloaded
         beam, gravity included, for the first).
+    events : list of dict
+        Folds and bifurcations passed so far along the path, each ``{"kind", "load_fraction",
+        "field_T", "gravity", "converged"}``.
+    min_eigenvalue : float
+        (property) Smallest eigenvalue of the discrete second variation in units of EI/L^2.
     """
 
     success: bool
@@ -129,18 +153,16 @@ class EquilibriumResult:
     newton_iterations: int
     wall_time: float = 0.0
     events: list = dc_field(default_factory=list)
-    _grid: Grid | None = dc_field(default=None, repr=False)
-    _eig: tuple | None = dc_field(default=None, repr=False)
-    _full: tuple | None = dc_field(default=None, repr=False)
+    _grid: Grid | None = dc_field(default=None, repr=False, compare=False)
+    _eig: tuple | None = dc_field(default=None, repr=False, compare=False)
+    _full: tuple | None = dc_field(default=None, repr=False, compare=False)
 
-    @property
+    @cached_property
     def min_eigenvalue(self) -> float:
         """Smallest eigenvalue of the discrete second variation in units of EI/L^2 (computed on
         first access; ``stable`` is decided without it, by a Cholesky test)."""
-        if not hasattr(self, "_lam"):
-            mdl, th, load, clamped = self._eig
-            self._lam = mdl.min_eigen(th, load, clamped=clamped, vector=False)[0]
-        return self._lam
+        mdl, th, load, clamped = self._eig
+        return mdl.min_eigen(th, load, clamped=clamped, vector=False)[0]
 
     @property
     def length(self) -> float:
@@ -630,7 +652,7 @@ class _Solver:
         return tail
 
     # result -------------------------------------------------------------------------------------
-    def result(self, ok, status, snapped, field_, gravity, tail) -> EquilibriumResult:
+    def result(self, ok, status, snapped, field_, gravity, tail, wall_time: float = 0.0) -> EquilibriumResult:
         mdl, grid = self.model, self.grid
         th = self.theta
         load = self.load
@@ -693,6 +715,7 @@ class _Solver:
             nodes=int(u.size),
             newton_iterations=self.newton_its,
             events=list(self.events),
+            wall_time=float(wall_time),
             _grid=grid,
             _full=(thc, x, z),
         )
@@ -807,10 +830,9 @@ def _solve_path(beam, fields, g, support, coupling, extensible, th0, options, pr
             tail = solver.refine() if ok else float("nan")
         else:
             snapped, tail = False, float("nan")
-        res = solver.result(ok, 0, snapped, fld, g, tail)
         now = time.perf_counter()
-        res.wall_time, t_prev = now - t_prev, now
-        results.append(res)
+        results.append(solver.result(ok, 0, snapped, fld, g, tail, wall_time=now - t_prev))
+        t_prev = now
     return results
 
 
@@ -878,6 +900,7 @@ def solve_equilibrium(
     )
     if support != "cantilever":
         raise ValueError(f"start='straight' supports only support='cantilever', got {support!r}.")
+    t_start = time.perf_counter()
     with single_threaded_blas():
         solver = _Solver(
             beam, support=support, coupling=coupling, extensible=extensible, clamp_angle=th0, options=options
@@ -892,4 +915,4 @@ def solve_equilibrium(
         else:
             status, tail = 3, float("nan")
             solver.load = load
-        return solver.result(ok, status, False, fld, g, tail)
+        return solver.result(ok, status, False, fld, g, tail, wall_time=time.perf_counter() - t_start)
