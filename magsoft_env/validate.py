@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import operator
 from collections.abc import Iterable
 
 import numpy as np
@@ -47,9 +48,49 @@ def in_range(name: str, value, lo: float, hi: float, *, unit: str = "") -> float
     return x
 
 
+def integer(name: str, value, lo: int | None = None, hi: int | None = None) -> int:
+    """Return ``value`` as an int in ``[lo, hi]`` (either bound may be None) or raise a ValueError naming ``name``.
+
+    Integers only: a string ("20"), a bool, or a float with a fractional part (2.5) is refused; a float
+    with an integral value (3.0) is accepted as that integer."""
+    what = f"{'a positive integer' if lo == 1 else 'an integer'}{_int_range(lo, hi)}"
+    if isinstance(value, (str, bytes, bool, np.bool_)):
+        kind = "a bool" if isinstance(value, (bool, np.bool_)) else "a string"
+        raise ValueError(f"{name} must be {what}, got {kind}: {value!r}.")
+    if isinstance(value, (float, np.floating)):
+        if not (math.isfinite(value) and float(value).is_integer()):
+            raise ValueError(f"{name} must be {what}, got {value!r}.")
+        n = int(value)
+    else:
+        try:
+            n = operator.index(value)
+        except TypeError:
+            raise ValueError(f"{name} must be {what}, got {value!r}.") from None
+    if (lo is not None and n < lo) or (hi is not None and n > hi):
+        raise ValueError(f"{name} must be {what}, got {value!r}.")
+    return int(n)
+
+
+def boolean(name: str, value) -> bool:
+    """Return ``value`` as a bool; only True/False (or numpy bools) are accepted, not 0/1 or strings."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name} must be True or False (a bool), got {value!r}.")
+    return bool(value)
+
+
 def finite_array(name: str, value, *, ndim: int | None = None, min_len: int = 0) -> np.ndarray:
+    """``value`` as a float array of finite numbers; strings and bools are refused, not converted."""
+    if isinstance(value, (str, bytes)):
+        raise ValueError(f"{name} must be an array of finite numbers, got a string: {value!r}.")
     try:
-        a = np.asarray(value, dtype=float)
+        raw = np.asarray(value)
+    except (TypeError, ValueError):  # ragged nesting
+        raise ValueError(f"{name} must be an array of finite numbers, got {value!r}.") from None
+    if raw.dtype.kind in "bUSV" or (raw.dtype.kind == "O" and any(
+            isinstance(v, (str, bytes, bool, np.bool_)) for v in raw.ravel())):
+        raise ValueError(f"{name} must be an array of finite numbers (not strings or bools), got {value!r}.")
+    try:
+        a = raw.astype(float)
     except (TypeError, ValueError):
         raise ValueError(f"{name} must be an array of finite numbers, got {value!r}.") from None
     if ndim is not None and a.ndim != ndim:
@@ -68,6 +109,16 @@ def choice(name: str, value, options: Iterable[str]) -> str:
     hint = difflib.get_close_matches(str(value), options, n=1)
     extra = f" Did you mean {hint[0]!r}?" if hint else ""
     raise ValueError(f"{name} must be one of {options}, got {value!r}.{extra}")
+
+
+def _int_range(lo, hi) -> str:
+    if lo is not None and hi is not None:
+        return f" in [{lo}, {hi}]"
+    if lo is not None:
+        return f" >= {lo}"
+    if hi is not None:
+        return f" <= {hi}"
+    return ""
 
 
 def _u(unit: str) -> str:

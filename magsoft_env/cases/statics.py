@@ -47,8 +47,6 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
-
 from ..assets import assets_dir
 from ..spec import (
     Beam,
@@ -60,9 +58,11 @@ from ..spec import (
     jig_from_polyline,
     ramp,
 )
+from ..spec.field import as_field
 from ..spec.loading import check_loading
+from ..spec.profiles import MAX_CELLS
 from ..units import MM
-from ..validate import choice, finite_number, positive
+from ..validate import choice, finite_array, finite_number, integer, positive
 from .expressions import compile_expression
 
 SWEEP_AXES = ("Bx", "Bz", "magnitude")
@@ -94,6 +94,11 @@ class PathSegment:
     start: Field
     end: Field
     steps: int = 1
+
+    def __post_init__(self):
+        object.__setattr__(self, "start", as_field(self.start, "PathSegment.start"))
+        object.__setattr__(self, "end", as_field(self.end, "PathSegment.end"))
+        object.__setattr__(self, "steps", integer("PathSegment.steps", self.steps, 1, MAX_PATH_STEPS))
 
     def fields(self, *, include_start: bool = True) -> list[Field]:
         if self.steps == 1:
@@ -171,22 +176,35 @@ class Preset:
 
     def replace(self, **changes) -> Preset:
         """A copy with some attributes changed (checked again)."""
+        names = [f.name for f in dataclasses.fields(self)]
+        unknown = sorted(set(changes) - set(names))
+        if unknown:
+            raise ValueError(f"Preset.replace got unknown field(s) {unknown}; allowed: {names}.")
         return dataclasses.replace(self, **changes)
 
     def with_steps(self, steps: int) -> Preset:
-        """The same path with every ramp resampled to ``steps`` states."""
-        if not isinstance(steps, (int, np.integer)) or isinstance(steps, bool) or not 2 <= steps <= MAX_PATH_STEPS:
-            raise ValueError(f"steps must be an integer in [2, {MAX_PATH_STEPS}], got {steps!r}.")
+        """The same path with every ramp resampled to ``steps`` states (an integer in [2, MAX_PATH_STEPS])."""
+        steps = integer("steps", steps, 2, MAX_PATH_STEPS)
         segs = tuple(
-            dataclasses.replace(s, steps=int(steps)) if s.steps > 1 else s for s in self.path
+            dataclasses.replace(s, steps=steps) if s.steps > 1 else s for s in self.path
         )
         return self.replace(path=segs)
 
     def __post_init__(self):
+        for key in ("name", "description", "source"):
+            if not isinstance(getattr(self, key), str):
+                raise ValueError(f"Preset.{key} must be a string, got {getattr(self, key)!r}.")
+        if not self.name:
+            raise ValueError("Preset.name must be a non-empty string, got ''.")
+        if not isinstance(self.beam, Beam):
+            raise ValueError(f"preset {self.name!r} beam must be a magsoft_env.Beam, got {type(self.beam).__name__}.")
+        if not isinstance(self.config, dict):
+            raise ValueError(f"preset {self.name!r} config must be a dict, got {type(self.config).__name__}.")
         lo = check_loading(gravity=self.gravity, support=self.support, coupling=self.coupling,
                            extensible=self.extensible, clamp_angle=self.clamp_angle, where=f"preset {self.name!r} ")
         choice(f"preset {self.name!r} sweep_axis", self.sweep_axis, SWEEP_AXES)
-        if not self.path or not all(isinstance(s, PathSegment) for s in self.path):
+        if (isinstance(self.path, (str, bytes)) or not isinstance(self.path, (tuple, list)) or not self.path
+                or not all(isinstance(s, PathSegment) for s in self.path)):
             raise ValueError(f"preset {self.name!r} path must be a non-empty sequence of PathSegment.")
         object.__setattr__(self, "path", tuple(self.path))
         object.__setattr__(self, "gravity", lo["gravity"])
@@ -233,6 +251,10 @@ def load_preset(name: str) -> Preset:
         data = json.loads(path.read_text(encoding="utf-8"))
     except json.JSONDecodeError as exc:
         raise ValueError(f"preset file {path.name!r} is not valid JSON: {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"preset file {path.name!r} is not UTF-8 text: {exc}") from None
+    except OSError as exc:
+        raise ValueError(f"preset file {str(path)!r} cannot be read: {exc.strerror or exc}") from None
     return preset_from_dict(data, name=path.stem)
 
 
@@ -242,6 +264,9 @@ def preset_from_dict(data: dict, *, name: str) -> Preset:
     _check_keys(where, data, _TOP_KEYS, required=("description", "beam", "path"))
     beam = beam_from_dict(data["beam"], where=f"{where} beam")
     path = _path_from_list(data["path"], where=f"{where} path")
+    for key in ("description", "source"):
+        if key in data and not isinstance(data[key], str):
+            raise ValueError(f"{where} {key} must be a string, got {data[key]!r}.")
     return Preset(
         name=name,
         description=str(data["description"]),
@@ -252,7 +277,8 @@ def preset_from_dict(data: dict, *, name: str) -> Preset:
         gravity=data.get("gravity_m_per_s2", 9.81),
         coupling=data.get("coupling", "rotated"),
         extensible=data.get("extensible", False),
-        clamp_angle=math.radians(finite_number(f"{where} clamp_angle_deg", data.get("clamp_angle_deg", 0.0))),
+        clamp_angle=math.radians(finite_number(f"{where} clamp_angle_deg", data.get("clamp_angle_deg", 0.0),
+                                               unit="deg")),
         sweep_axis=data.get("sweep_axis", "magnitude"),
         config=data,
     )
@@ -315,22 +341,29 @@ def _magnetization_from_dict(d: dict, *, where: str):
     if kind == "uniform":
         return angle, None
     if kind == "alternating_cells":
-        n = d.get("cells")
-        if not isinstance(n, int) or isinstance(n, bool) or n < 1:
-            raise ValueError(f"{w} cells must be a positive integer, got {n!r}.")
+        n = integer(f"{w} cells", d.get("cells"), 1, MAX_CELLS)
         length = None
         if "cell_length_mm" in d:
             length = n * positive(f"{w} cell_length_mm", d["cell_length_mm"], unit="mm") * MM
         return alternating_cells(n, angle=angle), length
     if kind == "cells":
-        angles = [math.radians(finite_number(f"{w} angles_deg[{i}]", a)) for i, a in enumerate(d["angles_deg"])]
-        return PiecewiseConstant(angles, d.get("fractions")), None
+        if "angles_deg" not in d:
+            raise ValueError(f"{w} of kind 'cells' needs 'angles_deg'.")
+        _check_list(f"{w} angles_deg", d["angles_deg"], min_len=1)
+        angles = [math.radians(finite_number(f"{w} angles_deg[{i}]", a, unit="deg"))
+                  for i, a in enumerate(d["angles_deg"])]
+        fractions = d.get("fractions")
+        if fractions is not None:
+            _check_list(f"{w} fractions", fractions, min_len=1)
+            fractions = finite_array(f"{w} fractions", fractions, ndim=1)
+        return PiecewiseConstant(angles, fractions), None
     if kind == "jig_function":
         for k in ("z_mm", "x_start_mm", "x_end_mm"):
             if k not in d:
                 raise ValueError(f"{w} of kind 'jig_function' needs {k!r}.")
         f = compile_expression(d["z_mm"], name=f"{w} z_mm")
-        kinks = [finite_number(f"{w} kinks_x_mm", k, unit="mm") for k in d.get("kinks_x_mm", [])]
+        kinks = _check_list(f"{w} kinks_x_mm", d.get("kinks_x_mm", []))
+        kinks = [finite_number(f"{w} kinks_x_mm[{i}]", k, unit="mm") for i, k in enumerate(kinks)]
         prof = jig_from_function(
             f,
             finite_number(f"{w} x_start_mm", d["x_start_mm"], unit="mm"),
@@ -343,8 +376,17 @@ def _magnetization_from_dict(d: dict, *, where: str):
     for k in ("x_mm", "z_mm"):
         if k not in d:
             raise ValueError(f"{w} of kind 'jig_polyline' needs {k!r}.")
-    prof = jig_from_polyline(np.asarray(d["x_mm"], float) * MM, np.asarray(d["z_mm"], float) * MM)
+    xs = finite_array(f"{w} x_mm", _check_list(f"{w} x_mm", d["x_mm"], min_len=2), ndim=1)
+    zs = finite_array(f"{w} z_mm", _check_list(f"{w} z_mm", d["z_mm"], min_len=2), ndim=1)
+    prof = jig_from_polyline(xs * MM, zs * MM)
     return prof, prof.length
+
+
+def _check_list(name: str, value, *, min_len: int = 0) -> list:
+    if not isinstance(value, list) or len(value) < min_len:
+        need = f"with at least {min_len} entries" if min_len else ""
+        raise ValueError(f"{name} must be a list {need}, got {value!r}.".replace("  ", " "))
+    return value
 
 
 def _path_from_list(items, *, where: str) -> tuple[PathSegment, ...]:
@@ -364,15 +406,15 @@ def _path_from_list(items, *, where: str) -> tuple[PathSegment, ...]:
             _check_keys(w, item, ("from_mT", "to_mT", "steps"), required=("to_mT", "steps"))
             start = _field_mT(item["from_mT"], f"{w} from_mT") if "from_mT" in item else prev
             end = _field_mT(item["to_mT"], f"{w} to_mT")
-            steps = item["steps"]
-            if not isinstance(steps, int) or isinstance(steps, bool) or not 2 <= steps <= MAX_PATH_STEPS:
-                raise ValueError(f"{w} steps must be an integer in [2, {MAX_PATH_STEPS}], got {steps!r}.")
+            steps = integer(f"{w} steps", item["steps"], 2, MAX_PATH_STEPS)
             segs.append(PathSegment(start, end, steps))
         prev = segs[-1].end
     return tuple(segs)
 
 
 def _field_mT(value, name: str) -> Field:
+    if isinstance(value, (str, bytes, dict)):
+        raise ValueError(f"{name} must be a pair [B_x, B_z] in mT, got {value!r}.")
     try:
         bx, bz = value
     except (TypeError, ValueError):

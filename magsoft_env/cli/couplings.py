@@ -15,9 +15,9 @@ import math
 
 import numpy as np
 
-from ..io import check_out_dir, format_table, write_csv, write_json
+from ..io import format_table, write_csv, write_json
 from ..units import MM
-from .solve import DEFAULT_OUT, _check_flag, metrics_row
+from .solve import DEFAULT_OUT, MAX_GRAVITY, _check_flag, metrics_row, out_dir
 
 JIG_PRESETS = ("fig4b_quadratic", "fig4c_sinusoidal", "fig4d_piecewise")
 
@@ -47,7 +47,9 @@ def build_presets(args) -> list:
     _check_flag("--levels", args.levels, lo=1, hi=20, integer=True)
     _check_flag("--steps", args.steps, lo=2, hi=10_000, integer=True)
     if args.gravity is not None:
-        _check_flag("--gravity", args.gravity, lo=0.0, hi=1000.0)
+        _check_flag("--gravity", args.gravity, lo=0.0, hi=MAX_GRAVITY)
+    if len(args.presets) > 100:
+        raise ValueError(f"--presets takes at most 100 names, got {len(args.presets)}.")
     presets = []
     for name in dict.fromkeys(args.presets):
         p = load_preset(name)
@@ -68,7 +70,7 @@ def _levels(n_states: int, levels: int) -> list[int]:
 def run(args) -> int:
     from magsoft_env.theory import solve_path
 
-    out = check_out_dir(args.out)
+    out = out_dir(args.out)
     presets = build_presets(args)
     rows, cases = [], []
     failed = 0

@@ -6,6 +6,9 @@ import argparse
 import sys
 from pathlib import Path
 
+from ..io import write_text_atomic
+from .solve import _check_flag, out_dir
+
 DEFAULT_PRESETS = (
     "fig3a_L20", "fig3a_L25", "fig3a_L30", "fig3b_L20", "fig3b_L25", "fig3b_L30",
     "fig4b_quadratic", "fig4c_sinusoidal", "fig4d_piecewise",
@@ -37,9 +40,15 @@ def run(args) -> int:
     from magsoft_env.compare.crosscheck import crosscheck_preset
     from magsoft_env.render.figures import crosscheck_figure
 
+    if len(args.segments) > 20:
+        raise ValueError(f"--segments takes at most 20 counts, got {len(args.segments)}.")
     for n in args.segments:
-        if not 2 <= n <= 1000:
+        if isinstance(n, bool) or not isinstance(n, int) or not 2 <= n <= 1000:
             raise ValueError(f"--segments must be integers in [2, 1000], got {n}.")
+    _check_flag("--grading", args.grading, lo=0.1, hi=10.0)
+    _check_flag("--steps", args.steps, lo=2, hi=10_000, integer=True)
+    if args.out is not None:
+        args.out = out_dir(args.out)
     names = list(args.presets)
     known = list_presets()
     for nm in names:
@@ -65,13 +74,12 @@ def run(args) -> int:
         if args.out is not None:
             crosscheck_figure(preset.name, th, sims, args.out / f"crosscheck_{preset.name}.png")
     if args.out is not None:
-        args.out.mkdir(parents=True, exist_ok=True)
-        with open(args.out / "crosscheck.csv", "w") as fh:
-            fh.write("preset,segments,grading,max_tip_error_over_L,mean_tip_error_over_L,mujoco_s,theory_s,success\n")
-            for r in rows_all:
-                fh.write(
-                    f"{r.preset},{r.segments},{r.grading},{r.max_tip_error:.6g},{r.mean_tip_error:.6g},"
-                    f"{r.sim_seconds:.4g},{r.theory_seconds:.4g},{r.success}\n"
-                )
+        lines = ["preset,segments,grading,max_tip_error_over_L,mean_tip_error_over_L,mujoco_s,theory_s,success\n"]
+        lines += [
+            f"{r.preset},{r.segments},{r.grading},{r.max_tip_error:.6g},{r.mean_tip_error:.6g},"
+            f"{r.sim_seconds:.4g},{r.theory_seconds:.4g},{r.success}\n"
+            for r in rows_all
+        ]
+        write_text_atomic(args.out / "crosscheck.csv", "".join(lines))
         print(f"wrote {args.out}/crosscheck.csv and overlay figures")
     return 0 if all(r.success for r in rows_all) else 1

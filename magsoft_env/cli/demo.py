@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import time
 
-from ..io import check_out_dir, format_table, write_json
+from ..io import format_table, write_json
 from ..units import MM
-from .solve import DEFAULT_OUT, METRIC_COLUMNS, metrics_row
+from .solve import DEFAULT_OUT, METRIC_COLUMNS, metrics_row, out_dir
 
 DEMO_PRESETS = ("fig3a_L25", "fig4b_quadratic")
 
@@ -31,7 +31,7 @@ def run(args) -> int:
     from magsoft_env.cases import load_preset
     from magsoft_env.theory import solve_path
 
-    out = check_out_dir(args.out)
+    out = out_dir(args.out)
     presets = [load_preset(n) for n in DEMO_PRESETS]
     summary, panels = [], []
     failed = 0

@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
-from ..io import check_out_dir, write_json
+from ..io import write_json
 from ..units import MM, MT
+from .solve import MAX_GRAVITY, _check_flag, out_dir
 
 
 def add_parser(subparsers) -> None:
@@ -24,26 +24,31 @@ def add_parser(subparsers) -> None:
     src.add_argument("--letters", metavar="TEXT",
                      help="design one beam per letter of TEXT (from S, J, T, U; the paper's Fig. 4e is SJTU) and "
                      "write letters.png plus one folder per letter")
-    p.add_argument("--width-mm", type=float, default=5.0, help="beam width in mm (default 5)")
-    p.add_argument("--thickness-mm", type=float, default=1.13, help="beam thickness in mm (default 1.13)")
-    p.add_argument("--volume-fraction", type=float, default=0.2, help="particle volume fraction (default 0.2)")
-    p.add_argument("--field-min-mT", type=float, default=1.0, help="smallest field magnitude in mT (default 1)")
+    p.add_argument("--width-mm", type=float, default=5.0,
+                   help="beam width in mm, in (0, 1000] (default 5)")
+    p.add_argument("--thickness-mm", type=float, default=1.13,
+                   help="beam thickness in mm, in (0, 1000] (default 1.13)")
+    p.add_argument("--volume-fraction", type=float, default=0.2,
+                   help="particle volume fraction, in (0, 0.5] (default 0.2)")
+    p.add_argument("--field-min-mT", type=float, default=1.0,
+                   help="smallest field magnitude in mT, in [0, 1000] (default 1)")
     p.add_argument("--field-max-mT", type=float, default=None,
-                   help="largest field magnitude in mT (default 20; 40 for --letters)")
+                   help="largest field magnitude in mT, in (0, 1000] (default 20; 40 for --letters)")
     p.add_argument("--free-direction", action="store_true",
                    help="let the field angle vary too (default: along +z, perpendicular to the beam)")
     p.add_argument("--family", choices=("spline", "polynomial", "fourier", "piecewise_linear"), default="spline",
                    help="profile family (default spline)")
-    p.add_argument("--size", type=int, default=None, help="number of profile parameters (default per family)")
-    p.add_argument("--points", type=int, default=50, help="target points N (default 50)")
-    p.add_argument("--starts", type=int, default=4, help="local starts at most (default 4)")
-    p.add_argument("--max-nfev", type=int, default=60, help="evaluations per start (default 60)")
+    p.add_argument("--size", type=int, default=None,
+                   help="number of profile parameters, in [1, 40] (default per family)")
+    p.add_argument("--points", type=int, default=50, help="target points N, in [4, 100000] (default 50)")
+    p.add_argument("--starts", type=int, default=4, help="local starts at most, in [1, 1000] (default 4)")
+    p.add_argument("--max-nfev", type=int, default=60, help="evaluations per start, in [2, 100000] (default 60)")
     p.add_argument("--global", dest="global_stage", action="store_true",
                    help="add a differential-evolution stage if the local starts miss the tolerance")
     p.add_argument("--rms-tol-percent", type=float, default=0.25,
-                   help="RMS error in %% of L that counts as a fit (default 0.25)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the random starts (default 0)")
-    p.add_argument("--gravity", type=float, default=9.81, help="m/s^2 along -z (default 9.81)")
+                   help="RMS error in %% of L that counts as a fit, in [0, 100] (default 0.25)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random starts, in [0, 2^32 - 1] (default 0)")
+    p.add_argument("--gravity", type=float, default=9.81, help="m/s^2 along -z, in [0, 1000] (default 9.81)")
     p.add_argument("--coupling", choices=("rotated", "paper"), default="rotated", help="magnetic coupling")
     p.add_argument("--mujoco", action="store_true",
                    help="also simulate the designed beam under the designed field in MuJoCo (20 segments) and "
@@ -60,14 +65,8 @@ def run(args) -> int:
     from magsoft_env.render.design import write_design
 
 
-    out = check_out_dir(args.out)
-    for flag, v in (("--width-mm", args.width_mm), ("--thickness-mm", args.thickness_mm)):
-        if not (math.isfinite(v) and v > 0):
-            raise ValueError(f"{flag} must be a positive number of mm, got {v!r}.")
-    if not (math.isfinite(args.rms_tol_percent) and args.rms_tol_percent >= 0):
-        raise ValueError(f"--rms-tol-percent must be >= 0, got {args.rms_tol_percent!r}.")
-    if args.field_max_mT is None:
-        args.field_max_mT = 40.0 if args.letters is not None else 20.0
+    check_flags(args)
+    out = out_dir(args.out)
     if args.letters is not None:
         return _run_letters(args, out)
     if args.target is not None:
@@ -105,6 +104,24 @@ def run(args) -> int:
         }))
     print(f"wrote {len(files)} files to {out}/")
     return 0 if res.success else 1
+
+
+def check_flags(args) -> None:
+    """Every numeric flag, by its name, before any work (ranges as in ``magsoft design --help``)."""
+    _check_flag("--width-mm", args.width_mm, lo=0.0, hi=1000.0, open_lo=True)
+    _check_flag("--thickness-mm", args.thickness_mm, lo=0.0, hi=1000.0, open_lo=True)
+    _check_flag("--volume-fraction", args.volume_fraction, lo=0.0, hi=0.5, open_lo=True)
+    _check_flag("--field-min-mT", args.field_min_mT, lo=0.0, hi=1000.0)
+    if args.field_max_mT is None:
+        args.field_max_mT = 40.0 if args.letters is not None else 20.0
+    _check_flag("--field-max-mT", args.field_max_mT, lo=0.0, hi=1000.0, open_lo=True)
+    _check_flag("--size", args.size, lo=1, hi=40, integer=True)
+    _check_flag("--points", args.points, lo=4, hi=100_000, integer=True)
+    _check_flag("--starts", args.starts, lo=1, hi=1000, integer=True)
+    _check_flag("--max-nfev", args.max_nfev, lo=2, hi=100_000, integer=True)
+    _check_flag("--rms-tol-percent", args.rms_tol_percent, lo=0.0, hi=100.0)
+    _check_flag("--seed", args.seed, lo=0, hi=2**32 - 1, integer=True)
+    _check_flag("--gravity", args.gravity, lo=0.0, hi=MAX_GRAVITY)
 
 
 def _run_letters(args, out) -> int:

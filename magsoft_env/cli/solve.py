@@ -8,7 +8,10 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
+import tempfile
 import textwrap
+from pathlib import Path
 
 from ..io import check_out_dir, format_table, write_json
 from ..units import MM, MT
@@ -21,12 +24,48 @@ BEAM_FLAGS = (
     ("--thickness-mm", 1.13, "thickness h in mm"),
     ("--phi", 0.2, "particle volume fraction in [0, 0.5]"),
     ("--beta-deg", 0.0, "uniform magnetization angle in deg, from +x toward +z"),
-    ("--density-kg-per-m3", 1940.0, "composite density in kg/m^3"),
+    ("--density-kg-per-m3", 1940.0, "composite density in kg/m^3, in [100, 30000]"),
 )
+#: Largest --gravity accepted by every command (m/s^2): 100 g; 9810 would be mm/s^2.
+MAX_GRAVITY = 1000.0
+_NAME_MAX = 255  # bytes in one path component on common file systems
 
 
 # ---------------------------------------------------------------------------------------------
 # shared helpers
+
+
+def out_dir(out, *, flag: str = "--out") -> Path:
+    """The output folder, checked before any work: it must be a folder or creatable as one, and writable.
+
+    :func:`magsoft_env.io.check_out_dir` first (an existing file is refused), then a real test: the
+    nearest existing ancestor must be a folder in which a (temporary, removed at once) folder can be
+    created, which refuses read-only and virtual file systems such as ``/proc`` or ``/sys`` whatever the
+    permission bits say. Creates nothing that stays; raises ValueError naming ``flag``.
+    """
+    if not isinstance(out, (str, os.PathLike)) or not str(out):
+        raise ValueError(f"{flag} must be a folder path, got {out!r}.")
+    try:
+        path = check_out_dir(out, flag=flag)
+        probe, missing = path, []
+        while not probe.exists():
+            missing.append(probe.name)
+            probe = probe.parent
+    except OSError as exc:
+        raise ValueError(f"{flag} {str(out)!r} cannot be checked: {exc.strerror or exc}.") from None
+    if not probe.is_dir():
+        raise ValueError(f"{flag} {str(path)!r} cannot be created: {str(probe)!r} is a file, not a folder.")
+    for name in missing:
+        if len(os.fsencode(name)) > _NAME_MAX:
+            raise ValueError(f"{flag} {str(path)!r} has a path component longer than {_NAME_MAX} bytes.")
+    try:
+        os.rmdir(tempfile.mkdtemp(prefix=".magsoft-write-test-", dir=probe))
+    except OSError as exc:
+        raise ValueError(
+            f"{flag} {str(path)!r} is not writable: nothing can be created in {str(probe)!r} "
+            f"({exc.strerror or exc})."
+        ) from None
+    return path
 
 
 def add_solver_flags(p, *, preset_defaults: bool, support: bool = True) -> None:
@@ -97,7 +136,7 @@ def apply_overrides(preset, args):
     changed = {k: getattr(args, k, None) for k in ("gravity", "coupling", "extensible", "support")}
     changed = {k: v for k, v in changed.items() if v is not None}
     if changed.get("gravity") is not None:
-        _check_flag("--gravity", changed["gravity"], lo=0.0, hi=1000.0)
+        _check_flag("--gravity", changed["gravity"], lo=0.0, hi=MAX_GRAVITY)
     return preset.replace(**changed) if changed else preset
 
 
@@ -156,7 +195,7 @@ def build_case(args):
         _check_flag("--thickness-mm", args.thickness_mm, lo=0.0, hi=1000.0, open_lo=True)
         _check_flag("--phi", args.phi, lo=0.0, hi=0.5)
         _check_flag("--beta-deg", args.beta_deg, lo=-360.0, hi=360.0)
-        _check_flag("--density-kg-per-m3", args.density_kg_per_m3, lo=0.0, hi=1e5, open_lo=True)
+        _check_flag("--density-kg-per-m3", args.density_kg_per_m3, lo=100.0, hi=30000.0)
         beam = Beam(
             length=args.length_mm * MM,
             width=args.width_mm * MM,
@@ -186,10 +225,13 @@ def _dest(flag: str) -> str:
 
 
 def _check_flag(flag, value, *, lo, hi, open_lo=False, integer=False):
+    """Raise ValueError unless ``value`` (None: not given) is a number in [lo, hi] (or (lo, hi]); an int if asked."""
     if value is None:
         return
     if integer and (not isinstance(value, int) or isinstance(value, bool)):
         raise ValueError(f"{flag} must be an integer in [{lo}, {hi}], got {value!r}.")
+    if isinstance(value, (str, bytes, bool)) or not isinstance(value, (int, float)):
+        raise ValueError(f"{flag} must be a number in [{lo:g}, {hi:g}], got {value!r}.")
     if not math.isfinite(value) or value > hi or value < lo or (open_lo and value == lo):
         rng = f"({lo:g}, {hi:g}]" if open_lo else f"[{lo:g}, {hi:g}]"
         raise ValueError(f"{flag} must lie in {rng}, got {value!r}.")
@@ -203,7 +245,7 @@ def run(args) -> int:
         for name in list_presets():
             print(f"{name:20s} {load_preset(name).source}")
         return 0
-    out = check_out_dir(args.out)
+    out = out_dir(args.out)
     preset = build_case(args)
     results = solve_path(preset.beam, preset.fields, **preset.solver_options())
     rows = [metrics_row(r, preset.beam, axis=preset.sweep_axis) for r in results]

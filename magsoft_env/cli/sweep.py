@@ -8,9 +8,9 @@ the resolved configuration ``sweep_config.json``.
 
 from __future__ import annotations
 
-from ..io import check_out_dir, format_table, write_csv, write_json
+from ..io import format_table, write_csv, write_json
 from ..units import MM
-from .solve import DEFAULT_OUT, _check_flag, add_solver_flags, apply_overrides, metrics_row
+from .solve import DEFAULT_OUT, _check_flag, add_solver_flags, apply_overrides, metrics_row, out_dir
 
 PATHS = {"a": "fig3a_L{L}", "b": "fig3b_L{L}"}
 BASE_LENGTH_MM = 25  # preset whose path and beam are used for lengths without their own preset
@@ -42,6 +42,8 @@ def build_cases(args) -> list[tuple[str, float, object]]:
     from magsoft_env.cases import list_presets, load_preset
 
     _check_flag("--steps", args.steps, lo=2, hi=10_000, integer=True)
+    if len(args.lengths_mm) > 100:
+        raise ValueError(f"--lengths-mm takes at most 100 lengths, got {len(args.lengths_mm)}.")
     lengths = []
     for L in args.lengths_mm:
         _check_flag("--lengths-mm", L, lo=0.0, hi=1000.0, open_lo=True)
@@ -71,7 +73,7 @@ def run(args) -> int:
 
     from magsoft_env.theory import solve_path
 
-    out = check_out_dir(args.out)
+    out = out_dir(args.out)
     cases = build_cases(args)
     rows = []
     failed = 0

@@ -14,9 +14,10 @@ from functools import cached_property
 import numpy as np
 
 from ..spec import PiecewiseLinear, Profile
-from ..validate import choice
+from ..validate import choice, finite_array, integer, positive
 
 FAMILIES = ("polynomial", "fourier", "piecewise_linear", "spline")
+MAX_SIZE = 40  # most parameters of a family
 
 
 @dataclass(frozen=True)
@@ -42,13 +43,14 @@ class ProfileFamily:
     size: int = 6
 
     def __post_init__(self):
+        if not isinstance(self.kind, str):
+            raise ValueError(f"family must be one of {list(FAMILIES)}, got {self.kind!r}.")
         choice("family", self.kind, FAMILIES)
         minimum = {"polynomial": 1, "fourier": 1, "piecewise_linear": 2, "spline": 4}[self.kind]
-        if not isinstance(self.size, (int, np.integer)) or not minimum <= self.size <= 40:
-            raise ValueError(f"{self.kind} family size must be an integer in [{minimum}, 40], got {self.size!r}.")
-        if self.kind == "fourier" and self.size % 2 == 0:
+        size = integer(f"{self.kind} family size", self.size, minimum, MAX_SIZE)
+        if self.kind == "fourier" and size % 2 == 0:
             raise ValueError(f"fourier family size must be odd (1 + 2 x harmonics), got {self.size!r}.")
-        object.__setattr__(self, "size", int(self.size))
+        object.__setattr__(self, "size", size)
 
     @property
     def knots(self) -> np.ndarray:
@@ -77,17 +79,22 @@ class ProfileFamily:
 
     def profile(self, params, length: float) -> Profile:
         """The magnetization profile (rad) for ``params`` on a beam of ``length`` (m)."""
-        p = np.asarray(params, dtype=float)
+        p = finite_array(f"{self.kind} family params", params)
         if p.shape != (self.size,):
             raise ValueError(f"{self.kind} family needs {self.size} parameters, got shape {p.shape}.")
+        length = positive(f"{self.kind} family length", length, unit="m")
         if self.kind == "piecewise_linear":
             return PiecewiseLinear(tuple((self.knots * length).tolist()), tuple(p.tolist()))
         return BasisProfile(self, tuple(p.tolist()), float(length))
 
     def fit(self, u, beta) -> np.ndarray:
         """Least-squares parameters whose profile best matches ``beta`` (rad) at ``u``."""
+        u = finite_array("fit u", u, ndim=1, min_len=1)
+        beta = finite_array("fit beta", beta, ndim=1)
+        if beta.shape != u.shape:
+            raise ValueError(f"fit needs one beta per u ({len(u)}), got {len(beta)}.")
         phi = self.basis(u)
-        return np.linalg.lstsq(phi, np.asarray(beta, dtype=float), rcond=None)[0]
+        return np.linalg.lstsq(phi, beta, rcond=None)[0]
 
 
 @dataclass(frozen=True)
@@ -97,6 +104,15 @@ class BasisProfile(Profile):
     family: ProfileFamily
     params: tuple
     length: float
+
+    def __post_init__(self):
+        if not isinstance(self.family, ProfileFamily):
+            raise ValueError(f"BasisProfile family must be a ProfileFamily, got {self.family!r}.")
+        p = finite_array("BasisProfile params", self.params)
+        if p.shape != (self.family.size,):
+            raise ValueError(f"BasisProfile needs {self.family.size} params, got shape {p.shape}.")
+        object.__setattr__(self, "params", tuple(p.tolist()))
+        object.__setattr__(self, "length", positive("BasisProfile length", self.length, unit="m"))
 
     def values(self, s, length):
         s = np.asarray(s, dtype=float)

@@ -10,17 +10,23 @@ from dataclasses import field as dc_field
 import numpy as np
 
 from ..spec import MAX_FIELD, Beam, Field, jig_curve
+from ..spec.beam import MAX_SIZE, MIN_SLENDERNESS
 from ..spec.loading import check_loading
 from ..spec.material import MAX_VOLUME_FRACTION
 from ..threads import single_threaded_blas
-from ..validate import choice, finite_number
+from ..validate import boolean, choice, finite_number, integer
 from .distance import point_to_polyline
-from .families import ProfileFamily
-from .targets import curve_length, prepare_target, tangent_angle
+from .families import FAMILIES, ProfileFamily
+from .targets import MAX_POINTS, MIN_POINTS, curve_length, prepare_target, tangent_angle
 
 _CENTRELINE_SAMPLES = 241  # points of the predicted centreline polyline (spectral interpolation)
 _DEFAULT_SIZE = {"polynomial": 6, "fourier": 7, "piecewise_linear": 8, "spline": 7}
 _START_NOISE_RAD = 0.35  # spread (rad) of the random starts around the aligned guess
+#: Ranges of the integer options of :func:`design_profile` (``max_nfev`` and ``n_starts`` bound the run time).
+MAX_STARTS = 1000
+MAX_NFEV = 100_000
+MAX_SEED = 2**32 - 1  # scipy's differential evolution seeds a RandomState: [0, 2^32)
+MAX_BETA_BOUND = 20.0  # rad, about three turns either way
 
 STATUS_MESSAGES = {
     0: "Converged: the fit meets rms_tol.",
@@ -134,6 +140,8 @@ class DesignResult:
 
 
 def _pair(name, value, lo, hi, unit):
+    if isinstance(value, (str, bytes, dict, set, frozenset)):
+        raise ValueError(f"{name} must be a pair (min, max) in {unit}, got {value!r}.")
     try:
         a, b = value
     except (TypeError, ValueError):
@@ -143,12 +151,6 @@ def _pair(name, value, lo, hi, unit):
     if not (lo <= a < b <= hi):
         raise ValueError(f"{name} must satisfy {lo:g} <= min < max <= {hi:g} ({unit}), got ({a!r}, {b!r}).")
     return a, b
-
-
-def _int(name, value, lo):
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < lo:
-        raise ValueError(f"{name} must be an integer >= {lo}, got {value!r}.")
-    return int(value)
 
 
 def design_profile(
@@ -205,25 +207,28 @@ def design_profile(
     family : {"spline", "polynomial", "fourier", "piecewise_linear"} or ProfileFamily
         Profile family for beta(s); ``size`` parameters (default 7, 6, 7 or 8).
     beta_bounds : (float, float)
-        Bounds (rad) on every profile parameter (knot values or coefficients). The default
-        [-pi, pi] keeps jigs free of loops; widen it if a profile must wind further.
+        Bounds (rad) on every profile parameter (knot values or coefficients), within [-20, 20].
+        The default [-pi, pi] keeps jigs free of loops; widen it if a profile must wind further.
     field_direction : {"perpendicular", "free"}
         ``"perpendicular"``: along +z, perpendicular to the undeformed beam (the paper's
         choice); ``"free"``: the field angle alpha in [-pi, pi] is a design variable too.
     volume_fraction_bounds : (float, float), optional
-        Make a uniform particle volume fraction a design variable within these bounds.
+        Make a uniform particle volume fraction a design variable within these bounds
+        (0 < min < max <= 0.5).
     match_length : bool
-        Set the beam length to the target's curve length (the paper's assumption).
+        Set the beam length to the target's curve length (the paper's assumption); that length
+        must then be a valid beam length, at most 1 m and at least the beam's thickness.
     n_points : int
-        N, points on the target.
+        N, points on the target, in [4, 100000].
     n_starts : int
-        Local starts at most; stops early once the RMS error is below ``rms_tol`` x L.
+        Local starts at most, in [1, 1000]; stops early once the RMS error is below ``rms_tol`` x L.
     seed : int or None
-        Seed of the random starts (and the global stage).
+        Seed of the random starts (and the global stage), in [0, 2^32 - 1].
     rms_tol : float
-        RMS error (fraction of L) that counts as a fit.
+        RMS error (fraction of L, in [0, 1]) that counts as a fit.
     max_nfev : int
-        Objective evaluations per local start (each one equilibrium solve plus its Jacobian).
+        Objective evaluations per local start (each one equilibrium solve plus its Jacobian), in
+        [2, 100000].
     global_stage : bool
         Run differential evolution when the local starts miss ``rms_tol``.
     gravity, coupling, extensible
@@ -258,9 +263,13 @@ def design_profile(
         if size is not None and size != fam.size:
             raise ValueError(f"size conflicts with the given ProfileFamily (size {fam.size}), got {size!r}.")
     else:
+        if not isinstance(family, str):
+            raise ValueError(f"family must be one of {list(FAMILIES)} or a ProfileFamily, got {family!r}.")
         kind = choice("family", family, ("spline", "polynomial", "fourier", "piecewise_linear"))
         fam = ProfileFamily(kind, _DEFAULT_SIZE[kind] if size is None else size)
-    p_lo, p_hi = _pair("beta_bounds", beta_bounds, -20.0, 20.0, "rad")
+    p_lo, p_hi = _pair("beta_bounds", beta_bounds, -MAX_BETA_BOUND, MAX_BETA_BOUND, "rad")
+    if not isinstance(field_direction, str):
+        raise ValueError(f"field_direction must be one of ['perpendicular', 'free'], got {field_direction!r}.")
     direction = choice("field_direction", field_direction, ("perpendicular", "free"))
     vf = None
     if volume_fraction_bounds is not None:
@@ -269,14 +278,21 @@ def design_profile(
             raise ValueError(f"volume_fraction_bounds must have min > 0 (no particles, no actuation), got {vf!r}.")
     if not isinstance(match_length, (bool, np.bool_)):
         raise ValueError(f"match_length must be True or False, got {match_length!r}.")
-    n_points = _int("n_points", n_points, 4)
-    n_starts = _int("n_starts", n_starts, 1)
-    max_nfev = _int("max_nfev", max_nfev, 2)
+    global_stage = boolean("global_stage", global_stage)
+    progress = boolean("progress", progress)
+    n_points = integer("n_points", n_points, MIN_POINTS, MAX_POINTS)
+    n_starts = integer("n_starts", n_starts, 1, MAX_STARTS)
+    max_nfev = integer("max_nfev", max_nfev, 2, MAX_NFEV)
     if seed is not None:
-        seed = _int("seed", seed, 0)
+        seed = integer("seed", seed, 0, MAX_SEED)
     rms_tol = finite_number("rms_tol", rms_tol)
-    if rms_tol < 0:
-        raise ValueError(f"rms_tol must be >= 0 (fraction of L), got {rms_tol!r}.")
+    if not 0.0 <= rms_tol <= 1.0:
+        raise ValueError(f"rms_tol must lie in [0, 1] (a fraction of L: 0.0025 is 0.25 %), got {rms_tol!r}.")
+    if clamp_angle is not None:
+        clamp_angle = finite_number("clamp_angle", clamp_angle, unit="rad")
+    # loading options that do not depend on the target: checked before the target is processed
+    check_loading(gravity=gravity, coupling=coupling, extensible=extensible,
+                  clamp_angle=0.0 if clamp_angle is None else clamp_angle)
     target = prepare_target(target_xz, n_points)
     if clamp_angle is None:
         clamp_angle = float(tangent_angle(target)[1][0])
@@ -284,6 +300,16 @@ def design_profile(
     g, coupling, extensible, th0 = lo["gravity"], lo["coupling"], lo["extensible"], lo["clamp_angle"]
     raw_length = curve_length(np.asarray(target_xz, dtype=float))
     if match_length:
+        if raw_length > MAX_SIZE:
+            raise ValueError(
+                f"target_xz is {raw_length:g} m long, longer than the longest beam ({MAX_SIZE:g} m): the target is in "
+                f"metres ({raw_length:g} mm would be {raw_length * 1e-3:g} m)."
+            )
+        if raw_length < MIN_SLENDERNESS * beam.thickness:
+            raise ValueError(
+                f"target_xz is {raw_length:g} m long, shorter than the beam is thick ({beam.thickness:g} m): with "
+                "match_length=True the beam would not be slender; is the target in metres?"
+            )
         beam = beam.replace(length=raw_length)
     L = beam.length
 

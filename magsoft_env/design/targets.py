@@ -11,13 +11,16 @@ from __future__ import annotations
 
 import csv
 import math
+import os
 from pathlib import Path
 
 import numpy as np
 
 from ..units import MM
+from ..validate import finite_number, integer, positive
 
 MIN_POINTS = 4  # fewest distinct points a target may have
+MAX_POINTS = 100_000  # most points a target may have (or be resampled to): the distance is O(points x 241)
 
 # Built-in objects: turtle pieces (radius of curvature in mm, or None for a straight piece; turn
 # angle in degrees, or length in mm for a straight piece). Positive turns curl toward +z.
@@ -49,9 +52,33 @@ def turtle_curve(pieces, *, step: float = 0.05) -> np.ndarray:
     and ``(None, length_mm)`` for straight pieces. Returns an ``(n, 2)`` array sampled about every
     ``step`` mm.
     """
+    step = positive("turtle_curve step", step, unit="mm")
+    if isinstance(pieces, (str, bytes)) or not isinstance(pieces, (list, tuple)) or not pieces:
+        raise ValueError(f"turtle_curve pieces must be a non-empty list of (radius_mm, amount), got {pieces!r}.")
+    checked, total = [], 0.0
+    for i, piece in enumerate(pieces):
+        try:
+            radius, amount = piece
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"turtle_curve pieces[{i}] must be a pair (radius_mm or None, amount), got {piece!r}."
+            ) from None
+        if radius is None:
+            amount = positive(f"turtle_curve pieces[{i}] length", amount, unit="mm")
+            total += amount
+        else:
+            radius = positive(f"turtle_curve pieces[{i}] radius", radius, unit="mm")
+            amount = finite_number(f"turtle_curve pieces[{i}] turn", amount, unit="deg")
+            total += abs(math.radians(amount)) * radius
+        checked.append((radius, amount))
+    if total / step > MAX_POINTS:
+        raise ValueError(
+            f"turtle_curve step {step:g} mm gives {total / step:.0f} points over {total:g} mm: at most {MAX_POINTS}; "
+            "use a larger step."
+        )
     pts = [np.zeros(2)]
     heading = 0.0
-    for radius, amount in pieces:
+    for radius, amount in checked:
         p0 = pts[-1]
         if radius is None:
             n = max(2, int(math.ceil(amount / step)))
@@ -71,7 +98,8 @@ def turtle_curve(pieces, *, step: float = 0.05) -> np.ndarray:
 
 def write_builtin_contours(folder, *, step_mm: float = 0.25) -> list[Path]:
     """Regenerate ``assets/contours/<name>.csv`` (columns ``x_mm, z_mm``) from :data:`BUILTIN_PIECES`."""
-    folder = Path(folder)
+    folder = Path(_path_arg("folder", folder))
+    step_mm = positive("step_mm", step_mm, unit="mm")
     folder.mkdir(parents=True, exist_ok=True)
     out = []
     for name, spec in BUILTIN_PIECES.items():
@@ -98,7 +126,7 @@ def write_builtin_contours(folder, *, step_mm: float = 0.25) -> list[Path]:
 # ---------------------------------------------------------------------------------------------
 def curve_length(xz) -> float:
     """Length of the polyline through the rows of ``xz`` (same unit as ``xz``)."""
-    xz = np.asarray(xz, dtype=float)
+    xz = _xz_array("xz", xz, min_len=1)
     return float(np.sum(np.hypot(*np.diff(xz, axis=0).T)))
 
 
@@ -165,6 +193,8 @@ def validate_target(target_xz, *, name: str = "target_xz") -> np.ndarray:
         )
     if len(xz) == 0:
         raise ValueError(f"{name} needs at least {MIN_POINTS} distinct points, got 0.")
+    if len(xz) > MAX_POINTS:
+        raise ValueError(f"{name} must have at most {MAX_POINTS} points, got {len(xz)}.")
     keep = np.concatenate([[True], np.any(np.diff(xz, axis=0) != 0.0, axis=1)])
     xz = xz[keep]
     if len(xz) < MIN_POINTS:
@@ -181,10 +211,10 @@ def validate_target(target_xz, *, name: str = "target_xz") -> np.ndarray:
 
 
 def resample(xz, n: int) -> np.ndarray:
-    """``n`` points evenly spaced in arc length along the polyline ``xz`` (endpoints kept)."""
-    if not isinstance(n, (int, np.integer)) or n < 2:
-        raise ValueError(f"n must be an integer >= 2, got {n!r}.")
-    xz = np.asarray(xz, dtype=float)
+    """``n`` points (an integer in [2, MAX_POINTS]) evenly spaced in arc length along the polyline ``xz``
+    (an (m, 2) array, m >= 2; endpoints kept)."""
+    n = integer("n", n, 2, MAX_POINTS)
+    xz = _xz_array("xz", xz)
     s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xz, axis=0).T))])
     t = np.linspace(0.0, s[-1], n)
     return np.column_stack([np.interp(t, s, xz[:, 0]), np.interp(t, s, xz[:, 1])])
@@ -206,11 +236,16 @@ def read_curve_csv(path) -> np.ndarray:
 
     Lines starting with ``#`` are comments. Returns an ``(n, 2)`` array in metres (not validated).
     """
-    path = Path(path)
+    path = Path(_path_arg("target CSV path", path))
     if not path.is_file():
         raise ValueError(f"target CSV {str(path)!r} does not exist or is not a file.")
-    with path.open(encoding="utf-8") as fh:
-        rows = [r for r in csv.reader(line for line in fh if line.strip() and not line.lstrip().startswith("#"))]
+    try:
+        with path.open(encoding="utf-8") as fh:
+            rows = [r for r in csv.reader(line for line in fh if line.strip() and not line.lstrip().startswith("#"))]
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"target CSV {str(path)!r} is not UTF-8 text: {exc}.") from None
+    except (OSError, csv.Error) as exc:
+        raise ValueError(f"target CSV {str(path)!r} cannot be read: {exc}.") from None
     if not rows:
         raise ValueError(f"target CSV {str(path)!r} is empty: expected a header x_mm,z_mm and rows of numbers.")
     header = [h.strip().lower() for h in rows[0]]
@@ -224,11 +259,34 @@ def read_curve_csv(path) -> np.ndarray:
         raise ValueError(
             f"target CSV {str(path)!r} needs a header with columns x_mm,z_mm (or x_m,z_m), got {rows[0]}."
         )
+    if len(rows) - 1 > MAX_POINTS:
+        raise ValueError(f"target CSV {str(path)!r} has {len(rows) - 1} rows: at most {MAX_POINTS}.")
     try:
         data = np.array([[float(r[ix]), float(r[iz])] for r in rows[1:]], dtype=float)
     except (ValueError, IndexError) as exc:
         raise ValueError(f"target CSV {str(path)!r} has a row that is not two numbers: {exc}.") from None
+    bad = ~np.isfinite(data).all(axis=1) if data.size else np.zeros(0, bool)
+    if np.any(bad):
+        raise ValueError(
+            f"target CSV {str(path)!r} must contain only finite numbers; got nan or inf in data rows "
+            f"{np.flatnonzero(bad)[:5].tolist()}."
+        )
     return data.reshape(-1, 2) * scale
+
+
+def _path_arg(name: str, value):
+    if not isinstance(value, (str, os.PathLike)) or (isinstance(value, str) and not value):
+        raise ValueError(f"{name} must be a file path (str or Path), got {value!r}.")
+    return value
+
+
+def _xz_array(name: str, xz, *, min_len: int = 2) -> np.ndarray:
+    from ..validate import finite_array
+
+    a = finite_array(name, xz, ndim=2, min_len=min_len)
+    if a.shape[1] != 2:
+        raise ValueError(f"{name} must have shape (N, 2) with columns x, z; got shape {a.shape}.")
+    return a
 
 
 def builtin_target(name: str) -> np.ndarray:
@@ -236,12 +294,15 @@ def builtin_target(name: str) -> np.ndarray:
     from ..assets import asset_path
     from ..validate import choice
 
+    if not isinstance(name, str):
+        raise ValueError(f"target must be one of {list(BUILTIN_TARGETS)}, got {name!r}.")
     choice("target", name, BUILTIN_TARGETS)
     return read_curve_csv(asset_path("contours", f"{name}.csv"))
 
 
 def prepare_target(target_xz, n_points: int, *, name: str = "target_xz") -> np.ndarray:
     """Validate, translate so that it starts at the origin, and resample to ``n_points`` by arc length."""
+    n_points = integer("n_points", n_points, MIN_POINTS, MAX_POINTS)
     xz = validate_target(target_xz, name=name)
     xz = xz - xz[0]
     return resample(xz, n_points)

@@ -2,17 +2,29 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..validate import finite_number, positive
+from ..validate import nonnegative, positive
 from .field import as_field
 from .material import MAX_VOLUME_FRACTION, Material
-from .profiles import Profile, as_profile
+from .profiles import Constant, PiecewiseConstant, PiecewiseLinear, Profile, as_profile
 
-_PROBE = 257  # samples used to check a profile's range
+_PROBE = 257  # samples used to check that the magnetization is finite
+_PHI_PROBE = 16385  # samples used to check the range of a volume fraction given as a function
+
+#: Largest length, width and thickness accepted (m). These robots are millimetres to centimetres long;
+#: a size past a metre is almost surely in the wrong unit (mm given as m).
+MAX_SIZE = 1.0
+#: Smallest slenderness L/h accepted: a "beam" shorter than it is thick is a block, outside any beam theory.
+MIN_SLENDERNESS = 1.0
+#: Below this slenderness L/h the beam is accepted with a warning: the model (Euler-Bernoulli, no shear)
+#: is accurate for slender beams only; shear adds about 0.9 (h/L)^2 of the bending deflection (4 % at L/h = 5).
+SLENDER = 5.0
 
 
 @dataclass(frozen=True)
@@ -22,8 +34,11 @@ class Beam:
     Parameters
     ----------
     length, width, thickness : float
-        Reference length L, width w and thickness h (m). Bending is about the width axis,
-        so ``I = w h^3 / 12``.
+        Reference length L, width w and thickness h (m), each in (0, 1] m. Bending is about the
+        width axis, so ``I = w h^3 / 12``. The beam must be slender: L/h >= 1 is required and
+        L/h < 5 warns (the model neglects shear, which grows as (h/L)^2). The width only scales
+        A and I; a strip wider than it is long is a plate, up to 1/(1 - nu^2) = 4/3 stiffer than
+        the beam model says, so it is not refused.
     material : Material
         Matrix and particle properties (paper values by default).
     volume_fraction : float, callable or Profile
@@ -48,7 +63,26 @@ class Beam:
 
     def __post_init__(self):
         for name in ("length", "width", "thickness"):
-            object.__setattr__(self, name, positive(f"Beam.{name}", getattr(self, name), unit="m"))
+            v = positive(f"Beam.{name}", getattr(self, name), unit="m")
+            if v > MAX_SIZE:
+                raise ValueError(
+                    f"Beam.{name} must lie in (0, {MAX_SIZE:g}] m, got {getattr(self, name)!r} "
+                    f"(lengths are in metres: {v:g} mm is {v * 1e-3:g})."
+                )
+            object.__setattr__(self, name, v)
+        ratio = self.length / self.thickness
+        if ratio < MIN_SLENDERNESS:
+            raise ValueError(
+                f"Beam.thickness must not exceed Beam.length (slenderness L/h >= {MIN_SLENDERNESS:g}; a beam model "
+                f"needs a beam much longer than it is thick), got L = {self.length!r} m, h = {self.thickness!r} m, "
+                f"L/h = {ratio:.3g}. Are both in metres?"
+            )
+        if ratio < SLENDER:
+            warnings.warn(
+                f"Beam slenderness L/h = {ratio:.3g} is below {SLENDER:g}: the model neglects shear, which adds "
+                f"about {90 / ratio**2:.0f} % to the bending deflection here; results are rough.",
+                UserWarning, stacklevel=3,
+            )
         if not isinstance(self.material, Material):
             raise ValueError(f"Beam.material must be a Material, got {self.material!r}.")
         phi = as_profile(self.volume_fraction, "Beam.volume_fraction")
@@ -57,8 +91,7 @@ class Beam:
         beta.check_covers(self.length, "Beam.magnetization")
         object.__setattr__(self, "volume_fraction", phi)
         object.__setattr__(self, "magnetization", beta)
-        s = self._probe_points()
-        phis = phi.values(s, self.length)
+        phis = self._phi_probe(phi)
         if not np.all(np.isfinite(phis)):
             raise ValueError("Beam.volume_fraction must be finite along the beam; got non-finite values.")
         lo, hi = float(phis.min()), float(phis.max())
@@ -67,15 +100,27 @@ class Beam:
                 f"Beam.volume_fraction must lie in [0, {MAX_VOLUME_FRACTION}] along the beam "
                 f"(the modulus law diverges at 0.74), got values in [{lo:.4g}, {hi:.4g}]."
             )
-        betas = beta.values(s, self.length)
+        betas = _sample(beta, self._probe_points(_PROBE), self.length, "Beam.magnetization")
         if not np.all(np.isfinite(betas)):
             raise ValueError("Beam.magnetization must be a finite angle (rad) along the beam; got non-finite values.")
 
-    def _probe_points(self) -> np.ndarray:
+    def _probe_points(self, n: int) -> np.ndarray:
         L = self.length
         bps = np.asarray(self.breakpoints(), dtype=float)
         eps = 1e-9 * L
-        return np.unique(np.concatenate([np.linspace(0.0, L, _PROBE), bps - eps, bps + eps]).clip(0.0, L))
+        return np.unique(np.concatenate([np.linspace(0.0, L, n), bps, bps - eps, bps + eps]).clip(0.0, L))
+
+    def _phi_probe(self, phi: Profile) -> np.ndarray:
+        """Volume fractions that bound phi(s) on [0, L]: exact for constants, cells and knots, else a dense grid."""
+        L = self.length
+        if type(phi) is Constant:
+            return np.array([phi.value])
+        if type(phi) is PiecewiseConstant:
+            return np.asarray(phi.levels, dtype=float)
+        if type(phi) is PiecewiseLinear:
+            knots = np.asarray(phi.s_knots)
+            return np.concatenate([np.asarray(phi.knot_values)[knots <= L], phi.values(np.array([L]), L)])
+        return _sample(phi, self._probe_points(_PHI_PROBE), L, "Beam.volume_fraction")
 
     # geometry -------------------------------------------------------------------------
     @property
@@ -107,7 +152,22 @@ class Beam:
         return tuple(merged)
 
     def phi(self, s) -> np.ndarray:
-        return self.volume_fraction.values(np.asarray(s, dtype=float), self.length)
+        """Volume fraction phi(s); raises ValueError if any value sampled leaves [0, MAX_VOLUME_FRACTION].
+
+        Construction checks phi on a dense grid; this check makes sure no value outside the range
+        (a spike between the grid points) ever reaches the material laws."""
+        s = np.asarray(s, dtype=float)
+        v = self.volume_fraction.values(s, self.length)
+        if np.size(v) and not (np.min(v) >= 0.0 and np.max(v) <= MAX_VOLUME_FRACTION):  # NaN fails too
+            vv = np.asarray(v, dtype=float).ravel()
+            i = int(np.flatnonzero(~((vv >= 0.0) & (vv <= MAX_VOLUME_FRACTION)))[0])
+            si = np.broadcast_to(s, np.shape(v)).ravel()[i]
+            raise ValueError(
+                f"Beam.volume_fraction must lie in [0, {MAX_VOLUME_FRACTION}] along the beam (the modulus law "
+                f"diverges at 0.74), got {float(vv[i])!r} at s = {si * 1e3:.6g} mm (between the points checked "
+                "when the beam was made)."
+            )
+        return v
 
     def beta(self, s) -> np.ndarray:
         return self.magnetization.values(np.asarray(s, dtype=float), self.length)
@@ -146,7 +206,7 @@ class Beam:
         Lambda is the paper's normalized field P for a uniform beam.
         """
         f = as_field(field)
-        g = finite_number("gravity", gravity, unit="m/s^2")
+        g = nonnegative("gravity", gravity, unit="m/s^2")
         s = np.linspace(0.0, self.length, 513)
         EI = float(np.mean(self.bending_stiffness(s)))
         AM = float(np.mean(self.moment_per_length(s)))
@@ -160,6 +220,26 @@ class Beam:
 
     def replace(self, **changes) -> Beam:
         """A copy with some fields changed (validated again)."""
-        import dataclasses
-
+        names = [f.name for f in dataclasses.fields(self)]
+        unknown = sorted(set(changes) - set(names))
+        if unknown:
+            raise ValueError(f"Beam.replace got unknown field(s) {unknown}; allowed: {names}.")
         return dataclasses.replace(self, **changes)
+
+
+def _sample(profile: Profile, s: np.ndarray, length: float, name: str) -> np.ndarray:
+    """``profile`` at ``s``, as a float array of the same shape; any failure is a ValueError naming ``name``."""
+    try:
+        v = profile.values(s, length)
+    except ValueError as exc:
+        msg = str(exc)
+        raise ValueError(msg if name in msg else f"{name}: {msg}") from None
+    except Exception as exc:  # a user function: any failure is bad input
+        raise ValueError(f"{name} could not be evaluated along the beam: {type(exc).__name__}: {exc}") from None
+    try:
+        v = np.asarray(v, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must give one number per arc length s, got {type(v).__name__}.") from None
+    if v.shape != s.shape:
+        raise ValueError(f"{name} must give one number per arc length s: expected shape {s.shape}, got {v.shape}.")
+    return v

@@ -13,7 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..units import MT
-from ..validate import nonnegative
+from ..validate import finite_number, nonnegative, positive
+from .field import MAX_FIELD
 
 #: Drive shapes of :class:`Waveparams`.
 WAVE_SHAPES = ("sine", "square")
@@ -52,6 +53,10 @@ def switched_square(t, amplitude: float, frequency: float, phase: float = 0.0, t
     -0.0
     """
     t = np.asarray(t, dtype=float)
+    amplitude = finite_number("switched_square amplitude", amplitude)
+    frequency = positive("switched_square frequency", frequency, unit="Hz")
+    phase = finite_number("switched_square phase", phase, unit="rad")
+    time_constant = nonnegative("switched_square time_constant", time_constant, unit="s")
     u = np.mod(frequency * t + phase / (2.0 * math.pi), 1.0)
     positive_half = u < 0.5
     if time_constant <= 0.0:
@@ -96,8 +101,18 @@ class Waveparams:
     coil_time: float = 0.0
 
     def __post_init__(self):
-        if self.shape not in WAVE_SHAPES:
+        if not isinstance(self.shape, str) or self.shape not in WAVE_SHAPES:
             raise ValueError(f"Waveparams.shape must be one of {list(WAVE_SHAPES)}, got {self.shape!r}.")
+        for name in ("amplitude_x", "amplitude_z"):
+            v = finite_number(f"Waveparams.{name}", getattr(self, name), unit="T")
+            if abs(v) > MAX_FIELD:
+                raise ValueError(
+                    f"Waveparams.{name} must lie in [-{MAX_FIELD:g}, {MAX_FIELD:g}] T, got {v!r} "
+                    "(fields are in tesla: 2 mT is 0.002)."
+                )
+            object.__setattr__(self, name, v)
+        object.__setattr__(self, "frequency", positive("Waveparams.frequency", self.frequency, unit="Hz"))
+        object.__setattr__(self, "phase", finite_number("Waveparams.phase", self.phase, unit="rad"))
         object.__setattr__(self, "coil_time", nonnegative("Waveparams.coil_time", self.coil_time, unit="s"))
         if self.shape == "sine" and self.coil_time != 0.0:
             raise ValueError(

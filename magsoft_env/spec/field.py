@@ -8,11 +8,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..validate import finite_number
+from ..validate import boolean, finite_number, integer
 
 #: Largest field magnitude accepted (T). Coil systems for these robots give tens of mT;
 #: anything near a tesla is almost surely a unit mistake (mT given as T).
 MAX_FIELD = 1.0
+#: Most states :func:`ramp` builds (each one is an equilibrium to solve).
+MAX_RAMP_STEPS = 100_000
 
 
 @dataclass(frozen=True)
@@ -44,8 +46,15 @@ class Field:
 
     @classmethod
     def polar(cls, magnitude: float, angle: float) -> Field:
-        """Field of ``magnitude`` (T) at ``angle`` (rad) from +x toward +z."""
-        return cls(magnitude * math.cos(angle), magnitude * math.sin(angle))
+        """Field of ``magnitude`` (T, in [0, MAX_FIELD]) at ``angle`` (rad, finite) from +x toward +z."""
+        b = finite_number("Field.polar magnitude", magnitude, unit="T")
+        if not 0.0 <= b <= MAX_FIELD:
+            raise ValueError(
+                f"Field.polar magnitude must lie in [0, {MAX_FIELD:g}] T, got {magnitude!r} (give the direction "
+                "with the angle, not a negative magnitude; fields are in tesla: 13 mT is 0.013)."
+            )
+        a = finite_number("Field.polar angle", angle, unit="rad")
+        return cls(b * math.cos(a), b * math.sin(a))
 
     @property
     def magnitude(self) -> float:
@@ -67,6 +76,8 @@ def as_field(value, name: str = "field") -> Field:
     """Accept a :class:`Field` or a pair ``(B_x, B_z)`` in tesla."""
     if isinstance(value, Field):
         return value
+    if isinstance(value, (str, bytes, dict, set, frozenset)):
+        raise ValueError(f"{name} must be a Field or a pair (B_x, B_z) in tesla, got {value!r}.")
     try:
         bx, bz = value
     except (TypeError, ValueError):
@@ -83,6 +94,8 @@ def as_fields(values: Iterable, name: str = "fields") -> list[Field]:
         if values.ndim != 2 or values.shape[1] != 2:
             raise ValueError(f"{name} as an array must have shape (n, 2), got {values.shape}.")
         arr = values.tolist()
+    if isinstance(values, (str, bytes, dict, set, frozenset)) or not isinstance(arr, Iterable):
+        raise ValueError(f"{name} must be a sequence of fields or (B_x, B_z) pairs in tesla, got {values!r}.")
     out = [as_field(v, f"{name}[{i}]") for i, v in enumerate(arr)]
     if not out:
         raise ValueError(f"{name} must contain at least one field, got none.")
@@ -90,9 +103,9 @@ def as_fields(values: Iterable, name: str = "fields") -> list[Field]:
 
 
 def ramp(start, end, n: int = 21, *, include_start: bool = True) -> list[Field]:
-    """``n`` fields evenly spaced from ``start`` to ``end`` (pairs in T)."""
-    if not isinstance(n, (int, np.integer)) or n < 1:
-        raise ValueError(f"ramp n must be a positive integer, got {n!r}.")
+    """``n`` fields (an integer in [1, MAX_RAMP_STEPS]) evenly spaced from ``start`` to ``end`` (pairs in T)."""
+    n = integer("ramp n", n, 1, MAX_RAMP_STEPS)
+    include_start = boolean("ramp include_start", include_start)
     a, b = as_field(start, "start").as_array(), as_field(end, "end").as_array()
     t = np.linspace(0.0, 1.0, n + (0 if include_start else 1))
     if not include_start:

@@ -6,6 +6,8 @@ The analytical solver, the inverse design and the statics presets take the same 
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..validate import choice, finite_number
@@ -14,6 +16,8 @@ from ..validate import choice, finite_number
 SUPPORTS = ("cantilever", "free")
 #: Magnetic couplings: the complete one (magnetization turns with the section) and the paper's eq. (10).
 COUPLINGS = ("rotated", "paper")
+#: Largest clamp angle accepted (rad): a full turn either way; larger values are almost surely degrees.
+MAX_CLAMP_ANGLE = 2.0 * math.pi
 
 
 def check_loading(*, gravity, support: str = "cantilever", coupling: str = "rotated", extensible=False,
@@ -22,7 +26,7 @@ def check_loading(*, gravity, support: str = "cantilever", coupling: str = "rota
 
     ``gravity`` (m/s^2, >= 0, acting along -z; 0 for a free-free beam), ``support`` in
     :data:`SUPPORTS`, ``coupling`` in :data:`COUPLINGS`, ``extensible`` a bool, ``clamp_angle``
-    (rad) finite. Raises ValueError naming the option (prefixed by ``where``) otherwise.
+    (rad) in [-2 pi, 2 pi]. Raises ValueError naming the option (prefixed by ``where``) otherwise.
     """
     support = choice(f"{where}support", support, SUPPORTS)
     coupling = choice(f"{where}coupling", coupling, COUPLINGS)
@@ -37,7 +41,12 @@ def check_loading(*, gravity, support: str = "cantilever", coupling: str = "rota
     if not isinstance(extensible, (bool, np.bool_)):
         raise ValueError(f"{where}extensible must be true or false (a bool), got {extensible!r}.")
     th0 = finite_number(f"{where}clamp_angle", clamp_angle, unit="rad")
+    if abs(th0) > MAX_CLAMP_ANGLE:
+        raise ValueError(
+            f"{where}clamp_angle must lie in [-2 pi, 2 pi] rad (one turn either way), got {clamp_angle!r} "
+            f"(angles are in radians: {th0:g} deg is {math.radians(th0):.4g} rad)."
+        )
     return {"gravity": g, "support": support, "coupling": coupling, "extensible": bool(extensible), "clamp_angle": th0}
 
 
-__all__ = ["COUPLINGS", "SUPPORTS", "check_loading"]
+__all__ = ["COUPLINGS", "MAX_CLAMP_ANGLE", "SUPPORTS", "check_loading"]

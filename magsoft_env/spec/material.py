@@ -20,6 +20,12 @@ MAX_VOLUME_FRACTION = 0.5
 NDFEB_DENSITY = 7600.0  # kg/m^3
 ECOFLEX_DENSITY = 1070.0  # kg/m^3
 
+#: Accepted ranges, wide around every elastomer composite and magnetic powder, narrow enough to
+#: catch a unit mistake (MPa given as Pa, kA/m as A/m times 1e3, g/cm^3 as kg/m^3).
+E0_RANGE = (1e2, 1e10)  # Pa: a soft gel to a stiff plastic; Ecoflex 00-10 is 6.2e4
+MAX_PARTICLE_MAGNETIZATION = 2e6  # A/m: NdFeB saturates near 1.3e6, iron at 1.7e6
+DENSITY_RANGE = (100.0, 30000.0)  # kg/m^3: a foam to tungsten; NdFeB is 7600
+
 
 @dataclass(frozen=True)
 class Material:
@@ -55,7 +61,13 @@ class Material:
     density: float | Callable[[float], float] = 1940.0
 
     def __post_init__(self):
-        object.__setattr__(self, "E0", positive("Material.E0", self.E0, unit="Pa"))
+        e0 = positive("Material.E0", self.E0, unit="Pa")
+        if not E0_RANGE[0] <= e0 <= E0_RANGE[1]:
+            raise ValueError(
+                f"Material.E0 must lie in [{E0_RANGE[0]:g}, {E0_RANGE[1]:g}] Pa, got {self.E0!r} "
+                "(E0 is in pascals: 0.062 MPa is 62000)."
+            )
+        object.__setattr__(self, "E0", e0)
         object.__setattr__(
             self,
             "particle_magnetization",
@@ -66,15 +78,42 @@ class Material:
                 "Material.particle_magnetization must be >= 0 (A/m); give the direction with the "
                 f"magnetization profile instead. Got {self.particle_magnetization!r}."
             )
+        if self.particle_magnetization > MAX_PARTICLE_MAGNETIZATION:
+            raise ValueError(
+                f"Material.particle_magnetization must lie in [0, {MAX_PARTICLE_MAGNETIZATION:g}] A/m (NdFeB "
+                f"saturates near 1.3e6), got {self.particle_magnetization!r} (575 kA/m is 575e3)."
+            )
+        lo, hi = DENSITY_RANGE
         if callable(self.density):
-            probe = self.density_at(np.linspace(0.0, MAX_VOLUME_FRACTION, 11))
+            if isinstance(self.density, type):
+                raise ValueError(
+                    f"Material.density must be a number (kg/m^3) or a function of phi, got {self.density!r}."
+                )
+            try:
+                probe = self.density_at(np.linspace(0.0, MAX_VOLUME_FRACTION, 11))
+            except Exception as exc:  # a user function: any failure is bad input
+                raise ValueError(
+                    f"Material.density as a function of phi must return one number (kg/m^3) per phi, and raised "
+                    f"{type(exc).__name__}: {exc}"
+                ) from None
             if not np.all(np.isfinite(probe)) or np.any(probe <= 0):
                 raise ValueError(
                     "Material.density as a function of phi must return finite positive values (kg/m^3) "
                     f"for phi in [0, {MAX_VOLUME_FRACTION}], got {probe!r}."
                 )
+            if np.any(probe < lo) or np.any(probe > hi):
+                raise ValueError(
+                    f"Material.density as a function of phi must return values in [{lo:g}, {hi:g}] kg/m^3 for phi in "
+                    f"[0, {MAX_VOLUME_FRACTION}], got {probe.min():.4g} to {probe.max():.4g}."
+                )
         else:
-            object.__setattr__(self, "density", positive("Material.density", self.density, unit="kg/m^3"))
+            rho = positive("Material.density", self.density, unit="kg/m^3")
+            if not lo <= rho <= hi:
+                raise ValueError(
+                    f"Material.density must lie in [{lo:g}, {hi:g}] kg/m^3, got {self.density!r} "
+                    "(densities are in kg/m^3: 1.94 g/cm^3 is 1940)."
+                )
+            object.__setattr__(self, "density", rho)
 
     @classmethod
     def rule_of_mixtures(

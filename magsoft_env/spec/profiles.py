@@ -18,9 +18,20 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from ..validate import finite_array, finite_number, positive
+from ..validate import boolean, finite_array, finite_number, integer, positive
 
 _COVER_RTOL = 1e-9
+#: Most cells :func:`alternating_cells` builds (each boundary is a spectral subdomain of the solver).
+MAX_CELLS = 1000
+#: Most kinks of :func:`jig_from_function` (each one is a piece with at least 201 samples).
+MAX_KINKS = 1000
+#: Most samples of :func:`jig_from_function` and points of :func:`jig_curve`.
+MAX_SAMPLES = 1_000_000
+MAX_JIG_CURVE_POINTS = 100_000
+#: Largest ``unit`` of :func:`jig_from_function` (m): the jig's x and z are in metres or smaller units.
+MAX_UNIT = 1.0
+#: Longest beam :func:`jig_curve` draws a jig for (m), as :data:`magsoft_env.spec.beam.MAX_SIZE`.
+MAX_JIG_LENGTH = 1.0
 
 
 class Profile(ABC):
@@ -53,6 +64,8 @@ class Profile(ABC):
             if self.length is None:
                 raise ValueError(f"{type(self).__name__} is relative to the beam length: pass length=... (m).")
             length = self.length
+        else:
+            length = positive(f"{type(self).__name__} length", length, unit="m")
         return self.values(s, length)
 
 
@@ -114,9 +127,8 @@ class PiecewiseConstant(Profile):
 
 
 def alternating_cells(n: int, *, angle: float = 0.0) -> PiecewiseConstant:
-    """Magnetization of ``n`` equal cells alternating between ``angle`` and ``angle + pi`` (rad)."""
-    if not isinstance(n, (int, np.integer)) or n < 1:
-        raise ValueError(f"alternating_cells n must be a positive integer, got {n!r}.")
+    """Magnetization of ``n`` (in [1, MAX_CELLS]) equal cells alternating between ``angle`` and ``angle + pi`` (rad)."""
+    n = integer("alternating_cells n", n, 1, MAX_CELLS)
     a = finite_number("alternating_cells angle", angle, unit="rad")
     return PiecewiseConstant([a + np.pi * (i % 2) for i in range(n)])
 
@@ -158,22 +170,45 @@ class Function(Profile):
     length: float | None = None
 
     def __post_init__(self):
-        if not callable(self.func):
+        if not callable(self.func) or isinstance(self.func, type):
             raise ValueError(f"Function profile needs a callable of s (m), got {self.func!r}.")
+        if isinstance(self.kinks, (str, bytes)) or not isinstance(self.kinks, (Sequence, np.ndarray)):
+            raise ValueError(f"Function breakpoints (kinks) must be a sequence of arc lengths (m), got {self.kinks!r}.")
         b = finite_array("Function breakpoints", list(self.kinks), ndim=1)
         object.__setattr__(self, "kinks", tuple(sorted(b.tolist())))
         if self.length is not None:
             object.__setattr__(self, "length", positive("Function length", self.length, unit="m"))
 
     def values(self, s, length):
+        """``func`` at ``s``: called once on the array, or point by point if that fails or gives the wrong shape.
+
+        Raises ValueError when ``func`` does not return one number per arc length."""
         s = np.asarray(s, dtype=float)
         try:
-            out = np.asarray(self.func(s), dtype=float)
+            raw = np.asarray(self.func(s))
+            if raw.dtype.kind in "bUSV":
+                raise ValueError("not numbers")
+            out = raw.astype(float)
             if out.shape != s.shape:
                 out = np.broadcast_to(out, s.shape).astype(float)
         except (TypeError, ValueError):
-            out = np.vectorize(lambda t: float(self.func(t)), otypes=[float])(s)
+            out = np.vectorize(self._at, otypes=[float])(s) if s.size else np.empty(s.shape)
+        except Exception as exc:  # a user function: any failure is bad input
+            raise ValueError(f"Function profile: the function of s raised {type(exc).__name__}: {exc}") from None
         return out
+
+    def _at(self, t: float) -> float:
+        try:
+            v = np.asarray(self.func(t))
+        except Exception as exc:  # a user function: any failure is bad input
+            raise ValueError(
+                f"Function profile: the function of s raised {type(exc).__name__} at s = {t!r} m: {exc}"
+            ) from None
+        if v.dtype.kind not in "iuf" or v.size != 1:
+            raise ValueError(
+                f"Function profile must return one number per arc length s (m), got {_short(v)} at s = {t!r} m."
+            )
+        return float(v.reshape(()))
 
     def breakpoints(self, length):
         return tuple(b for b in self.kinks if 0.0 < b < length)
@@ -202,6 +237,9 @@ class JigProfile(Profile):
     _splines: object = field(default=None, repr=False, compare=False)
 
     def __post_init__(self):
+        flat = boolean("JigProfile piecewise_constant", self.piecewise_constant)
+        object.__setattr__(self, "pieces", _check_pieces(self.pieces))
+        object.__setattr__(self, "piecewise_constant", flat)
         object.__setattr__(self, "length", float(self.pieces[-1][0][-1]))
         if not self.piecewise_constant:
             object.__setattr__(self, "_splines", [CubicSpline(ps, pb) for ps, pb in self.pieces])
@@ -255,7 +293,10 @@ def jig_from_points(x, z, *, corners: Sequence[int] = ()) -> JigProfile:
         raise ValueError(f"jig x and z must have the same length, got {len(x)} and {len(z)}.")
     if np.any(np.hypot(np.diff(x), np.diff(z)) <= 0):
         raise ValueError("jig points must not repeat consecutively.")
-    cuts = sorted({0, len(x) - 1, *[int(c) for c in corners]})
+    if isinstance(corners, (str, bytes)) or not isinstance(corners, (Sequence, np.ndarray, set, frozenset)):
+        raise ValueError(f"jig corners must be a sequence of point indices, got {corners!r}.")
+    corner_idx = [integer(f"jig corners[{i}]", c, 1, len(x) - 2) for i, c in enumerate(corners)]
+    cuts = sorted({0, len(x) - 1, *corner_idx})
     pieces, s0 = [], 0.0
     for a, c in zip(cuts[:-1], cuts[1:], strict=True):
         xs, zs = x[a : c + 1], z[a : c + 1]
@@ -292,31 +333,39 @@ def jig_from_function(
     >>> round(jig.length * 1e3, 3)   # mm of beam the jig magnetizes
     29.579
     """
-    if not callable(f):
+    if not callable(f) or isinstance(f, type):
         raise ValueError(f"jig_from_function needs a callable z = f(x), got {f!r}.")
     x0 = finite_number("x_start", x_start)
     x1 = finite_number("x_end", x_end)
     unit = positive("unit", unit, unit="m")
+    if unit > MAX_UNIT:
+        raise ValueError(f"unit must lie in (0, {MAX_UNIT:g}] m (the size of one x unit: 1e-3 for mm), got {unit!r}.")
+    samples = integer("jig_from_function samples", samples, 2, MAX_SAMPLES)
     if x1 <= x0:
         raise ValueError(f"x_end must be greater than x_start, got x_start={x0!r}, x_end={x1!r}.")
-    ks = sorted(float(k) for k in kinks if x0 < float(k) < x1)
+    if isinstance(kinks, (str, bytes)) or not isinstance(kinks, (Sequence, np.ndarray, set, frozenset)):
+        raise ValueError(f"kinks must be a sequence of x values (in units of unit), got {kinks!r}.")
+    if len(kinks) > MAX_KINKS:
+        raise ValueError(f"kinks must have at most {MAX_KINKS} entries, got {len(kinks)}.")
+    ks = sorted({k for k in (finite_number(f"kinks[{i}]", k) for i, k in enumerate(kinks)) if x0 < k < x1})
     edges = [x0, *ks, x1]
     pieces, s0 = [], 0.0
     n_piece = max(int(samples / len(edges)), 201) | 1
+    fz = _jig_function(f)
     for a, c in zip(edges[:-1], edges[1:], strict=True):
         h = 1e-5 * max(1.0, abs(c - a))
 
         def slope(u, a=a, c=c, h=h):
             # second-order differences that never step off this piece (kinks stay sharp)
             u = np.asarray(u, dtype=float)
-            out = (np.asarray(f(u + h), float) - np.asarray(f(u - h), float)) / (2 * h)
+            out = (fz(u + h) - fz(u - h)) / (2 * h)
             lo, hi = u - h < a, u + h > c
             if lo.any():
                 v = u[lo]
-                out[lo] = (-3 * np.asarray(f(v), float) + 4 * np.asarray(f(v + h), float) - f(v + 2 * h)) / (2 * h)
+                out[lo] = (-3 * fz(v) + 4 * fz(v + h) - fz(v + 2 * h)) / (2 * h)
             if hi.any():
                 v = u[hi]
-                out[hi] = (3 * np.asarray(f(v), float) - 4 * np.asarray(f(v - h), float) + f(v - 2 * h)) / (2 * h)
+                out[hi] = (3 * fz(v) - 4 * fz(v - h) + fz(v - 2 * h)) / (2 * h)
             return out
 
         xs = np.linspace(a, c, n_piece)
@@ -333,11 +382,16 @@ def jig_from_function(
 def jig_curve(profile, length: float, *, n: int = 201) -> tuple[np.ndarray, np.ndarray]:
     """Jig curve (x_jig, z_jig) in metres that produces magnetization ``profile`` (eq. 1).
 
-    ``profile`` is a :class:`Profile`, a callable of s (m) or a number (rad).
+    ``profile`` is a :class:`Profile`, a callable of s (m) or a number (rad); ``length`` in (0, 1] m;
+    ``n`` points, an integer in [2, 100000].
     """
     length = positive("length", length, unit="m")
-    if not isinstance(n, (int, np.integer)) or n < 2:
-        raise ValueError(f"n must be an integer >= 2, got {n!r}.")
+    if length > MAX_JIG_LENGTH:
+        raise ValueError(
+            f"length must lie in (0, {MAX_JIG_LENGTH:g}] m, got {length!r} (lengths are in metres: "
+            f"{length:g} mm is {length * 1e-3:g})."
+        )
+    n = integer("jig_curve n", n, 2, MAX_JIG_CURVE_POINTS)
     prof = as_profile(profile, "profile")
     prof.check_covers(length, "profile")
     # fine grid including breakpoints, integrated with the trapezoid rule then sampled
@@ -362,6 +416,74 @@ def as_profile(value, name: str) -> Profile:
     if callable(value):
         return Function(value)
     raise ValueError(f"{name} must be a number, a callable of s (m) or a Profile, got {value!r}.")
+
+
+def _short(v) -> str:
+    v = np.asarray(v)
+    return f"shape {v.shape}" if v.size != 1 else repr(v.reshape(()).item())
+
+
+def _jig_function(f):
+    """``f`` as a function of a float array returning a float array of the same shape.
+
+    ``f`` is called on the whole array, or point by point when that fails (a function written for
+    scalars) or gives a shape that does not broadcast; anything but one number per x is a ValueError."""
+
+    def fz(u):
+        u = np.asarray(u, dtype=float)
+        try:
+            raw = np.asarray(f(u))
+            if raw.dtype.kind not in "iuf":
+                raise TypeError("not numbers")
+            return np.broadcast_to(raw.astype(float), u.shape).astype(float)
+        except (TypeError, ValueError):
+            pass
+        except Exception as exc:  # a user function: any failure is bad input
+            raise ValueError(f"jig function f(x) raised {type(exc).__name__}: {exc}") from None
+        return np.vectorize(point, otypes=[float])(u) if u.size else np.empty(u.shape)
+
+    def point(t):
+        try:
+            v = np.asarray(f(t))
+        except ValueError:
+            raise
+        except Exception as exc:
+            raise ValueError(f"jig function f(x) raised {type(exc).__name__} at x = {t!r}: {exc}") from None
+        if v.dtype.kind not in "iuf" or v.size != 1:
+            raise ValueError(f"jig function f(x) must return one number per x, got {_short(v)} at x = {t!r}.")
+        return float(v.reshape(()))
+
+    return fz
+
+
+def _check_pieces(pieces) -> tuple:
+    """JigProfile pieces as a tuple of (s, beta) float tuples: each piece at least 2 finite samples, s strictly
+    increasing, the first piece starting at s = 0 and each next one where the last ended."""
+    if isinstance(pieces, (str, bytes)) or not isinstance(pieces, (Sequence, np.ndarray)) or len(pieces) == 0:
+        raise ValueError(
+            f"JigProfile pieces must be a non-empty sequence of (s, beta) pairs of sample tuples, got {pieces!r}; "
+            "build jigs with jig_from_points, jig_from_polyline or jig_from_function."
+        )
+    out, end = [], 0.0
+    for k, piece in enumerate(pieces):
+        try:
+            ps, pb = piece
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"JigProfile pieces[{k}] must be a pair (s, beta) of sample sequences, got {piece!r}."
+            ) from None
+        s = finite_array(f"JigProfile pieces[{k}] s", ps, ndim=1, min_len=2)
+        b = finite_array(f"JigProfile pieces[{k}] beta", pb, ndim=1, min_len=2)
+        if len(s) != len(b):
+            raise ValueError(f"JigProfile pieces[{k}] needs as many beta as s samples ({len(s)}), got {len(b)}.")
+        if np.any(np.diff(s) <= 0):
+            raise ValueError(f"JigProfile pieces[{k}] s must be strictly increasing (m), got {s.tolist()[:8]}...")
+        if abs(s[0] - end) > 1e-9 * max(abs(end), abs(s[-1]), 1e-300):
+            where = "start at s = 0" if k == 0 else f"start where piece {k - 1} ended (s = {end!r} m)"
+            raise ValueError(f"JigProfile pieces[{k}] must {where}, got s[0] = {s[0]!r} m.")
+        end = float(s[-1])
+        out.append((tuple(s.tolist()), tuple(b.tolist())))
+    return tuple(out)
 
 
 def _cumulative_arc(t, speed) -> np.ndarray:

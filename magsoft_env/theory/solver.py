@@ -15,9 +15,10 @@ import scipy.optimize
 from ..spec import Beam, Field, as_field, as_fields
 from ..spec.loading import check_loading
 from ..threads import single_threaded_blas
-from ..validate import choice, positive
-from .collocation import Grid, make_grid
+from ..validate import choice, in_range, integer
+from .collocation import Grid, _grid_cached, make_grid
 from .model import BeamModel, Load
+from .verify import equation_residual
 
 TERMINATION_MESSAGES = {
     0: "Converged: equilibrium found along the loading path.",
@@ -25,7 +26,21 @@ TERMINATION_MESSAGES = {
     2: "Converged, but the solution is not resolved to the requested tolerance on the finest grid "
     "allowed; give breakpoints for non-smooth profiles or raise max_nodes.",
     3: "Direct Newton solve (start='straight') did not converge.",
+    4: "Not verified: the solution satisfies the equations at the collocation nodes but not between them "
+    "(an under-resolved grid); raise max_nodes, give breakpoints for non-smooth profiles, or relax verify_tol.",
 }
+#: Largest number of collocation nodes of one grid (subdomains x (degree + 1)): the dense solves
+#: cost O(M^3) per Newton iteration (about 0.1 s at 1000 nodes).
+MAX_TOTAL_NODES = 1000
+#: Largest number of refinements of the grid for one equilibrium (degree raises and subdomain splits).
+MAX_REFINEMENTS = 12
+#: Work bounds of one load segment of the continuation: accepted or rejected steps, and jumps
+#: (folds and bifurcations passed by energy descent). Beyond them the segment fails with a message.
+MAX_STEPS = 4000
+MAX_JUMPS = 40
+#: Refinement aims at this fraction of ``verify_tol``, so that an independent measurement of the
+#: residual (other points, other quadrature) also finds it below ``verify_tol``.
+VERIFY_MARGIN = 0.1
 
 _MAX_NEWTON = 10
 _MAX_STEP_RAD = 0.6  # Newton steps larger than this (rad, max norm) are damped
@@ -54,9 +69,17 @@ class SolverOptions:
     resolution_tol : float
         Accepted size of the trailing Chebyshev coefficients of theta (rad).
     max_domain : float
-        Longest subdomain as a fraction of L (long smooth beams get split).
+        Longest subdomain as a fraction of L (long smooth beams get split), in [0.01, 1].
     min_step : float
         Smallest continuation step (fraction of a load segment) before a fold is declared.
+    verify_tol : float
+        Largest equation residual between the nodes (rad) that a successful result may have
+        (:mod:`magsoft_env.theory.verify`); the grid is refined (degree, then subdomains) until it
+        holds, and a result that still exceeds it has status 4 and ``success=False``.
+
+    Ranges (checked by :meth:`check`, which every solve calls before any work): ``nodes`` None
+    or an integer in [8, 400]; ``max_nodes`` an integer in [8, 1000]; ``tol`` in [1e-15, 1e-6];
+    ``resolution_tol`` in [0, 1e-3]; ``min_step`` in [1e-12, 0.5]; ``verify_tol`` in [1e-14, 1e-2].
     """
 
     nodes: int | None = None
@@ -65,6 +88,21 @@ class SolverOptions:
     resolution_tol: float = 1e-11
     max_domain: float = 1.0
     min_step: float = 1e-5
+    verify_tol: float = 1e-8
+
+    def check(self) -> SolverOptions:
+        """Raise ValueError naming the first option outside its range (see above); returns self."""
+        if self.nodes is not None:
+            integer("SolverOptions.nodes", self.nodes, 8, 400)
+        integer("SolverOptions.max_nodes", self.max_nodes, 8, 1000)
+        in_range("SolverOptions.tol", self.tol, 1e-15, 1e-6, unit="rad")
+        in_range("SolverOptions.resolution_tol", self.resolution_tol, 0.0, 1e-3, unit="rad")
+        in_range("SolverOptions.max_domain", self.max_domain, 0.01, 1.0, unit="fraction of L")
+        in_range("SolverOptions.min_step", self.min_step, 1e-12, 0.5, unit="fraction of a load segment")
+        in_range("SolverOptions.verify_tol", self.verify_tol, 1e-14, 1e-2, unit="rad")
+        return self
+
+
 
 
 @dataclass(frozen=True)
@@ -114,8 +152,13 @@ class EquilibriumResult:
     residual : float
         Largest |residual| of the discrete equilibrium equations at the nodes (rad).
     resolution : float
-        Size of theta's trailing Chebyshev coefficients on the final grid (rad): the
-        discretization error estimate (NaN when the solve failed).
+        The error that was measured (rad): the larger of theta's trailing Chebyshev coefficients
+        on the final grid and :attr:`verification` (NaN when the solve failed).
+    verification : float
+        Largest residual of the equilibrium equations between the nodes (rad), measured
+        independently of the solver (:func:`magsoft_env.theory.verify.equation_residual`: the
+        integral form on Gauss-Legendre points between every pair of nodes, with the loads
+        recomputed from the beam); ``success`` requires it to be at most ``verify_tol``.
     nodes : int
         Number of distinct collocation nodes, ``n``.
     newton_iterations : int
@@ -153,6 +196,7 @@ class EquilibriumResult:
     newton_iterations: int
     wall_time: float = 0.0
     events: list = dc_field(default_factory=list)
+    verification: float = math.nan
     _grid: Grid | None = dc_field(default=None, repr=False, compare=False)
     _eig: tuple | None = dc_field(default=None, repr=False, compare=False)
     _full: tuple | None = dc_field(default=None, repr=False, compare=False)
@@ -235,10 +279,11 @@ class _Solver:
         self.theta0 = clamp_angle
         self.opt = options
         bps = beam.breakpoints()
+        edges = make_grid(beam.length, bps, n=8, max_domain=options.max_domain * beam.length).edges
         if options.nodes is not None:
             n = options.nodes
         else:
-            n = 32 if not bps else 20
+            n = min(32 if not bps else 20, MAX_TOTAL_NODES // (len(edges) - 1) - 1)
         self._set_grid(make_grid(beam.length, bps, n=n, max_domain=options.max_domain * beam.length))
         self.theta = np.full(self.grid.M, clamp_angle if support == "cantilever" else 0.0)
         self.c = 0.0  # free support: angle at s = 0
@@ -250,6 +295,7 @@ class _Solver:
         self._moved = 0.0
         self._mode = None  # last lowest stability mode (warm start of inverse iteration)
         self._stab = None  # (theta, model, load, cos, sin, stable, lambda, mode, f) of the last test
+        self.note = ""  # why the continuation stopped, when a work bound stopped it
 
     def _set_grid(self, grid: Grid):
         self.grid = grid
@@ -374,13 +420,19 @@ class _Solver:
         degree is raised and the descent repeated from the interpolated shape.
         """
         th = theta if kick is None else theta + kick
+        entry = self.grid
         while True:
             th_min, c = self._minimize(th, load)
             ok, th2, c2, _ = self.newton(th_min, load, c, maxiter=4 * _MAX_NEWTON)
-            if ok or self.opt.nodes is not None or self.grid.n >= self.opt.max_nodes:
+            if ok:
                 return ok, th2, c2
+            if self.opt.nodes is not None or self.grid.n >= self.opt.max_nodes or \
+                    len(self.grid.edges) * (self._finer(self.grid.n) + 1) > MAX_TOTAL_NODES:
+                if self.grid is not entry:  # failed: the caller keeps its state, on its grid
+                    self._set_grid(entry)
+                return False, theta, self.c
             old = self.grid
-            self._set_grid(_regrid(old, min(self.opt.max_nodes, int(math.ceil(old.n * 1.5)))))
+            self._set_grid(_regrid(old, self._finer(old.n)))
             th = old.interpolate(th_min, self.grid.s)
             if self.support == "free":
                 self.c = float(th[0])
@@ -526,7 +578,17 @@ class _Solver:
         else:
             tan, acc = self.tangent(theta, lu, start, target, t)
             d_fold = math.inf
+        steps = jumps = 0
         while t < 1.0:
+            steps += 1
+            if steps > MAX_STEPS or jumps > MAX_JUMPS:
+                self.note = (
+                    f"Stopped after {steps - 1} continuation steps and {jumps} jumps in one load step (bounds "
+                    f"{MAX_STEPS} and {MAX_JUMPS}) at {100 * t:.3g} % of it: the equilibria change faster than "
+                    "the continuation can follow (check the load's size: nondimensional_groups())."
+                )
+                self.theta, self.load = theta, start.lerp(target, t)
+                return False, snapped
             tmax = float(_amax(_abs(tan)))
             dt = min(dt, 1.0 - t, _STEP_RAD / tmax if tmax > 0 else 1.0)
             # keep the second-order term of the prediction moderate, and approach a predicted
@@ -565,6 +627,7 @@ class _Solver:
                 load = start.lerp(target, t_new)
                 lam, mode = self.model.min_eigen(theta, start.lerp(target, t), clamped=True)
                 ok2, th_new, _ = self._jump(theta, 0.02 * mode, load, t_new, "fold")
+                jumps += 1
                 if not ok2:
                     self.theta, self.load = theta, start.lerp(target, t)
                     return False, snapped
@@ -586,6 +649,7 @@ class _Solver:
                         continue
                     lam, mode = self.model.min_eigen(th_new, load, clamped=True)
                     ok2, th_s, _ = self._jump(th_new, mode, load, t_new, "bifurcation")
+                    jumps += 1
                     if not ok2:
                         self.theta, self.load = theta, start.lerp(target, t)
                         return False, snapped
@@ -633,26 +697,76 @@ class _Solver:
         return ok, False
 
     # resolution -----------------------------------------------------------------------------------
-    def refine(self) -> float:
-        """Raise the degree until theta's Chebyshev tail is below tolerance. Returns the tail."""
-        tail = self.grid.tail(self.theta)
-        while tail > self.opt.resolution_tol and self.opt.nodes is None and self.grid.n < self.opt.max_nodes:
-            n_new = min(self.opt.max_nodes, int(math.ceil(self.grid.n * 1.5)))
-            old_grid, old_theta = self.grid, self.theta
-            new = _regrid(old_grid, n_new)
-            self._set_grid(new)
-            guess = old_grid.interpolate(old_theta, new.s)
-            ok, th, c, its = self.newton(guess, self.load)
-            self.newton_its += its
-            if not ok:
-                self._set_grid(old_grid)
+    def _finer(self, n: int) -> int:
+        return min(self.opt.max_nodes, int(math.ceil(n * 1.5)))
+
+    def verify(self) -> float:
+        """Equation residual between the nodes (rad), independent of the solver's operators."""
+        ld = self.load
+        return equation_residual(self.beam, self.grid, self.theta, Bx=ld.Bx, Bz=ld.Bz, g=ld.g,
+                                 coupling=self.coupling, extensible=self.extensible, support=self.support,
+                                 theta0=self.theta0)
+
+    def _next_grid(self, grid: Grid, theta) -> Grid | None:
+        """A finer grid than ``grid`` (on which the shape is ``theta``): a higher degree while
+        allowed, then the least resolved subdomains halved."""
+        d = len(grid.edges) - 1
+        if grid.n < self.opt.max_nodes:
+            n = self._finer(grid.n)
+            return _regrid(grid, n) if d * (n + 1) <= MAX_TOTAL_NODES else None
+        C = np.abs(grid._Ctail @ theta).reshape(d, 3).max(axis=1)
+        split = C >= 0.1 * C.max() if C.max() > 0 else np.ones(d, bool)
+        if (d + int(split.sum())) * (grid.n + 1) > MAX_TOTAL_NODES:
+            return None
+        e = grid.edges
+        edges = [e[0]]
+        for k in range(d):
+            if split[k]:
+                edges.append(0.5 * (e[k] + e[k + 1]))
+            edges.append(e[k + 1])
+        return _grid_cached(tuple(float(v) for v in edges), grid.n)
+
+    def refine(self) -> tuple[float, float]:
+        """Refine the grid until theta's Chebyshev tail is below ``resolution_tol`` and the
+        verification residual below ``verify_tol``: first the degree, up to ``max_nodes``, then
+        (for the verification, which aims at ``VERIFY_MARGIN * verify_tol``) the least resolved
+        subdomains are halved. A refinement whose Newton
+        solve fails does not end the search: the next finer grid is tried from the last good state.
+        At most ``MAX_REFINEMENTS`` grids and ``MAX_TOTAL_NODES`` nodes. Returns (tail, verification)."""
+        tail, ver = self.grid.tail(self.theta), self.verify()
+        if self.opt.nodes is not None:
+            return tail, ver
+        good = (self.grid, self.theta, self.c)
+        grid = self.grid
+        for _ in range(MAX_REFINEMENTS):
+            need_p = tail > self.opt.resolution_tol and grid.n < self.opt.max_nodes
+            if not (need_p or not ver <= VERIFY_MARGIN * self.opt.verify_tol):
                 break
+            g0, th0, c0 = good
+            new = self._next_grid(grid, th0 if grid is g0 else g0.interpolate(th0, grid.s))
+            if new is None:
+                break
+            self._set_grid(new)
+            guess = g0.interpolate(th0, new.s)
+            ok, th, c, its = self.newton(guess, self.load, c0)
+            self.newton_its += its
+            if not ok and self.support == "free":
+                # a free beam's coarse shape can be far from the resolved one: descend on the finer grid
+                ok, th, c = self.descend(guess, self.load)
+                new = self.grid  # descend may have raised the degree itself
+            grid = new
+            if not ok:
+                continue
             self.theta, self.c = th, c
-            tail = self.grid.tail(self.theta)
-        return tail
+            tail, ver = new.tail(th), self.verify()
+            good = (new, th, c)
+        if self.grid is not good[0]:
+            self._set_grid(good[0])
+        self.theta, self.c = good[1], good[2]
+        return tail, ver
 
     # result -------------------------------------------------------------------------------------
-    def result(self, ok, status, snapped, field_, gravity, tail, wall_time: float = 0.0) -> EquilibriumResult:
+    def result(self, ok, status, snapped, field_, gravity, tail, ver, wall_time: float = 0.0) -> EquilibriumResult:
         mdl, grid = self.model, self.grid
         th = self.theta
         load = self.load
@@ -684,13 +798,20 @@ class _Solver:
         chord += 2 * math.pi * round((mean_angle - chord) / (2 * math.pi))
         if not ok:
             status = 1 if status == 0 else status
+        elif not ver <= self.opt.verify_tol:
+            status = 4
         elif status == 0 and tail > self.opt.resolution_tol:
             status = 2
         msg = TERMINATION_MESSAGES[status]
+        if not ok and self.note:
+            msg += " " + self.note
         if self.events:
             msg += f" Passed {len(self.events)} fold/bifurcation point(s) with a jump to a stable branch."
         if status == 2:
-            msg += f" (trailing Chebyshev coefficient {tail:.1e} rad)"
+            msg += f" (trailing Chebyshev coefficient {tail:.1e} rad; verified between the nodes to {ver:.1e} rad)"
+        if status == 4:
+            msg += (f" (residual between the nodes {ver:.1e} rad > verify_tol {self.opt.verify_tol:g}, "
+                    f"on {u.size} nodes)")
         return EquilibriumResult(
             success=ok and status in (0, 2),
             status=status,
@@ -711,7 +832,8 @@ class _Solver:
             field=field_,
             gravity=gravity,
             residual=float(_amax(_abs(R))),
-            resolution=tail,
+            resolution=max(tail, ver) if ok else math.nan,
+            verification=float(ver) if ok else math.nan,
             nodes=int(u.size),
             newton_iterations=self.newton_its,
             events=list(self.events),
@@ -722,8 +844,6 @@ class _Solver:
 
 
 def _regrid(grid: Grid, n: int) -> Grid:
-    from .collocation import _grid_cached
-
     return _grid_cached(tuple(float(e) for e in grid.edges), n)
 
 
@@ -738,9 +858,20 @@ def _check_common(beam, gravity, support, coupling, extensible, clamp_angle, opt
         options = SolverOptions()
     elif not isinstance(options, SolverOptions):
         raise ValueError(f"options must be a SolverOptions, got {options!r}.")
-    if options.nodes is not None and not (8 <= options.nodes <= 400):
-        raise ValueError(f"options.nodes must lie in [8, 400], got {options.nodes!r}.")
-    positive("options.tol", options.tol)
+    options.check()
+    d = len(make_grid(beam.length, beam.breakpoints(), n=8, max_domain=options.max_domain * beam.length).edges) - 1
+    n_max = options.nodes if options.nodes is not None else options.max_nodes
+    if d * 9 > MAX_TOTAL_NODES:
+        raise ValueError(
+            f"the beam has {d} smooth pieces (breakpoints of its profiles, max_domain): at least {9 * d} "
+            f"collocation nodes, more than {MAX_TOTAL_NODES}; use fewer cells or a larger max_domain."
+        )
+    if d * (n_max + 1) > MAX_TOTAL_NODES and options.nodes is not None:
+        raise ValueError(
+            f"options.nodes = {n_max} on this beam's {d} subdomains gives {d * (n_max + 1)} collocation nodes, "
+            f"more than {MAX_TOTAL_NODES} (a Newton iteration would take ~{(d * (n_max + 1) / 1e3) ** 3 * 0.1:.2g} s); "
+            "lower nodes or raise max_domain."
+        )
     return g, support, coupling, bool(extensible), th0, options
 
 
@@ -827,11 +958,11 @@ def _solve_path(beam, fields, g, support, coupling, extensible, th0, options, pr
             n_events = len(solver.events)
             ok, _ = solver.continue_to(Load(fld.Bx, fld.Bz, g))
             snapped = len(solver.events) > n_events
-            tail = solver.refine() if ok else float("nan")
+            tail, ver = solver.refine() if ok else (math.nan, math.nan)
         else:
-            snapped, tail = False, float("nan")
+            snapped, tail, ver = False, math.nan, math.nan
         now = time.perf_counter()
-        results.append(solver.result(ok, 0, snapped, fld, g, tail, wall_time=now - t_prev))
+        results.append(solver.result(ok, 0, snapped, fld, g, tail, ver, wall_time=now - t_prev))
         t_prev = now
     return results
 
@@ -911,8 +1042,8 @@ def solve_equilibrium(
         status = 0
         if ok:
             solver.theta, solver.load = th, load
-            tail = solver.refine()
+            tail, ver = solver.refine()
         else:
-            status, tail = 3, float("nan")
+            status, tail, ver = 3, math.nan, math.nan
             solver.load = load
-        return solver.result(ok, status, False, fld, g, tail, wall_time=time.perf_counter() - t_start)
+        return solver.result(ok, status, False, fld, g, tail, ver, wall_time=time.perf_counter() - t_start)
