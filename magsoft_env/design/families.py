@@ -114,6 +114,11 @@ class BasisProfile(Profile):
         object.__setattr__(self, "params", tuple(p.tolist()))
         object.__setattr__(self, "length", positive("BasisProfile length", self.length, unit="m"))
 
+    def spline_knots(self, length):
+        if self.family.kind != "spline":
+            return ()
+        return tuple(float(u) * self.length for u in self.family.knots[1:-1])
+
     def values(self, s, length):
         s = np.asarray(s, dtype=float)
         u = s.ravel() / self.length

@@ -151,6 +151,11 @@ class Beam:
                 merged.append(float(p))
         return tuple(merged)
 
+    def spline_knots(self) -> tuple[float, ...]:
+        """Interior spline knots (m) of the profiles (see :meth:`Profile.spline_knots`), sorted."""
+        pts = set(self.volume_fraction.spline_knots(self.length)) | set(self.magnetization.spline_knots(self.length))
+        return tuple(sorted(p for p in pts if 0.0 < p < self.length))
+
     def phi(self, s) -> np.ndarray:
         """Volume fraction phi(s); raises ValueError if any value sampled leaves [0, MAX_VOLUME_FRACTION].
 

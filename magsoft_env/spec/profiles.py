@@ -51,6 +51,13 @@ class Profile(ABC):
         """Interior arc lengths (m) where the profile is not smooth."""
         return ()
 
+    def spline_knots(self, length: float) -> tuple[float, ...]:
+        """Interior knots (m) of a cubic-spline profile, where its third derivative jumps (none here).
+
+        Solvers that need smooth pieces may cut there when the knots are few; a densely
+        sampled spline's jumps are small enough to ignore."""
+        return ()
+
     def check_covers(self, length: float, name: str) -> None:
         """Raise ValueError if this profile does not cover ``[0, length]``."""
         if self.length is not None and self.length < length * (1.0 - _COVER_RTOL):
@@ -261,6 +268,11 @@ class JigProfile(Profile):
 
     def breakpoints(self, length):
         return tuple(b for b in self.breaks if 0.0 < b < length)
+
+    def spline_knots(self, length):
+        if self.piecewise_constant:
+            return ()
+        return tuple(float(v) for ps, _ in self.pieces for v in ps[1:-1] if 0.0 < v < length)
 
 
 def jig_from_polyline(x, z) -> JigProfile:

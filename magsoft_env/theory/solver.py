@@ -15,7 +15,7 @@ import scipy.optimize
 from ..spec import Beam, Field, as_field, as_fields
 from ..spec.loading import check_loading
 from ..threads import single_threaded_blas
-from ..validate import choice, in_range, integer
+from ..validate import boolean, choice, in_range, integer
 from .collocation import Grid, _grid_cached, make_grid
 from .model import BeamModel, Load
 from .verify import equation_residual
@@ -38,6 +38,9 @@ MAX_REFINEMENTS = 12
 #: (folds and bifurcations passed by energy descent). Beyond them the segment fails with a message.
 MAX_STEPS = 4000
 MAX_JUMPS = 40
+#: Spline knots that become subdomain edges (where a cubic spline's third derivative jumps, the
+#: solution is only piecewise smooth); denser knot sets (a sampled jig function) are left alone.
+MAX_KNOT_EDGES = 64
 #: Refinement aims at this fraction of ``verify_tol``, so that an independent measurement of the
 #: residual (other points, other quadrature) also finds it below ``verify_tol``.
 VERIFY_MARGIN = 0.1
@@ -76,6 +79,10 @@ class SolverOptions:
         Largest equation residual between the nodes (rad) that a successful result may have
         (:mod:`magsoft_env.theory.verify`); the grid is refined (degree, then subdomains) until it
         holds, and a result that still exceeds it has status 4 and ``success=False``.
+    split_at_knots : bool
+        Cut subdomains at the knots of cubic-spline profiles when there are at most
+        ``MAX_KNOT_EDGES`` of them (the solution's fourth derivative jumps there); False leaves
+        them to the refinement (cheaper where the accuracy asked for is modest).
 
     Ranges (checked by :meth:`check`, which every solve calls before any work): ``nodes`` None
     or an integer in [8, 400]; ``max_nodes`` an integer in [8, 1000]; ``tol`` in [1e-15, 1e-6];
@@ -89,6 +96,7 @@ class SolverOptions:
     max_domain: float = 1.0
     min_step: float = 1e-5
     verify_tol: float = 1e-8
+    split_at_knots: bool = True
 
     def check(self) -> SolverOptions:
         """Raise ValueError naming the first option outside its range (see above); returns self."""
@@ -100,6 +108,7 @@ class SolverOptions:
         in_range("SolverOptions.max_domain", self.max_domain, 0.01, 1.0, unit="fraction of L")
         in_range("SolverOptions.min_step", self.min_step, 1e-12, 0.5, unit="fraction of a load segment")
         in_range("SolverOptions.verify_tol", self.verify_tol, 1e-14, 1e-2, unit="rad")
+        boolean("SolverOptions.split_at_knots", self.split_at_knots)
         return self
 
 
@@ -171,6 +180,8 @@ class EquilibriumResult:
         "field_T", "gravity", "converged"}``.
     min_eigenvalue : float
         (property) Smallest eigenvalue of the discrete second variation in units of EI/L^2.
+    min_eigenvalue_uncertainty : float
+        (property) Its change on a 1.5 times finer grid (EI/L^2): how well the grid resolves it.
     """
 
     success: bool
@@ -205,8 +216,21 @@ class EquilibriumResult:
     def min_eigenvalue(self) -> float:
         """Smallest eigenvalue of the discrete second variation in units of EI/L^2 (computed on
         first access; ``stable`` is decided without it, by a Cholesky test)."""
-        mdl, th, load, clamped = self._eig
+        mdl, th, load, clamped, _ = self._eig
         return mdl.min_eigen(th, load, clamped=clamped, vector=False)[0]
+
+    @cached_property
+    def min_eigenvalue_uncertainty(self) -> float:
+        """How far :attr:`min_eigenvalue` is from converged in the grid (EI/L^2): its change when
+        the same shape is evaluated on a grid of 1.5 times the degree (computed on first access).
+        The eigenvalue converges more slowly than the shape; a ``stable`` result whose eigenvalue
+        is smaller than this uncertainty is marginal."""
+        mdl, th, load, clamped, coupling = self._eig
+        grid = self._grid
+        finer = _regrid(grid, min(400, int(math.ceil(1.5 * grid.n))))
+        fine = _model(mdl.beam, finer, coupling, mdl.extensible)
+        lam = fine.min_eigen(grid.interpolate(th, finer.s), load, clamped=clamped, vector=False)[0]
+        return abs(float(lam) - float(self.min_eigenvalue))
 
     @property
     def length(self) -> float:
@@ -249,6 +273,8 @@ class EquilibriumResult:
             "max_strain": self.max_strain,
             "stable": bool(self.stable),
             "min_eigenvalue": self.min_eigenvalue,
+            "min_eigenvalue_uncertainty": self.min_eigenvalue_uncertainty,
+            "verification_rad": self.verification,
             "snap_through": bool(self.snap_through),
             "residual": self.residual,
             "nodes": self.nodes,
@@ -278,7 +304,7 @@ class _Solver:
         self.extensible = extensible
         self.theta0 = clamp_angle
         self.opt = options
-        bps = beam.breakpoints()
+        bps = _edges(beam, options.split_at_knots)
         edges = make_grid(beam.length, bps, n=8, max_domain=options.max_domain * beam.length).edges
         if options.nodes is not None:
             n = options.nodes
@@ -827,7 +853,7 @@ class _Solver:
             max_curvature=float(_amax(_abs(kappa))),
             max_strain=float(np.abs(eps).max()) if self.extensible else 0.0,
             stable=bool(stable),
-            _eig=(mdl, thc, load, clamped),
+            _eig=(mdl, thc, load, clamped, self.coupling),
             snap_through=snapped,
             field=field_,
             gravity=gravity,
@@ -841,6 +867,18 @@ class _Solver:
             _grid=grid,
             _full=(thc, x, z),
         )
+
+
+def _edges(beam: Beam, knots: bool = True) -> tuple[float, ...]:
+    """Interior subdomain edges: the beam's breakpoints, and its spline knots when they are few."""
+    knots = beam.spline_knots() if knots else ()
+    if not knots or len(knots) > MAX_KNOT_EDGES:
+        return beam.breakpoints()
+    merged: list[float] = []
+    for p in sorted({*beam.breakpoints(), *knots}):
+        if not merged or p - merged[-1] > 1e-9 * beam.length:
+            merged.append(p)
+    return tuple(merged)
 
 
 def _regrid(grid: Grid, n: int) -> Grid:
@@ -859,7 +897,8 @@ def _check_common(beam, gravity, support, coupling, extensible, clamp_angle, opt
     elif not isinstance(options, SolverOptions):
         raise ValueError(f"options must be a SolverOptions, got {options!r}.")
     options.check()
-    d = len(make_grid(beam.length, beam.breakpoints(), n=8, max_domain=options.max_domain * beam.length).edges) - 1
+    edges = _edges(beam, options.split_at_knots)
+    d = len(make_grid(beam.length, edges, n=8, max_domain=options.max_domain * beam.length).edges) - 1
     n_max = options.nodes if options.nodes is not None else options.max_nodes
     if d * 9 > MAX_TOTAL_NODES:
         raise ValueError(

@@ -52,25 +52,21 @@ def _gauss(q: int):
     return x, w, B
 
 
-def _panel_edges(beam, grid) -> np.ndarray:
-    L = beam.length
-    edges = {0.0, float(L), *map(float, grid.s), *beam.breakpoints()}
-    for prof in (beam.magnetization, beam.volume_fraction):
-        pieces = getattr(prof, "pieces", None)
-        if pieces:  # a spline jig: its knots, where the third derivative jumps
-            knots = [float(v) for ps, _ in pieces for v in np.asarray(ps) if 0.0 < v < L]
-            if len(knots) <= MAX_KNOT_EDGES:
-                edges.update(knots)
-    e = np.array(sorted(edges))
-    return e[np.concatenate([[True], np.diff(e) > 1e-12 * L])]
+def _extra_edges(beam) -> tuple[float, ...]:
+    """Panel edges a beam adds to its grid's nodes: breakpoints, and spline knots when they are few."""
+    knots = beam.spline_knots()  # where a spline's third derivative jumps
+    return tuple(sorted({*beam.breakpoints(), *(knots if len(knots) <= MAX_KNOT_EDGES else ())}))
 
 
-class _Points:
-    """Check points of one beam on one grid: positions, quadrature, beam coefficients there."""
+class _Panels:
+    """Gauss-Legendre panels between the nodes of one grid (and extra edges): positions, weights,
+    the interpolation matrix from nodal values. Shared by every beam on that grid."""
 
-    def __init__(self, beam, grid):
+    def __init__(self, grid, extra: tuple[float, ...]):
         x, w, B = _gauss(GAUSS_POINTS)
-        e = _panel_edges(beam, grid)
+        L = float(grid.edges[-1])
+        e = np.array(sorted({0.0, L, *map(float, grid.s), *extra}))
+        e = e[np.concatenate([[True], np.diff(e) > 1e-12 * L])]
         a, b = e[:-1, None], e[1:, None]
         half = 0.5 * (b - a)
         self.s = (0.5 * (a + b) + half * x[None, :]).ravel()  # (P q,)
@@ -78,6 +74,20 @@ class _Points:
         self.w = half * w[None, :]  # (P, q)
         self.B = B
         self.P, self.q = e.size - 1, GAUSS_POINTS
+        self.Ith = grid.interpolate(np.eye(grid.M), self.s)  # theta at the check points from nodal values
+
+
+@lru_cache(maxsize=64)
+def _panels(grid, extra: tuple[float, ...]) -> _Panels:
+    return _Panels(grid, extra)
+
+
+class _Points:
+    """Check points of one beam on one grid: the panels and the beam's coefficients there."""
+
+    def __init__(self, beam, grid):
+        pan = _panels(grid, _extra_edges(beam))
+        self.s, self.h, self.w, self.B, self.P, self.q, self.Ith = pan.s, pan.h, pan.w, pan.B, pan.P, pan.q, pan.Ith
         s = self.s
         self.EI = beam.bending_stiffness(s)
         self.EA = beam.axial_stiffness(s)
@@ -85,9 +95,9 @@ class _Points:
         beta = beam.beta(s)
         self.m, self.beta = m, beta
         self.mcos = m * np.cos(beta)
+        self.msin = m * np.sin(beta)
         # weight per unit g beyond s: rho A integrated from the tip, by the same panel quadrature
         self.W1 = self.beyond(beam.mass_per_length(s))
-        self.Ith = grid.interpolate(np.eye(grid.M), s)  # theta at the check points from nodal values
         self.length = float(beam.length)
 
     def beyond(self, g: np.ndarray) -> np.ndarray:
@@ -123,8 +133,7 @@ def load_density(pts: _Points, theta, Bx: float, Bz: float, g: float, *, couplin
     a = pts.mcos * (Bx * c + Bz * sn) - W * sn
     da = pts.mcos * (Bz * c - Bx * sn) - W * c
     if coupling == "rotated":
-        ms = pts.m * np.sin(pts.beta)
-        transverse = ms * (Bz * sn + Bx * c)  # d/dtheta of -m sin(beta) (B_z cos - B_x sin)
+        transverse = pts.msin * (Bz * sn + Bx * c)  # d/dtheta of -m sin(beta) (B_z cos - B_x sin)
     else:
         transverse = 0.0
     if extensible:
