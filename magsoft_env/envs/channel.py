@@ -7,6 +7,8 @@ from .crawl import MagSoftCrawlEnv
 
 #: Default gap between the beam's right end and the channel entrance (m).
 DEFAULT_ENTRANCE_GAP = 2e-3
+#: Largest gap accepted (m): a metre is a unit mistake (mm given as m).
+MAX_GAP = 1.0
 
 
 class MagSoftChannelEnv(MagSoftCrawlEnv):
@@ -39,8 +41,9 @@ class MagSoftChannelEnv(MagSoftCrawlEnv):
 
     ## Arguments
 
-    ``entrance_gap`` (m, default 2e-3), ``success_reward`` (default 100), and every argument
-    of ``MagSoftCrawl-v0``. Default ``crawl_mode="height"``.
+    ``entrance_gap`` (m, default 2e-3, in [0, 1]: the beam starts outside the box),
+    ``success_reward`` (default 100), and every argument of ``MagSoftCrawl-v0``. Default
+    ``crawl_mode="height"``.
 
     ## Version History
 
@@ -51,11 +54,18 @@ class MagSoftChannelEnv(MagSoftCrawlEnv):
 
     def __init__(self, robot: str = "paper-5a", *, entrance_gap: float = DEFAULT_ENTRANCE_GAP,
                  success_reward: float = 100.0, crawl_mode: str = "height", **kwargs):
-        from ..cases.gaits import gait_preset
-        from ..validate import finite_number, nonnegative
+        from ..cases.gaits import gait_preset, list_gaits
+        from ..validate import choice, finite_number, nonnegative
 
-        length = gait_preset(robot).beam.length if isinstance(robot, str) else 0.0
+        choice("robot", robot, list_gaits())
+        length = gait_preset(robot).beam.length
+        # the beam starts outside the box (a negative gap would start it inside)
         gap = finite_number("entrance_gap", entrance_gap, unit="m")
+        if not 0.0 <= gap <= MAX_GAP:
+            raise ValueError(
+                f"entrance_gap must lie in [0, {MAX_GAP:g}] m (a negative gap starts the beam inside the channel), "
+                f"got {entrance_gap!r}."
+            )
         self.success_reward = nonnegative("success_reward", success_reward)
         self.entrance_x = length + gap
         self.exit_x = self.entrance_x + CHANNEL_SIZE[0]

@@ -12,8 +12,10 @@ from gymnasium import spaces
 from ..cases.gaits import gait_preset, list_gaits
 from ..sim import PhaseShifted, Ramp, SimulationError, Simulator
 from ..sim.gait import gait_rod_options
+from ..sim.health import UnphysicalError, check_steps
+from ..sim.model import MAX_TIMESTEP
 from ..spec.drive import Waveparams
-from ..validate import choice, nonnegative, positive
+from ..validate import choice, finite_number, nonnegative, positive
 
 #: Default coil limit per axis (T): +-20 mT.
 DEFAULT_FIELD_LIMIT = 20e-3
@@ -114,6 +116,11 @@ class MagSoftCrawlEnv(gym.Env):
     - Truncation: the time limit (``max_episode_steps`` of the registered id: 250 steps = 5 s
       in field mode, 20 cycles in waveform mode), or an unstable simulation:
       ``info["truncation_reason"]`` holds the :class:`~magsoft_env.sim.SimulationError` text.
+      An unphysical one (a contact deeper than the beam's thickness, tunnelling through the
+      floor, a launch the field cannot power; docs/sim.md, "Physical checks") truncates the same
+      way, with ``info["unphysical"]`` = the reason and its figures in ``info``
+      (``penetration_m``, ``penetration_h``, ``step``, ``time_s``, ...). Every ``info`` carries
+      ``max_penetration`` (m), the deepest contact of the episode so far.
 
     ## Arguments
 
@@ -123,15 +130,15 @@ class MagSoftCrawlEnv(gym.Env):
     | ``action_mode`` | ``"field"`` | ``"field"`` or ``"waveform"`` |
     | ``field_limit`` | 0.02 | coil limit per axis (T) |
     | ``slew_rate`` | None | largest field change rate per axis (T/s); None: unlimited |
-    | ``ctrl_dt`` | 0.02 | control interval in field mode (s) |
-    | ``sim_dt`` | 2e-4 | simulation step (s) |
+    | ``ctrl_dt`` | 0.02 | control interval in field mode (s), >= ``sim_dt`` |
+    | ``sim_dt`` | 2e-4 | simulation step (s), in (0, 0.1]; at most 1e7 steps per env step |
     | ``segments`` | 20 | rod cells |
     | ``friction`` | 0.5 | rod-floor sliding friction |
     | ``target_direction`` | 1 | +1: reward motion along +x; -1: along -x |
     | ``forward_reward_weight`` | 1000 | (s/m) |
     | ``field_cost_weight`` | 0.1 | weight of the normalized field power |
     | ``crawl_mode`` | ``"rotation"`` | ``"rotation"``, ``"height"`` or ``"none"`` |
-    | ``max_link_rotation`` | 2 pi / 3 (120 deg) | crawl-mode rotation limit (rad) |
+    | ``max_link_rotation`` | 2 pi / 3 (120 deg) | crawl-mode rotation limit (rad), in (0, pi] |
     | ``max_height`` | 7.6e-3 | crawl-mode height limit (m) |
     | ``crawl_penalty`` | 10 | reward lost when the crawl limit is broken |
     | ``frequency_range`` | (0.5, 4) | waveform-mode frequencies (Hz) |
@@ -183,22 +190,38 @@ class MagSoftCrawlEnv(gym.Env):
             raise ValueError(f"field_limit must be <= 0.1 T (fields are in tesla: 20 mT is 0.02), got {field_limit!r}.")
         self.slew_rate = None if slew_rate is None else positive("slew_rate", slew_rate, unit="T/s")
         self.sim_dt = positive("sim_dt", sim_dt, unit="s")
+        if self.sim_dt > MAX_TIMESTEP:
+            raise ValueError(f"sim_dt must lie in (0, {MAX_TIMESTEP:g}] s, got {sim_dt!r}.")
         self.ctrl_dt = positive("ctrl_dt", ctrl_dt, unit="s")
-        self.n_substeps = max(1, int(round(self.ctrl_dt / self.sim_dt)))
-        if target_direction not in (1, -1):
+        if self.action_mode == "field" and self.sim_dt > self.ctrl_dt:
+            # one step would silently last sim_dt, not ctrl_dt
+            raise ValueError(f"sim_dt must be <= ctrl_dt ({self.ctrl_dt:g} s), got {sim_dt!r}.")
+        self.n_substeps = max(1, int(round(check_steps(
+            f"ctrl_dt / sim_dt = {self.ctrl_dt:g} s / {self.sim_dt:g} s per env step", self.ctrl_dt / self.sim_dt,
+            "Use a larger sim_dt or a smaller ctrl_dt."))))
+        if (isinstance(target_direction, (bool, np.bool_)) or not isinstance(target_direction, (int, np.integer))
+                or target_direction not in (1, -1)):
             raise ValueError(f"target_direction must be +1 or -1, got {target_direction!r}.")
         self.target_direction = int(target_direction)
         self.forward_reward_weight = nonnegative("forward_reward_weight", forward_reward_weight, unit="s/m")
         self.field_cost_weight = nonnegative("field_cost_weight", field_cost_weight)
         self.max_link_rotation = positive("max_link_rotation", max_link_rotation, unit="rad")
+        if self.max_link_rotation > math.pi:  # angles() lie in (-pi, pi]: a larger limit never ends a tumble
+            raise ValueError(f"max_link_rotation must lie in (0, pi] rad, got {max_link_rotation!r}.")
         self.max_height = positive("max_height", max_height, unit="m")
         self.crawl_penalty = nonnegative("crawl_penalty", crawl_penalty)
-        try:
-            f_lo, f_hi = (float(v) for v in frequency_range)
-        except (TypeError, ValueError):
-            raise ValueError(f"frequency_range must be (f_min, f_max) in Hz, got {frequency_range!r}.") from None
-        if not 0.0 < f_lo <= f_hi or not math.isfinite(f_hi):
+        if isinstance(frequency_range, (str, bytes)) or not hasattr(frequency_range, "__len__") \
+                or len(frequency_range) != 2:
+            raise ValueError(f"frequency_range must be (f_min, f_max) in Hz, got {frequency_range!r}.")
+        f_lo = finite_number("frequency_range[0]", frequency_range[0], unit="Hz")
+        f_hi = finite_number("frequency_range[1]", frequency_range[1], unit="Hz")
+        if not 0.0 < f_lo <= f_hi:
             raise ValueError(f"frequency_range must satisfy 0 < f_min <= f_max (Hz), got {frequency_range!r}.")
+        if self.action_mode == "waveform":
+            if 1.0 / f_hi < self.sim_dt:
+                raise ValueError(f"sim_dt must be <= the shortest period 1 / f_max ({1.0 / f_hi:g} s), got {sim_dt!r}.")
+            check_steps(f"1 / (f_min sim_dt) = 1 / ({f_lo:g} Hz x {self.sim_dt:g} s) per env step (one period)",
+                        1.0 / (f_lo * self.sim_dt), "Use a larger f_min or a larger sim_dt.")
         self.frequency_range = (f_lo, f_hi)
         self.clock_frequency = positive("clock_frequency", clock_frequency, unit="Hz")
         self.reset_noise_scale = nonnegative("reset_noise_scale", reset_noise_scale, unit="rad")
@@ -336,6 +359,9 @@ class MagSoftCrawlEnv(gym.Env):
             self._broken = True
             info = self._info(0.0)
             info.update(truncation_reason=str(err), instability=err.quantity)
+            if isinstance(err, UnphysicalError):  # penetration, tunnelling or launch: the reason and its figures
+                info.update(err.figures)
+                info["unphysical"] = err.reason
             return self._last_obs.copy(), 0.0, False, True, info
         com = self.com_position()
         self._com_vel = (com - self._com) / duration
@@ -387,7 +413,7 @@ class MagSoftCrawlEnv(gym.Env):
             "reward_success": float(success), "reward": float(reward),
             "x_position": float(self._com[0]), "z_position": float(self._com[1]),
             "x_velocity": float(self._com_vel[0]), "field": self._field.copy(), "time": self.sim.time,
-            "is_success": self._is_success(),
+            "is_success": self._is_success(), "max_penetration": self.sim.max_penetration,
         }
 
     def open_loop_action(self, t: float, wave: Waveparams | None = None) -> np.ndarray:

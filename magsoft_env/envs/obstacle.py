@@ -7,6 +7,8 @@ from .crawl import MagSoftCrawlEnv
 
 #: Default gap between the beam's right end and the block's left face (m).
 DEFAULT_OBSTACLE_GAP = 2e-3
+#: Largest gap accepted (m): a metre is a unit mistake (mm given as m).
+MAX_GAP = 1.0
 
 
 class MagSoftObstacleEnv(MagSoftCrawlEnv):
@@ -37,8 +39,9 @@ class MagSoftObstacleEnv(MagSoftCrawlEnv):
 
     ## Arguments
 
-    ``obstacle_gap`` (m, default 2e-3), ``success_reward`` (default 100), and every argument
-    of ``MagSoftCrawl-v0``. Default robot ``"paper-5b"`` (the paper's climber).
+    ``obstacle_gap`` (m, default 2e-3, in [h/2, 1]: h/2 = 0.565 mm, where the block's face
+    touches the resting beam's rounded end), ``success_reward`` (default 100), and every
+    argument of ``MagSoftCrawl-v0``. Default robot ``"paper-5b"`` (the paper's climber).
 
     ## Version History
 
@@ -49,11 +52,21 @@ class MagSoftObstacleEnv(MagSoftCrawlEnv):
 
     def __init__(self, robot: str = "paper-5b", *, obstacle_gap: float = DEFAULT_OBSTACLE_GAP,
                  success_reward: float = 100.0, **kwargs):
-        from ..cases.gaits import gait_preset
-        from ..validate import finite_number, nonnegative
+        from ..cases.gaits import gait_preset, list_gaits
+        from ..validate import choice, finite_number, nonnegative
 
-        length = gait_preset(robot).beam.length if isinstance(robot, str) else 0.0
+        choice("robot", robot, list_gaits())
+        beam = gait_preset(robot).beam
+        length = beam.length
+        # the rod's colliders (radius h/2) reach h/2 past its end: a block face nearer than that
+        # would start inside the resting beam
+        lo = 0.5 * beam.thickness
         gap = finite_number("obstacle_gap", obstacle_gap, unit="m")
+        if not lo <= gap <= MAX_GAP:
+            raise ValueError(
+                f"obstacle_gap must lie in [{lo:g}, {MAX_GAP:g}] m (at least h/2 = {lo * 1e3:.3g} mm: a nearer block "
+                f"would cut into the resting beam's rounded end), got {obstacle_gap!r}."
+            )
         self.success_reward = nonnegative("success_reward", success_reward)
         self.obstacle_x = length + gap
         self.clear_x = self.obstacle_x + OBSTACLE_SIZE[0]

@@ -10,6 +10,8 @@ import numpy as np
 from gymnasium import spaces
 
 from ..sim import RodOptions, SimulationError, Simulator
+from ..sim.health import check_steps
+from ..sim.model import MAX_TIMESTEP
 from ..spec import Beam
 from ..validate import nonnegative, positive
 
@@ -84,8 +86,8 @@ class MagSoftShapeEnv(gym.Env):
     | ``field_limit`` | 0.02 | coil limit per axis (T) |
     | ``target_field`` | 0.01 | targets come from fields in this box per axis (T) |
     | ``slew_rate`` | None | largest field change rate per axis (T/s) |
-    | ``ctrl_dt`` | 0.05 | control interval (s) |
-    | ``sim_dt`` | 1e-3 | simulation step (s), discrete integrator |
+    | ``ctrl_dt`` | 0.05 | control interval (s), >= ``sim_dt`` |
+    | ``sim_dt`` | 1e-3 | simulation step (s), discrete integrator, in (0, 0.1]; at most 1e7 steps per env step |
     | ``segments`` | 20 | rod cells |
     | ``position_weight``, ``angle_weight``, ``field_cost_weight`` | 1, 0.2, 0.01 | reward weights |
     | ``success_tolerance`` | 1e-3 | tip position tolerance (m) for ``is_success`` |
@@ -129,7 +131,13 @@ class MagSoftShapeEnv(gym.Env):
         self.slew_rate = None if slew_rate is None else positive("slew_rate", slew_rate, unit="T/s")
         self.ctrl_dt = positive("ctrl_dt", ctrl_dt, unit="s")
         self.sim_dt = positive("sim_dt", sim_dt, unit="s")
-        self.n_substeps = max(1, int(round(self.ctrl_dt / self.sim_dt)))
+        if self.sim_dt > MAX_TIMESTEP:
+            raise ValueError(f"sim_dt must lie in (0, {MAX_TIMESTEP:g}] s, got {sim_dt!r}.")
+        if self.sim_dt > self.ctrl_dt:  # one step would silently last sim_dt, not ctrl_dt
+            raise ValueError(f"sim_dt must be <= ctrl_dt ({self.ctrl_dt:g} s), got {sim_dt!r}.")
+        self.n_substeps = max(1, int(round(check_steps(
+            f"ctrl_dt / sim_dt = {self.ctrl_dt:g} s / {self.sim_dt:g} s per env step", self.ctrl_dt / self.sim_dt,
+            "Use a larger sim_dt or a smaller ctrl_dt."))))
         self.position_weight = nonnegative("position_weight", position_weight)
         self.angle_weight = nonnegative("angle_weight", angle_weight)
         self.field_cost_weight = nonnegative("field_cost_weight", field_cost_weight)
@@ -139,6 +147,9 @@ class MagSoftShapeEnv(gym.Env):
             raise ValueError(
                 f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}."
             )
+        for name, v in (("width", width), ("height", height)):
+            if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) or not 16 <= v <= 4096:
+                raise ValueError(f"{name} must be an integer number of pixels in [16, 4096], got {v!r}.")
         self.render_mode = render_mode
         self.width, self.height = int(width), int(height)
         self.beam = Beam(length=positive("length", length, unit="m"), width=5e-3, thickness=1.13e-3,

@@ -17,7 +17,17 @@ import numpy as np
 from mujoco import batch as mjbatch
 
 from ..spec import Beam
-from .health import STABILITY_HINT, WARNING_IDS, SimulationError, new_warning, runaway, runaway_hint
+from .health import (
+    MAX_STEPS,
+    STABILITY_HINT,
+    WARNING_IDS,
+    SimulationError,
+    UnphysicalError,
+    check_steps,
+    new_warning,
+    runaway,
+    runaway_hint,
+)
 from .simulator import Simulator
 from .waveforms import as_waveform
 
@@ -42,7 +52,11 @@ class RodBatch:
     end of every :meth:`step` call: a MuJoCo warning (bad qacc, qvel or qpos, full buffers), a
     non-finite state or a kinetic energy above 100 x the simulation's energy scale raises
     :class:`SimulationError` naming the step and the simulations (``quantity`` lists their
-    ids). A simulation MuJoCo fails on is kept at its state before the call.
+    ids). A simulation MuJoCo fails on is kept at its state before the call. In the contact
+    scenes every step also checks the contact penetration of every simulation against the
+    template's ``penetration_limit`` (as :class:`Simulator`; :class:`UnphysicalError` naming the
+    simulations); :attr:`max_penetration` records the deepest contact of each. The
+    simulator's tunnelling and energy-balance checks are not run here.
 
     Examples
     --------
@@ -57,8 +71,10 @@ class RodBatch:
 
     def __init__(self, beam: Beam, options=None, *, nsim: int = 16, nthread: int = 1, check_every: int = 50):
         for name, v, lo in (("nsim", nsim, 1), ("nthread", nthread, 0), ("check_every", check_every, 1)):
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
+            if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) or v < lo:
                 raise ValueError(f"{name} must be an integer >= {lo}, got {v!r}.")
+        if nsim > MAX_STEPS:
+            raise ValueError(f"nsim must be <= {MAX_STEPS:.0e}, got {nsim!r}.")
         # one Simulator holds the model, the piece tables and the coefficient helpers
         self.template = Simulator(beam, options)
         t = self.template
@@ -71,6 +87,11 @@ class RodBatch:
         self._xpos = self.batch.bind("xpos")
         self._qfrc = self.batch.bind("qfrc_applied")
         self._M = self.batch.bind("M")  # mass matrices (MuJoCo's sparse layout)
+        self._contact = t._contact
+        if self._contact:  # the template's contact sensors, one row per simulation
+            sd = self.batch.bind("sensordata")
+            self._floor_depth = sd[:, t._sensor_adr]
+            self._scene_depth = sd[:, t._feature_adr] if t._feature else None
         self._b0, self._b1 = t._b0, t._b1
         self._fields = np.zeros((self.nsim, 2))
         self._waveforms = None
@@ -93,6 +114,35 @@ class RodBatch:
         self.time = 0.0
         self.nstep = 0
         self._warn0 = self._warning_counts()
+        self._min_dist = np.zeros(self.nsim)  # deepest contact distance of each simulation (m)
+        self._dist_limit = np.full(self.nsim, -self.template.penetration_limit)
+        if self._contact and self._scene_depth is not None:  # a start that overlaps a feature, as Simulator
+            self._dist_limit += np.minimum(np.asarray(self._scene_depth), 0.0)
+
+    @property
+    def max_penetration(self) -> np.ndarray:
+        """Deepest rod contact of every simulation since the last reset (m), shape ``(nsim,)``."""
+        return 0.0 - np.minimum(self._min_dist, 0.0)  # never -0.0
+
+    def _depth_now(self) -> np.ndarray:
+        d = np.array(self._floor_depth)
+        if self._scene_depth is not None:
+            np.minimum(d, self._scene_depth, out=d)
+        return d
+
+    def _fail_penetration(self, dist: np.ndarray) -> None:
+        bad = np.nonzero(dist < self._dist_limit)[0]
+        depth, h = -float(dist[bad[0]]), self.template.beam.thickness
+        ids = [int(i) for i in bad]
+        reason = (f"contact penetration {depth * 1e3:.3g} mm = {depth / h:.3g} h (limit "
+                  f"{-float(self._dist_limit[bad[0]]) * 1e3:.3g} mm) in simulation {ids[0]}")
+        raise UnphysicalError(
+            f"unphysical motion at step {self.nstep} (t = {self.time:.6g} s) in simulations {ids}: {reason}. "
+            "The contact is not resolved: use a smaller timestep or a gentler field.",
+            cause="penetration", reason=reason,
+            figures={"step": self.nstep, "time_s": self.time, "penetration_m": depth, "penetration_h": depth / h},
+            step=self.nstep, time=self.time, quantity=f"penetration in simulations {ids}", value=depth,
+        )
 
     def _warning_counts(self) -> np.ndarray:
         return np.asarray(self.batch.warning)[:, WARNING_IDS, 1].copy()
@@ -169,7 +219,10 @@ class RodBatch:
             If MuJoCo failed on a simulation or warned about it, its state turned non-finite or
             its kinetic energy ran away (see the class notes).
         """
+        if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer)) or n < 0:
+            raise ValueError(f"n must be a non-negative integer number of steps, got {n!r}.")
         n = int(n)
+        check_steps(f"n x nsim = {n} x {self.nsim}", n * self.nsim, "Call step() repeatedly for a longer run.")
         t = self.template
         nv = self.model.nv
         gzx = t._gzx
@@ -188,6 +241,7 @@ class RodBatch:
             # as Simulator._set_coefficients: G = B_x G_z - B_z G_x
             G = [np.subtract(bx * gzx[:, :nv], bz * gzx[:, nv:]) for bx, bz in self._fields]
         stage = mujoco.mjtStage.mjSTAGE_VEL
+        contact = self._contact
         # MuJoCo's warning text is captured (not printed or logged to MUJOCO_LOG.TXT), as in
         # Simulator.step; a warning ends the loop at the step that raised it
         prev = mujoco.get_mju_user_warning()
@@ -214,6 +268,12 @@ class RodBatch:
                 self.nstep += 1
                 if warned:
                     break
+                if contact:  # every simulation's deepest contact of the state the step started from
+                    dist = self._depth_now()
+                    np.minimum(self._min_dist, dist, out=self._min_dist)
+                    if np.any(dist < self._dist_limit):
+                        self._check(energy=False, text=warned)  # a MuJoCo warning or NaN comes first
+                        self._fail_penetration(dist)
                 if self.nstep % self.check_every == 0:
                     self._check(energy=True)
         finally:

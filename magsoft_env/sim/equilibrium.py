@@ -9,6 +9,7 @@ import numpy as np
 
 from ..spec import Beam, Field, as_field, as_fields
 from ..validate import nonnegative, positive
+from .health import MAX_STEPS, check_steps
 from .model import RodOptions
 from .simulator import SettleResult, Simulator
 
@@ -116,28 +117,57 @@ def mujoco_path(
     max_field_step : float
         Largest field change (T) between settles, > 0.
     timestep : float
-        Step (s) used while settling; with the ``discrete`` integrator large steps are stable.
+        Step (s) used while settling, in (0, 0.1]; with the ``discrete`` integrator large steps
+        are stable.
     integrator : str
         MuJoCo integrator (see :class:`RodOptions`).
     tol : float
-        Static-residual tolerance (rad).
+        Static-residual tolerance (rad), > 0.
     max_time : float
-        Simulated-time budget per settle (s).
+        Simulated-time budget per settle (s), > 0.
     grading : float or None
         Last / first cell length (see :class:`RodOptions`); 1 gives equal cells; ``None``:
         the cantilever default (1.5, finer at the clamp).
+
+    Every argument is checked before any work, and so is the work: a path segment (from one
+    field to the next) may take at most :data:`~magsoft_env.sim.health.MAX_STEPS` steps in the
+    worst case (its settles times ``max_time / timestep`` each), else a ValueError says how
+    much work it would be and what to change.
 
     Returns
     -------
     list of SimEquilibrium
     """
+    if not isinstance(beam, Beam):
+        raise ValueError(f"beam must be a Beam, got {type(beam).__name__}.")
     flist = as_fields(fields)
     nonnegative("gravity", gravity, unit="m/s^2")
     mstep = positive("max_field_step", max_field_step, unit="T")
+    tol = positive("tol", tol, unit="rad")
+    max_time = positive("max_time", max_time, unit="s")
+    if timestep is not None:
+        positive("timestep", timestep, unit="s")
     opts = RodOptions(
         segments=segments, scene="cantilever", integrator=integrator, timestep=timestep, gravity=gravity,
         clamp_angle=clamp_angle, grading=grading,
     )
+    # the worst-case work, before any: every settle may use its whole budget
+    budget = math.ceil(check_steps(f"max_time / timestep = {max_time:g} s / {opts.timestep:g} s per settle",
+                                   max_time / opts.timestep, "Use a larger timestep or a shorter max_time."))
+    prev = np.zeros(2)
+    substeps = []
+    for f in flist:
+        target = f.as_array()
+        n = max(1, math.ceil(float(np.max(np.abs(target - prev))) / mstep))
+        if n * budget > MAX_STEPS:
+            need = float(np.max(np.abs(target - prev))) * budget / MAX_STEPS
+            check_steps(
+                f"the path segment to ({f.Bx * 1e3:.4g}, {f.Bz * 1e3:.4g}) mT: {n:.3g} settles (max_field_step = "
+                f"{mstep:g} T) x up to {budget} steps each", float(n) * budget,
+                f"Use max_field_step >= {need:.3g} T, or fewer steps per settle (larger timestep, shorter max_time).",
+            )
+        substeps.append(n)
+        prev = target
     sim = Simulator(beam, opts)
     steps = 0
     r: SettleResult = sim.settle(tol=tol, max_time=max_time)
@@ -145,9 +175,8 @@ def mujoco_path(
     ok, msgs = r.success, [] if r.success else [f"gravity: {r.message}"]
     out = []
     prev = np.zeros(2)
-    for f in flist:
+    for f, n in zip(flist, substeps, strict=True):
         target = f.as_array()
-        n = max(1, math.ceil(np.max(np.abs(target - prev)) / mstep))
         for k in range(1, n + 1):
             sim.set_field(prev + (target - prev) * k / n)
             r = sim.settle(tol=tol, max_time=max_time)

@@ -1,6 +1,7 @@
 """Health checks of a MuJoCo rod simulation, shared by :class:`~magsoft_env.sim.Simulator` and
-:class:`~magsoft_env.sim.RodBatch`: the error type, the MuJoCo warnings that stop a run, the
-runaway-energy bound.
+:class:`~magsoft_env.sim.RodBatch`: the error types, the MuJoCo warnings that stop a run, the
+runaway-energy bound, the physical bounds of the contact scenes (penetration, tunnelling,
+launch) and the work bound of one call.
 """
 
 from __future__ import annotations
@@ -25,6 +26,21 @@ WARNING_IDS = np.array([int(w) for w in WARNINGS])
 RUNAWAY_FACTOR = 100.0
 #: What to change when a check fails.
 STABILITY_HINT = "Use a smaller timestep or integrator='discrete'."
+#: Contact scenes: a contact penetration deeper than this many beam thicknesses h is unphysical:
+#: the beam has sunk its whole thickness into the floor (for the radius-h/2 colliders, the
+#: centreline is h/2 below the surface). Chosen from measurements (docs/sim.md, "Physical checks"):
+#: the gaits at their 0.1-0.2 ms steps reach at most 0.08 h; the soft default contact (2 ms at
+#: 1 ms) reaches 0.79 h in current uses (the cosine-jig crawler at 2 mT), 1.1-1.6 h when the beam
+#: tumbles at 2-3 mT, and the silent failure of issue 12 (100 mT) 2.1 h in its first step.
+PENETRATION_LIMIT = 1.0
+#: Contact scenes: energy created by the numerics (total mechanical + magnetic energy above its
+#: start plus the work the field did), as a fraction of the energy scale, above which the run is a
+#: launch the field cannot have powered. Resolved runs stay below 1e-6 (docs/sim.md).
+ENERGY_DRIFT_LIMIT = 0.01
+#: Most simulation steps one call may take (a step, a run, a settle, an environment step, a segment
+#: of an equilibrium path): about 5-10 minutes of stepping. A setting that needs more is refused up
+#: front with the figures, so that no input makes a call run for hours.
+MAX_STEPS = 10_000_000
 
 
 class SimulationError(RuntimeError):
@@ -50,6 +66,39 @@ class SimulationError(RuntimeError):
         self.value = value
 
 
+class UnphysicalError(SimulationError):
+    """The motion broke a physical bound of a contact scene; stepping stopped.
+
+    Attributes (besides :class:`SimulationError`'s)
+    ----------
+    cause : str
+        ``"penetration"`` (a contact deeper than :data:`PENETRATION_LIMIT` x h), ``"tunnelling"``
+        (the centreline below the floor by more than that) or ``"launch"`` (energy the field
+        cannot have supplied, :data:`ENERGY_DRIFT_LIMIT`).
+    reason : str
+        One line: the cause and its figures (what an environment puts in ``info["unphysical"]``).
+    figures : dict
+        The figures, SI with the unit in the key (``"penetration_m"``, ``"penetration_h"``,
+        ``"energy_drift"``, ``"step"``, ``"time_s"``, ...).
+    """
+
+    def __init__(self, message: str, *, cause: str, reason: str, figures: dict, step: int, time: float,
+                 quantity: str, value: float = math.nan):
+        super().__init__(message, step=step, time=time, quantity=quantity, value=value)
+        self.cause = cause
+        self.reason = reason
+        self.figures = dict(figures)
+
+
+def check_steps(what: str, steps: float, change: str):
+    """``steps`` (unchanged), or a ValueError when it exceeds :data:`MAX_STEPS` (or is NaN):
+    ``what`` names the work (e.g. "ctrl_dt / sim_dt"), ``change`` says what to change."""
+    if not steps <= MAX_STEPS:
+        raise ValueError(f"{what} = {float(steps):.3g} simulation steps, more than the limit of "
+                         f"{MAX_STEPS:.0e} (MAX_STEPS). {change}")
+    return steps
+
+
 def new_warning(counts: np.ndarray, baseline: np.ndarray) -> str | None:
     """The description of the first stopping warning whose count grew past ``baseline``, else None.
 
@@ -71,5 +120,6 @@ def runaway_hint(energy_scale: float, where: str = "") -> str:
     return f"It exceeds {RUNAWAY_FACTOR:g} x the energy scale {energy_scale:.3g} J{where}. {STABILITY_HINT}"
 
 
-__all__ = ["RUNAWAY_FACTOR", "STABILITY_HINT", "WARNINGS", "WARNING_IDS", "SimulationError", "new_warning",
-           "runaway", "runaway_hint"]
+__all__ = ["ENERGY_DRIFT_LIMIT", "MAX_STEPS", "PENETRATION_LIMIT", "RUNAWAY_FACTOR", "STABILITY_HINT", "WARNINGS",
+           "WARNING_IDS", "SimulationError", "UnphysicalError", "check_steps", "new_warning", "runaway",
+           "runaway_hint"]

@@ -42,6 +42,19 @@ CONES = {"pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL, "elliptic": mujoco.mjtCon
 DEFAULT_CANTILEVER_GRADING = 1.5
 #: Default timestep of every scene (s).
 DEFAULT_TIMESTEP = 1e-3
+#: Range of ``RodOptions.segments``.
+MAX_SEGMENTS = 1000
+#: Largest ``RodOptions.timestep`` (s).
+MAX_TIMESTEP = 0.1
+#: Largest ``RodOptions.gravity`` (m/s^2), about 100 g.
+MAX_GRAVITY = 1000.0
+#: Largest ``RodOptions.solver_iterations`` and ``noslip_iterations`` (per step).
+MAX_SOLVER_ITERATIONS = 10_000
+#: Names of the contact sensors of the contact scenes (MuJoCo ``contact`` sensors, ``reduce="mindist"``):
+#: the signed distance (m) of the deepest rod contact with the floor, and (channel, obstacle) with
+#: anything in the scene; negative when penetrating, 0 without contact.
+CONTACT_SENSOR = "rod_floor_depth"
+FEATURE_SENSOR = "rod_scene_depth"
 #: Default contact ``solref`` time constant of the contact scenes (s): twice the default
 #: timestep, the stiffest contact a 1 ms step resolves (MuJoCo's ``refsafe`` rule), fixed so
 #: that smaller timesteps converge to the same contact model (docs/sim.md).
@@ -72,7 +85,7 @@ class RodOptions:
 
         .. versionchanged:: 0.3 the contact scenes' default was 0.1 ms.
     gravity : float
-        Gravitational acceleration along -z (m/s^2); 0 turns gravity off.
+        Gravitational acceleration along -z (m/s^2), in [0, 1000]; 0 turns gravity off.
     clamp_angle : float
         Cantilever clamp angle from +x toward +z (rad); for floor scenes the initial angle.
     retardation_time : float
@@ -118,9 +131,9 @@ class RodOptions:
     cone : {"pyramidal", "elliptic"}
         Friction cone (MuJoCo ``opt.cone``).
     noslip_iterations : int
-        MuJoCo no-slip solver iterations (0: off).
+        MuJoCo no-slip solver iterations (0: off), in [0, 10000].
     solver_iterations : int
-        Main constraint-solver iterations (MuJoCo ``opt.iterations``), >= 1.
+        Main constraint-solver iterations (MuJoCo ``opt.iterations``), in [1, 10000].
     solver_tolerance : float
         Main constraint-solver tolerance (MuJoCo ``opt.tolerance``), >= 0.
     contact_impedance : (float, float) or None
@@ -157,25 +170,32 @@ class RodOptions:
     contact_pairs: bool = True
 
     def __post_init__(self):
-        seg = self.segments
-        if isinstance(seg, bool) or not isinstance(seg, (int, np.integer)) or not 2 <= seg <= 1000:
-            raise ValueError(f"RodOptions.segments must be an integer in [2, 1000], got {seg!r}.")
+        # every field checked for its type and documented range, nothing built yet
+        _integer("RodOptions.segments", self.segments, 2, MAX_SEGMENTS)
         choice("RodOptions.scene", self.scene, SCENES)
         choice("RodOptions.integrator", self.integrator, INTEGRATORS)
         if self.timestep is None:
             object.__setattr__(self, "timestep", DEFAULT_TIMESTEP)
         dt = positive("RodOptions.timestep", self.timestep, unit="s")
-        if dt > 0.1:
-            raise ValueError(f"RodOptions.timestep must lie in (0, 0.1] s, got {self.timestep!r}.")
-        nonnegative("RodOptions.gravity", self.gravity, unit="m/s^2")
+        if dt > MAX_TIMESTEP:
+            raise ValueError(f"RodOptions.timestep must lie in (0, {MAX_TIMESTEP:g}] s, got {self.timestep!r}.")
+        g = nonnegative("RodOptions.gravity", self.gravity, unit="m/s^2")
+        if g > MAX_GRAVITY:
+            raise ValueError(f"RodOptions.gravity must lie in [0, {MAX_GRAVITY:g}] m/s^2, got {self.gravity!r}.")
         finite_number("RodOptions.clamp_angle", self.clamp_angle, unit="rad")
         nonnegative("RodOptions.retardation_time", self.retardation_time, unit="s")
         nonnegative("RodOptions.friction", self.friction)
-        if not isinstance(self.contact_refsafe, (bool, np.bool_)):
-            raise ValueError(f"RodOptions.contact_refsafe must be a bool, got {self.contact_refsafe!r}.")
-        if self.contact_timeconst is not None and not (
-                isinstance(self.contact_timeconst, str) and self.contact_timeconst == "material"):
-            positive("RodOptions.contact_timeconst", self.contact_timeconst, unit="s")
+        for name in ("contact_refsafe", "render", "contact_pairs"):
+            v = getattr(self, name)
+            if not isinstance(v, (bool, np.bool_)):
+                raise ValueError(f"RodOptions.{name} must be a bool, got {v!r}.")
+        tc = self.contact_timeconst
+        if isinstance(tc, str) and tc != "material":
+            raise ValueError(
+                f"RodOptions.contact_timeconst must be a time constant > 0 (s), 'material' or None, got {tc!r}."
+            )
+        if tc is not None and not isinstance(tc, str):
+            positive("RodOptions.contact_timeconst", tc, unit="s")
         positive("RodOptions.contact_dampratio", self.contact_dampratio)
         if self.feature_x is not None:
             finite_number("RodOptions.feature_x", self.feature_x, unit="m")
@@ -187,17 +207,15 @@ class RodOptions:
         choice("RodOptions.base", self.base, BASES)
         choice("RodOptions.contact_geom", self.contact_geom, CONTACT_GEOMS)
         choice("RodOptions.cone", self.cone, CONES)
-        for name, lo in (("noslip_iterations", 0), ("solver_iterations", 1)):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
-                raise ValueError(f"RodOptions.{name} must be an integer >= {lo}, got {v!r}.")
+        # bounded: with tolerance 0 MuJoCo runs every iteration of every step
+        _integer("RodOptions.noslip_iterations", self.noslip_iterations, 0, MAX_SOLVER_ITERATIONS)
+        _integer("RodOptions.solver_iterations", self.solver_iterations, 1, MAX_SOLVER_ITERATIONS)
         nonnegative("RodOptions.solver_tolerance", self.solver_tolerance)
-        if not isinstance(self.contact_pairs, (bool, np.bool_)):
-            raise ValueError(f"RodOptions.contact_pairs must be a bool, got {self.contact_pairs!r}.")
         if self.contact_impedance is not None:
             imp = self.contact_impedance
             if (not isinstance(imp, (tuple, list)) or len(imp) != 2
-                    or not all(isinstance(v, (int, float)) and 0.0 < v < 1.0 for v in imp) or imp[0] > imp[1]):
+                    or not all(isinstance(v, (int, float, np.floating)) and not isinstance(v, (bool, np.bool_))
+                               and 0.0 < v < 1.0 for v in imp) or imp[0] > imp[1]):
                 raise ValueError(
                     "RodOptions.contact_impedance must be (d_min, d_max) with 0 < d_min <= d_max < 1, "
                     f"got {imp!r}."
@@ -234,6 +252,13 @@ class RodModel:
     base_qpos : ndarray, shape (3,) or (0,)
         qpos addresses of the planar base joints (slide x, slide z, hinge) in floor scenes;
         they move the left end of the base piece ``options.base_piece``.
+    contact_sensor : int
+        Contact scenes: ``sensordata`` address of the signed distance (m, negative = penetration;
+        0 without contact) of the deepest rod contact with the floor (:data:`CONTACT_SENSOR`); -1
+        in the cantilever.
+    feature_sensor : int
+        Channel and obstacle scenes: the same for the deepest rod contact with anything
+        (:data:`FEATURE_SENSOR`); -1 otherwise.
     """
 
     model: mujoco.MjModel
@@ -244,6 +269,14 @@ class RodModel:
     hinge_qpos: np.ndarray
     hinge_dof: np.ndarray
     base_qpos: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+    contact_sensor: int = -1
+    feature_sensor: int = -1
+
+
+def _integer(name: str, value, lo: int, hi: int) -> int:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or not lo <= value <= hi:
+        raise ValueError(f"{name} must be an integer in [{lo}, {hi}], got {value!r}.")
+    return int(value)
 
 
 def material_contact_timeconst(beam: Beam) -> float:
@@ -253,7 +286,11 @@ def material_contact_timeconst(beam: Beam) -> float:
     cell of about ``E w ds / h`` on a cell mass ``rho w h ds`` has this time constant, so it is
     the default contact ``solref`` time constant of floor scenes.
     """
-    s = beam._probe_points()
+    # the profiles' range probe (257 points plus both sides of every breakpoint), computed here
+    # rather than through a private Beam helper, so that this figure does not move with it
+    L = beam.length
+    bps = np.asarray(beam.breakpoints(), dtype=float)
+    s = np.unique(np.concatenate([np.linspace(0.0, L, 257), bps - 1e-9 * L, bps + 1e-9 * L]).clip(0.0, L))
     rho = beam.mass_per_length(s) / beam.area
     return float(np.min(beam.thickness * np.sqrt(rho / beam.youngs_modulus(s))))
 
@@ -409,6 +446,18 @@ def build_spec(beam: Beam, options: RodOptions) -> tuple[mujoco.MjSpec, RodDiscr
         for g in (*scene_geoms, *rod_geoms):
             g.contype = g.conaffinity = 0
 
+    if o.has_contact:
+        # the deepest rod contact each step, computed by MuJoCo in the position stage (cheap;
+        # read by the simulator's penetration check, changes nothing in the dynamics)
+        for name, ref in ((CONTACT_SENSOR, "floor"), (FEATURE_SENSOR, None)):
+            if ref is None and o.scene == "floor":
+                continue
+            sensor = spec.add_sensor(name=name, type=mujoco.mjtSensor.mjSENS_CONTACT,
+                                     objtype=mujoco.mjtObj.mjOBJ_XBODY, objname=f"piece{b}")
+            if ref is not None:
+                sensor.reftype, sensor.refname = mujoco.mjtObj.mjOBJ_GEOM, ref
+            sensor.intprm = [1 << int(mujoco.mjtConDataField.mjCONDATA_DIST), 1, 1]  # dist; mindist; 1 contact
+
     if o.render:
         world.add_light(name="light", pos=[0.5 * beam.length, -0.1, 0.1], dir=[0, 1, -1])
         world.add_camera(
@@ -478,9 +527,13 @@ def build_model(beam: Beam, options: RodOptions | None = None) -> RodModel:
     hinge_qpos = np.array([model.jnt_qposadr[j] for j in jids])
     hinge_dof = np.array([model.jnt_dofadr[j] for j in jids])
     base_qpos = np.zeros(0, dtype=int)
+    sensor = feature = -1
     if options.has_contact:
         base_qpos = np.array([
             model.jnt_qposadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, nm)]
             for nm in ("base_x", "base_z", "base_theta")
         ])
-    return RodModel(model, beam, options, disc, body_ids, hinge_qpos, hinge_dof, base_qpos)
+        sensor = int(model.sensor_adr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, CONTACT_SENSOR)])
+        if options.scene != "floor":
+            feature = int(model.sensor_adr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, FEATURE_SENSOR)])
+    return RodModel(model, beam, options, disc, body_ids, hinge_qpos, hinge_dof, base_qpos, sensor, feature)

@@ -10,10 +10,21 @@ import numpy as np
 
 from ..spec import Beam, Field, as_field
 from ..spec.field import MAX_FIELD
-from ..validate import positive
+from ..validate import finite_number, positive
 from . import magnetics
-from .health import STABILITY_HINT, WARNING_IDS, SimulationError, new_warning, runaway, runaway_hint
-from .model import RodModel, RodOptions, build_model
+from .health import (
+    ENERGY_DRIFT_LIMIT,
+    PENETRATION_LIMIT,
+    STABILITY_HINT,
+    WARNING_IDS,
+    SimulationError,
+    UnphysicalError,
+    check_steps,
+    new_warning,
+    runaway,
+    runaway_hint,
+)
+from .model import RodModel, RodOptions, build_model, contact_timeconst
 from .waveforms import Waveform, as_waveform
 
 #: field magnitude (T) below which the energy scale uses this floor instead
@@ -107,6 +118,15 @@ class Simulator:
     (MuJoCo's warnings; auto-reset is disabled), and kinetic energy above
     ``100 x`` the system's energy scale, raise :class:`SimulationError`.
 
+    The contact scenes are also held to physical bounds (:class:`UnphysicalError`, a
+    :class:`SimulationError`; docs/sim.md, "Physical checks"): every step, a contact deeper than
+    ``penetration_limit`` x the thickness h (MuJoCo's own contact sensor, read once per step);
+    at every energy check, the centreline more than that below the floor (tunnelling) and energy
+    the field cannot have supplied (a launch: the total energy above its start plus the field's
+    work, more than :data:`~magsoft_env.sim.health.ENERGY_DRIFT_LIMIT` of the energy scale).
+    The records :attr:`max_penetration`, :attr:`energy_drift` and :attr:`max_kinetic_ratio`
+    say of every run whether it stayed resolved.
+
     Parameters
     ----------
     beam : Beam
@@ -121,6 +141,10 @@ class Simulator:
     torque_every : int
         Recompute the magnetic couples every this many steps and hold them in between (1:
         every step). A speed shortcut whose error docs/sim.md measures.
+    penetration_limit : float
+        Contact scenes: the deepest contact allowed, in beam thicknesses (> 0; default
+        :data:`~magsoft_env.sim.health.PENETRATION_LIMIT` = 1 h; ``math.inf`` records the depth
+        without stopping).
 
     Examples
     --------
@@ -132,11 +156,18 @@ class Simulator:
 
     def __init__(
         self, beam: Beam, options: RodOptions | None = None, *, field=(0.0, 0.0), check_every: int = 50,
-        torque_every: int = 1,
+        torque_every: int = 1, penetration_limit: float = PENETRATION_LIMIT,
     ):
+        if not isinstance(beam, Beam):
+            raise ValueError(f"beam must be a Beam, got {type(beam).__name__}.")
+        if options is not None and not isinstance(options, RodOptions):
+            raise ValueError(f"options must be a RodOptions or None, got {type(options).__name__}.")
         for name, v in (("check_every", check_every), ("torque_every", torque_every)):
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+            if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) or v < 1:
                 raise ValueError(f"{name} must be a positive integer, got {v!r}.")
+        if not (isinstance(penetration_limit, (int, float, np.floating)) and penetration_limit == math.inf):
+            positive("penetration_limit", penetration_limit, unit="beam thicknesses")
+        as_field(field, "field")  # checked before the model is built
         self.torque_every = int(torque_every)
         self.rod: RodModel = build_model(beam, options)
         self.model = self.rod.model
@@ -168,8 +199,61 @@ class Simulator:
         self._waveform: Waveform | None = None
         self._wf_t0 = 0.0
         self.nstep = 0
+        self._setup_physical_checks(float(penetration_limit))
         self.set_field(field)
         self.reset()
+
+    def _setup_physical_checks(self, limit: float) -> None:
+        o = self.options
+        self._contact = o.has_contact
+        h = self.beam.thickness
+        #: deepest contact allowed (m), and the signed-distance bound the step loop compares with
+        self.penetration_limit = limit * h
+        self._dist_limit = -self.penetration_limit
+        self._sensordata = self.data.sensordata if self._contact else np.zeros(1)
+        self._sensor_adr = max(self.rod.contact_sensor, 0)
+        self._feature = self.rod.feature_sensor >= 0  # channel, obstacle: contacts with anything
+        self._feature_adr = max(self.rod.feature_sensor, 0)
+        # energy balance (contact scenes, two-stage integrators, couples every step): the net
+        # magnetic moment (sum of R_i m_i, world x and z) is -v[nv + dof], -v[dof] of the
+        # generalized-couple products the waveform loop computes anyway (the base hinge turns
+        # every piece: S[:, dof] = -1), so the field's work costs two reads per step
+        self._C = np.ascontiguousarray(np.stack([self._cx_map().ravel(), self._cz_map().ravel()], axis=1))
+        self._energy_on = self._contact and self._two_stage and self.torque_every == 1
+        self._ix = self._iz = 0
+        if self._energy_on:
+            dof = int(self.model.jnt_dofadr[mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_JOINT, "base_theta")])
+            if not np.all(self._S[:, dof] == -1.0):
+                raise RuntimeError("the base hinge must turn every piece")  # guaranteed by build_model
+            self._iz, self._ix = dof, self.model.nv + dof
+        # the hinges' qpos / dof addresses as slices where they form one block (they do: the base
+        # joints first, then the hinges), with the stiffnesses in that order: views, not gathers
+        hq, hd = np.asarray(self._hinge_qpos), np.asarray(self._hinge_dof)
+        if (np.array_equal(np.sort(hq), np.arange(hq.min(), hq.min() + hq.size))
+                and np.array_equal(hd - hd.min(), hq - hq.min())):
+            q0, d0 = int(hq.min()), int(hd.min())
+            self._hq, self._hd = slice(q0, q0 + hq.size), slice(d0, d0 + hd.size)
+            self._hinge_k = np.zeros(hq.size)
+            self._hinge_k[hq - hq.min()] = self._k
+        else:
+            self._hq, self._hd, self._hinge_k = hq, hd, np.asarray(self._k, dtype=float)
+        self._mass_g = self.rod.disc.mass * o.gravity
+        self._mass_g_ids = np.ascontiguousarray(self._mass_g[self._order])  # body-id order: xipos[b0:b1]
+        self._tip_body = int(self._bodies[-1])
+        self._tc = contact_timeconst(self.beam, o) if self._contact else math.nan
+
+    def _cx_map(self) -> np.ndarray:
+        # (pieces in body-id order, 9): (R m)_x of each piece is xmat-row @ this row
+        mx, mz = self._m_body[self._order, 0], self._m_body[self._order, 2]
+        c = np.zeros((len(self._bodies), 9))
+        c[:, 0], c[:, 2] = mx, mz
+        return c
+
+    def _cz_map(self) -> np.ndarray:
+        mx, mz = self._m_body[self._order, 0], self._m_body[self._order, 2]
+        c = np.zeros((len(self._bodies), 9))
+        c[:, 6], c[:, 8] = mx, mz
+        return c
 
     # ------------------------------------------------------------------ state
     @property
@@ -196,13 +280,108 @@ class Simulator:
         return Field(float(self._B3[0]), float(self._B3[2]))
 
     def reset(self) -> None:
-        """Straight beam at rest (floor scenes: lying on the floor), time zero."""
+        """Straight beam at rest (floor scenes: lying on the floor), time zero; the records
+        (:attr:`max_penetration`, :attr:`energy_drift`, :attr:`max_kinetic_ratio`) start again."""
         mujoco.mj_resetData(self.model, self.data)
         self._warning_text.clear()
         self.nstep = 0
         self._wf_t0 = 0.0
         mujoco.mj_forward(self.model, self.data)
+        self._stale = False
         self._warn0 = self._warning_counts()
+        self._min_dist = 0.0  # most negative floor-contact distance seen (m)
+        self._pen_at = (0, 0.0)  # step and time of it
+        self._pen_hit = ""  # "", "floor" or "scene": which bound was broken
+        # a start that already overlaps a scene feature (feature_x through the resting beam) is the
+        # caller's geometry, not the dynamics': the contact bounds then count from that overlap
+        self._overlap0 = 0.0
+        if self._feature:  # the scene sensor sees the floor too: only a contact deeper than the floor's counts
+            d_all, d_floor = float(self._sensordata[self._feature_adr]), float(self._sensordata[self._sensor_adr])
+            self._overlap0 = -d_all if d_all < min(d_floor, 0.0) else 0.0
+        self._feature_limit = self._floor_limit = self._dist_limit - self._overlap0
+        self._min_feature = 0.0
+        self._feature_at = (0, 0.0)
+        self._max_ke_ratio = 0.0
+        self._drift = 0.0 if self._energy_on else math.nan
+        self._b_applied = self._B3[[0, 2]].copy()
+        self._rebaseline()
+
+    # ------------------------------------------------------------------ physical records
+    @property
+    def max_penetration(self) -> float:
+        """Deepest rod contact seen since the last reset (m; 0 in the cantilever), checked every
+        step: with the floor, and in the channel and obstacle scenes with anything (the check of
+        those counts from the overlap the start had, :attr:`initial_overlap`)."""
+        return max(0.0, -self._min_dist, -self._min_feature)  # 0.0 first: never -0.0
+
+    @property
+    def initial_overlap(self) -> float:
+        """Channel and obstacle scenes: how deep the resting beam starts inside a scene feature (m;
+        0 unless ``feature_x`` places it through the beam). The penetration bound counts from it
+        (``penetration_limit`` + this overlap): pushing the beam out of a feature it was placed in
+        is the caller's geometry, not a failure of the contact."""
+        return self._overlap0
+
+    @property
+    def energy_drift(self) -> float:
+        """Largest energy the numerics created since the last reset, as a fraction of the energy
+        scale: ``max (E - E_0 - W) / E_scale`` over the energy checks, with ``E`` the kinetic,
+        elastic, gravitational and magnetic energy and ``W`` the work of the field on the rod.
+        Physically ``E - E_0 - W <= 0`` (damping and contact dissipate): a resolved run stays near 0
+        (measured below 1e-6); above :data:`~magsoft_env.sim.health.ENERGY_DRIFT_LIMIT` the run
+        stops as a launch. Restarts from the present state when the state is written from outside
+        (``data.qpos`` / ``qvel``). NaN where it is not tracked: the cantilever, RK4,
+        ``torque_every > 1`` or an ``external_wrench`` (whose work it does not count)."""
+        return float(self._drift)
+
+    @property
+    def max_kinetic_ratio(self) -> float:
+        """Largest kinetic energy at an energy check since the last reset, over the energy scale
+        (the runaway check stops a run at 100)."""
+        return float(self._max_ke_ratio)
+
+    def health(self) -> dict:
+        """The physical records as plain numbers, unit in the key: ``max_penetration_m``,
+        ``max_penetration_h`` (in beam thicknesses), ``penetration_limit_h``, ``energy_drift``,
+        ``max_kinetic_ratio``."""
+        h = self.beam.thickness
+        return {
+            "max_penetration_m": self.max_penetration,
+            "max_penetration_h": self.max_penetration / h,
+            "penetration_limit_h": self.penetration_limit / h,
+            "energy_drift": self.energy_drift,
+            "max_kinetic_ratio": self.max_kinetic_ratio,
+        }
+
+    def _net_moment(self) -> np.ndarray:
+        """Net magnetic moment sum R_i m_i (world x, z; A m^2) of the orientations in ``xmat``."""
+        return self.data.xmat[self._b0:self._b1].reshape(-1) @ self._C
+
+    def _energy(self, field, *, staggered: bool, kinetic: float | None = None) -> float:
+        """Kinetic + elastic + gravitational + magnetic energy (J) under ``field`` (B_x, B_z).
+
+        ``staggered``: the positions in ``xmat`` / ``xipos`` / ``qM`` are those of the step's start
+        (after ``mj_step``), paired with the new velocity, the pair symplectic Euler keeps; the hinge
+        angles are then ``qpos - dt qvel`` (exact for the Euler-type integrators)."""
+        d = self.data
+        q = d.qpos[self._hq]
+        q = q - self.timestep * d.qvel[self._hd] if staggered else q
+        if kinetic is None:
+            mv = self._mv
+            mujoco.mj_mulM(self.model, d, mv, d.qvel)
+            kinetic = 0.5 * float(d.qvel @ mv)
+        mom = self._net_moment()
+        return (kinetic + 0.5 * float(self._hinge_k @ (q * q)) + float(self._mass_g_ids @ d.xipos[self._b0:self._b1, 2])
+                - float(mom[0] * field[0] + mom[1] * field[1]))
+
+    def _rebaseline(self) -> None:
+        """Start the energy balance from the present (synchronized) state."""
+        self._work = 0.0
+        self._energy_valid = self._energy_on
+        if self._energy_on:
+            self._sync()
+            self._e0 = self._energy(self._b_applied, staggered=False)
+        self._state_key = self.data.qpos.tobytes() + self.data.qvel.tobytes()
 
     def set_field(self, field) -> None:
         """Hold a constant applied field ``(B_x, B_z)`` (T) from now on."""
@@ -222,7 +401,7 @@ class Simulator:
     def set_waveform(self, waveform, *, start_time: float | None = None) -> None:
         """Let the field follow ``waveform(t - start_time)`` (T); ``start_time`` defaults to now."""
         self._waveform = as_waveform(waveform, "waveform")
-        self._wf_t0 = self.time if start_time is None else float(start_time)
+        self._wf_t0 = self.time if start_time is None else finite_number("start_time", start_time, unit="s")
         self._B3[[0, 2]] = self._waveform.sample(np.array([self.time - self._wf_t0]))[0]
         self._set_coefficients()
         peak = np.abs(self._waveform.sample(np.linspace(0.0, 1.0, 257))).max(axis=0)
@@ -302,19 +481,32 @@ class Simulator:
     def step(self, n: int = 1) -> None:
         """Advance ``n`` steps, applying the magnetic couples each step.
 
+        Parameters
+        ----------
+        n : int
+            Number of steps, a non-negative integer, at most
+            :data:`~magsoft_env.sim.health.MAX_STEPS` per call.
+
         Raises
         ------
+        ValueError
+            ``n`` not a non-negative integer, or above the limit.
         SimulationError
-            On a non-finite or huge state (MuJoCo warning) or runaway kinetic energy.
+            On a non-finite or huge state (MuJoCo warning) or runaway kinetic energy;
+            :class:`UnphysicalError` (contact scenes) on a contact penetration, tunnelling or
+            launch (see the class notes).
         """
+        if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer)) or n < 0:
+            raise ValueError(f"n must be a non-negative integer number of steps, got {n!r}.")
+        n = check_steps("n", int(n), "Call step() repeatedly for a longer run.")
         d = self.data
         two = self._two_stage
-        n = int(n)
         self._has_external = bool(np.any(self.external_wrench))
         fields = None
         if self._waveform is not None:  # all fields of this call in one vectorized sample
             t = d.time - self._wf_t0 + self.timestep * np.arange(n)
             fields = self._waveform.sample(t)
+        self._begin_balance(fields)
         # MuJoCo's own warning text is captured (not printed or logged to MUJOCO_LOG.TXT);
         # _check turns the warning counters into a SimulationError
         prev = mujoco.get_mju_user_warning()
@@ -327,33 +519,86 @@ class Simulator:
                 self._step_fast(n, fields)
         finally:
             mujoco.set_mju_user_warning(prev)
+            if self._contact:
+                self._state_key = d.qpos.tobytes() + d.qvel.tobytes()
         self._check(energy=False)
+
+    def _begin_balance(self, fields) -> None:
+        """Before a call: restart the energy balance after an outside write to the state (or a
+        call it could not follow), and book the work of a field change made since the last step."""
+        if not self._contact:
+            return
+        d = self.data
+        if not self._energy_on or self._has_external:
+            self._energy_valid = False
+            self._drift = math.nan
+        elif not self._energy_valid or d.qpos.tobytes() + d.qvel.tobytes() != self._state_key:
+            self._rebaseline()
+        if self._energy_valid and fields is None:
+            db = self._B3[[0, 2]] - self._b_applied
+            if db[0] or db[1]:
+                # a held field jumps at the state now: the work -M . dB with M of this state
+                if self._stale:
+                    mujoco.mj_kinematics(self.model, d)
+                mom = self._net_moment()
+                self._work -= float(mom[0] * db[0] + mom[1] * db[1])
+            self._b_applied = self._B3[[0, 2]].copy()
 
     def _step_general(self, n: int, fields, two: bool) -> None:
         m, d = self.model, self.data
         hold, warned = self.torque_every, self._warning_text
-        for k in range(n):
-            f = None if fields is None else fields[k]
-            if hold > 1 and self.nstep % hold:
-                mujoco.mj_step(m, d)  # couples held from the last update
-            elif two:
-                mujoco.mj_step1(m, d)
-                self._apply_torques(f)
-                mujoco.mj_step2(m, d)
-            else:
-                self._apply_torques(f)
-                mujoco.mj_step(m, d)
-            self.nstep += 1
-            self._stale = True
-            if warned:  # MuJoCo reported a bad state in this step: stop here
-                break
-            if self.nstep % self.check_every == 0:
-                self._check(energy=True)
+        sd, adr, pen, low = self._sensordata, self._sensor_adr, self._contact, self._min_dist
+        adr2, feat, low2 = self._feature_adr, self._feature, self._min_feature
+        try:
+            for k in range(n):
+                f = None if fields is None else fields[k]
+                if hold > 1 and self.nstep % hold:
+                    mujoco.mj_step(m, d)  # couples held from the last update
+                elif two:
+                    mujoco.mj_step1(m, d)
+                    self._apply_torques(f)
+                    mujoco.mj_step2(m, d)
+                else:
+                    self._apply_torques(f)
+                    mujoco.mj_step(m, d)
+                self.nstep += 1
+                self._stale = True
+                if warned:  # MuJoCo reported a bad state in this step: stop here
+                    break
+                if pen and sd[adr] < low:  # the deepest contact so far (of the step's start state)
+                    low = self._record_penetration(float(sd[adr]), self.nstep)
+                    if self._pen_hit:
+                        break
+                if feat and sd[adr2] < low2:
+                    low2 = self._record_feature(float(sd[adr2]), self.nstep)
+                    if self._pen_hit:
+                        break
+                if self.nstep % self.check_every == 0:
+                    self._check(energy=True)
+        finally:
+            self._min_dist = min(self._min_dist, low)
+            self._min_feature = min(self._min_feature, low2)
+
+    def _record_penetration(self, dist: float, nstep: int) -> float:
+        # a new deepest floor contact: ``dist`` (m, < 0) of the state the step started from
+        self._min_dist = dist
+        self._pen_at = (nstep - 1, float(self.data.time) - self.timestep)
+        if dist < self._floor_limit:
+            self._pen_hit = "floor"
+        return dist
+
+    def _record_feature(self, dist: float, nstep: int) -> float:
+        self._min_feature = dist
+        self._feature_at = (nstep - 1, float(self.data.time) - self.timestep)
+        if dist < self._feature_limit:
+            self._pen_hit = "scene"
+        return dist
 
     def _step_fast(self, n: int, fields) -> None:
         # the same as _step_general for the common case (two-stage integrator, no external
         # wrench), with the per-step Python work cut to one or two matrix-vector products
-        # into qfrc_applied (see _set_coefficients)
+        # into qfrc_applied (see _set_coefficients), one read of the contact sensor and, with a
+        # waveform in a contact scene, two reads for the field's work
         m, d = self.model, self.data
         b0, b1 = self._b0, self._b1
         x = d.xmat[b0:b1].reshape(-1)  # a view: xmat rows of the pieces, contiguous
@@ -363,11 +608,21 @@ class Simulator:
         nv = m.nv
         v = np.empty(2 * nv)
         v2 = v.reshape(2, nv)
+        track = fields is not None and self._energy_valid
         if fields is not None:
             bs = fields * np.array([1.0, -1.0])  # (B_x, -B_z) per step
+            if track:
+                # field change of each step; the net moment is -(v[ix], v[iz]), so the work
+                # -M . dB of step k is v[ix] dBx_k + v[iz] dBz_k
+                dfield = np.diff(fields, axis=0, prepend=self._b_applied[None, :])
+                dbx, dbz = dfield[:, 0].tolist(), dfield[:, 1].tolist()
+        ix, iz = self._ix, self._iz
         hold, warned, step1, step2, dot = self.torque_every, self._warning_text, mujoco.mj_step1, \
             mujoco.mj_step2, np.dot
         check_every, nstep = self.check_every, self.nstep
+        sd, adr, pen, low = self._sensordata, self._sensor_adr, self._contact, self._min_dist
+        adr2, feat, low2 = self._feature_adr, self._feature, self._min_feature
+        work = 0.0
         k = 0
         try:
             for k in range(n):
@@ -381,19 +636,34 @@ class Simulator:
                     step1(m, d)
                     dot(x, gzx, out=v)
                     dot(bs[k], v2, out=q)
+                    if track:
+                        work += v.item(ix) * dbx[k] + v.item(iz) * dbz[k]
                     step2(m, d)
                 nstep += 1
                 if warned:  # MuJoCo reported a bad state in this step: stop here
                     break
+                if pen and sd[adr] < low:  # the deepest contact so far (of the step's start state)
+                    low = self._record_penetration(float(sd[adr]), nstep)
+                    if self._pen_hit:
+                        break
+                if feat and sd[adr2] < low2:
+                    low2 = self._record_feature(float(sd[adr2]), nstep)
+                    if self._pen_hit:
+                        break
                 if nstep % check_every == 0:
                     self.nstep = nstep
                     self._stale = True
-                    self._check(energy=True)
+                    self._check(energy=True, work=float(work), field=None if fields is None else fields[k])
         finally:
             self.nstep = nstep
             self._stale = True
+            self._min_dist = min(self._min_dist, low)
+            self._min_feature = min(self._min_feature, low2)
+            if track:
+                self._work += float(work)
             if fields is not None and n > 0:
                 self._B3[0], self._B3[2] = fields[min(k, n - 1)]
+                self._b_applied = fields[min(k, n - 1)].copy()
                 self._set_coefficients()
 
     def _sync(self) -> None:
@@ -416,7 +686,7 @@ class Simulator:
             step=self.nstep, time=self.time, quantity=quantity, value=value,
         )
 
-    def _check(self, *, energy: bool) -> None:
+    def _check(self, *, energy: bool, work: float = 0.0, field=None) -> None:
         d = self.data
         hint = STABILITY_HINT
         what = new_warning(self._warning_counts(), self._warn0)
@@ -427,6 +697,9 @@ class Simulator:
             arr = getattr(d, name)
             if not math.isfinite(arr.sum()):  # a NaN or an infinity anywhere makes the sum non-finite
                 self._fail(f"non-finite {name}", math.nan, hint)
+        if self._pen_hit:
+            where, self._pen_hit = self._pen_hit, ""  # reported once; a deeper contact reports again
+            self._fail_penetration(where)
         if energy:
             # the mass matrix of the step's start (mj_step leaves it in qM) is enough for a
             # factor-100 runaway test and saves recomputing the position stage every check
@@ -435,15 +708,90 @@ class Simulator:
             ke = 0.5 * float(d.qvel @ mv)
             if runaway(ke, self._energy_scale):
                 self._fail("runaway kinetic energy (J)", ke, runaway_hint(self._energy_scale))
+            ratio = ke / self._energy_scale
+            if ratio > self._max_ke_ratio:
+                self._max_ke_ratio = ratio
+            if self._contact:
+                if self._sensordata.item(self._sensor_adr) == 0.0:
+                    # no floor contact found: the only case a beam can pass below the floor
+                    # unseen by the penetration check (the plane collides with anything below it)
+                    self._check_tunnelling()
+                if self._energy_valid:
+                    self._check_energy(ke, work, self._B3[[0, 2]] if field is None else field)
+
+    def _figures(self) -> dict:
+        h = self.beam.thickness
+        return {"step": int(self.nstep), "time_s": self.time, "max_penetration_m": self.max_penetration,
+                "max_penetration_h": self.max_penetration / h, "energy_drift": self.energy_drift}
+
+    def _unphysical(self, cause: str, reason: str, hint: str, figures: dict, value: float) -> None:
+        o = self.options
+        raise UnphysicalError(
+            f"unphysical motion at step {self.nstep} (t = {self.time:.6g} s): {reason}. {hint} "
+            f"(integrator={o.integrator!r}, timestep={o.timestep:g} s, contact time constant {self._tc * 1e3:.3g} ms, "
+            f"segments={o.segments}, field=({self._B3[0] * 1e3:.4g}, {self._B3[2] * 1e3:.4g}) mT).",
+            cause=cause, reason=reason, figures={**self._figures(), **figures}, step=self.nstep, time=self.time,
+            quantity=cause, value=value,
+        )
+
+    def _fail_penetration(self, where: str) -> None:
+        h = self.beam.thickness
+        if where == "floor":
+            depth, (step, t), what = -self._min_dist, self._pen_at, "contact penetration into the floor"
+        else:
+            depth, (step, t) = -self._min_feature, self._feature_at
+            what = f"contact penetration into the {self.options.scene}"
+        lim = self.penetration_limit + self._overlap0
+        start = f" + the {self._overlap0 * 1e3:.3g} mm overlap of the start" if self._overlap0 > 0.0 else ""
+        reason = (f"{what} {depth * 1e3:.3g} mm = {depth / h:.3g} h (limit {self.penetration_limit / h:.3g} h{start} "
+                  f"= {lim * 1e3:.3g} mm) at step {step} (t = {t:.6g} s)")
+        self._unphysical(
+            "penetration", reason,
+            "The contact is not resolved: use a smaller timestep or a gentler field "
+            "(Simulator(penetration_limit=...) moves the bound)",
+            {"penetration_m": depth, "penetration_h": depth / h}, depth,
+        )
+
+    def _check_tunnelling(self) -> None:
+        # the centreline (stale: the step's start, as the contact sensor) against the floor z = 0
+        d = self.data
+        b = self._tip_body
+        zmin = d.xpos[self._b0:self._b1, 2].min()
+        if zmin > self._dist_limit + self._tip_len:  # the tip (ds/2 past the last hinge) cannot be lower
+            return
+        zmin = min(float(zmin), d.xpos.item(b, 2) + self._tip_len * d.xmat.item(b, 6))
+        if zmin < self._dist_limit:
+            h = self.beam.thickness
+            reason = (f"tunnelling: the centreline is {-zmin * 1e3:.3g} mm = {-zmin / h:.3g} h below the floor "
+                      f"(limit {self.penetration_limit / h:.3g} h)")
+            self._unphysical("tunnelling", reason, "The contact is not resolved: use a smaller timestep",
+                             {"floor_depth_m": -zmin, "floor_depth_h": -zmin / h}, -zmin)
+
+    def _check_energy(self, kinetic: float, work: float, field) -> None:
+        # E - E_0 - W <= 0 for a passive rod in a field that did work W on it (damping and
+        # contact only dissipate); anything above is energy the numerics made
+        excess = self._energy(field, staggered=True, kinetic=kinetic) - self._e0 - (self._work + work)
+        drift = excess / self._energy_scale
+        if drift > self._drift:
+            self._drift = drift
+        if drift > ENERGY_DRIFT_LIMIT:
+            mg = float(self._mass_g.sum())
+            lift = excess / (mg * self.beam.length) if mg > 0 else math.inf
+            reason = (f"launch: the rod gained {excess:.3g} J more than the field supplied ({drift:.3g} of the "
+                      f"energy scale {self._energy_scale:.3g} J, limit {ENERGY_DRIFT_LIMIT:g}; enough to lift it "
+                      f"{lift:.3g} beam lengths)")
+            self._unphysical("launch", reason, STABILITY_HINT, {"energy_created_J": excess}, excess)
 
     def run(self, waveform, duration: float, *, record_every: int = 10) -> Trajectory:
         """Follow ``waveform`` (or a constant field) for ``duration`` (s), recording every
-        ``record_every`` steps (and the first state)."""
+        ``record_every`` steps (and the first state); at most
+        :data:`~magsoft_env.sim.health.MAX_STEPS` steps in all."""
         duration = positive("duration", duration, unit="s")
         if isinstance(record_every, bool) or not isinstance(record_every, (int, np.integer)) or record_every < 1:
             raise ValueError(f"record_every must be a positive integer, got {record_every!r}.")
+        nsteps = int(round(check_steps(f"duration / timestep = {duration:g} s / {self.timestep:g} s",
+                                       duration / self.timestep, "Use a shorter duration or a larger timestep.")))
         self.set_waveform(waveform)
-        nsteps = int(round(duration / self.timestep))
         ts, fs, xs, zs, tips = [], [], [], [], []
 
         def record():
@@ -496,7 +844,7 @@ class Simulator:
         tol : float
             Residual tolerance (rad), > 0.
         max_time : float
-            Simulated-time budget (s).
+            Simulated-time budget (s), at most :data:`~magsoft_env.sim.health.MAX_STEPS` steps.
         settle_damping : float
             Retardation time used while settling (s).
         """
@@ -504,13 +852,14 @@ class Simulator:
         max_time = positive("max_time", max_time, unit="s")
         settle_damping = positive("settle_damping", settle_damping, unit="s")
         speed_tol = tol / settle_damping if speed_tol is None else positive("speed_tol", speed_tol, unit="rad/s")
+        nmax = math.ceil(check_steps(f"max_time / timestep = {max_time:g} s / {self.timestep:g} s",
+                                     max_time / self.timestep, "Use a shorter max_time or a larger timestep."))
         m = self.model
         damp0 = m.dof_damping[self._hinge_dof].copy()
         m.dof_damping[self._hinge_dof] = settle_damping * self._k
         if self._waveform is not None:
             self._waveform = None  # hold the present field
         steps, chunk = 0, 20
-        nmax = int(math.ceil(max_time / self.timestep))
         res, speed = math.inf, math.inf
         try:
             while steps < nmax:
