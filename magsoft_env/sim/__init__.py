@@ -11,6 +11,7 @@ Main entry points: :class:`Simulator` (dynamics, waveforms, settling, readouts),
 from .batch import RodBatch
 from .discretize import RodDiscretization, discretize
 from .equilibrium import SimEquilibrium, mujoco_equilibrium, mujoco_path
+from .health import UnphysicalError
 from .model import CHANNEL_SIZE, INTEGRATORS, OBSTACLE_SIZE, SCENES, RodModel, RodOptions, build_model, build_spec
 from .simulator import SettleResult, SimulationError, Simulator, Trajectory
 from .waveforms import Hold, PhaseShifted, Ramp, Sequence, Sine, Square, SwitchedSquare, Waveform, as_waveform
@@ -18,6 +19,6 @@ from .waveforms import Hold, PhaseShifted, Ramp, Sequence, Sine, Square, Switche
 __all__ = [
     "CHANNEL_SIZE", "INTEGRATORS", "OBSTACLE_SIZE", "SCENES", "Hold", "PhaseShifted", "Ramp", "RodDiscretization",
     "RodBatch", "RodModel", "RodOptions", "SettleResult", "Sequence", "SimEquilibrium", "SimulationError",
-    "Simulator", "Sine", "Square", "SwitchedSquare", "Trajectory", "Waveform", "as_waveform", "build_model",
-    "build_spec", "discretize", "mujoco_equilibrium", "mujoco_path",
+    "UnphysicalError", "Simulator", "Sine", "Square", "SwitchedSquare", "Trajectory", "Waveform", "as_waveform",
+    "build_model", "build_spec", "discretize", "mujoco_equilibrium", "mujoco_path",
 ]
