@@ -15,9 +15,9 @@ import math
 
 import numpy as np
 
-from ..io import format_table, write_csv, write_json
+from ..io import format_table, write_csv
 from ..units import MM
-from .solve import DEFAULT_OUT, MAX_GRAVITY, _check_flag, metrics_row, out_dir
+from .solve import DEFAULT_OUT, MAX_GRAVITY, _check_flag, metrics_row, out_dir, write_json
 
 JIG_PRESETS = ("fig4b_quadratic", "fig4c_sinusoidal", "fig4d_piecewise")
 
@@ -29,7 +29,7 @@ def add_parser(subparsers) -> None:
         description="Solve each jig beam's loading path with both magnetic couplings and overlay the shapes at "
         "a few field levels; print the tip position and tip angle differences.",
     )
-    p.add_argument("--presets", nargs="+", default=list(JIG_PRESETS), metavar="NAME",
+    p.add_argument("--presets", "--preset", nargs="+", default=list(JIG_PRESETS), metavar="NAME",
                    help=f"presets to compare (default: {' '.join(JIG_PRESETS)})")
     p.add_argument("--levels", type=int, default=3, help="field levels overlaid per beam (default 3)")
     p.add_argument("--steps", type=int, default=None, help="states per ramp (default: the presets')")
@@ -125,7 +125,7 @@ def run(args) -> int:
         "levels": args.levels,
     }))
     print(format_table(rows, [
-        ("preset", "preset", ""), ("Bz_mT", "Bz mT", ".3g"), ("Bx_mT", "Bx mT", ".3g"),
+        ("preset", "preset", ""), ("Bx_mT", "Bx mT", ".3g"), ("Bz_mT", "Bz mT", ".3g"),
         ("tip_x_rotated_mm", "tip x rot", ".2f"), ("tip_z_rotated_mm", "tip z rot", ".2f"),
         ("tip_x_paper_mm", "tip x paper", ".2f"), ("tip_z_paper_mm", "tip z paper", ".2f"),
         ("tip_distance_mm", "|dtip| mm", ".2f"), ("tip_distance_over_L", "|dtip|/L", ".3f"),

@@ -25,7 +25,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
             "times; optionally write overlay figures."
         ),
     )
-    p.add_argument("presets", nargs="*", default=list(DEFAULT_PRESETS), help="preset names (default: Fig. 3 and 4b-d)")
+    p.add_argument("presets", nargs="*", metavar="PRESET",
+                   help="preset names (default: Fig. 3 and 4b-d); or give them with --preset")
+    p.add_argument("--preset", "--presets", dest="preset_names", nargs="+", metavar="NAME", default=None,
+                   help="preset names, as with the other commands (added to any given positionally)")
     p.add_argument("--segments", type=int, nargs="+", default=[10, 20, 40], help="segment counts (default 10 20 40)")
     p.add_argument("--grading", type=float, default=None,
                    help="last/first cell length ratio (default: the rod's cantilever default, 1.5; 1 = equal cells)")
@@ -37,8 +40,6 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def run(args) -> int:
     from magsoft_env.cases import list_presets, load_preset
-    from magsoft_env.compare.crosscheck import crosscheck_preset
-    from magsoft_env.render.figures import crosscheck_figure
 
     if len(args.segments) > 20:
         raise ValueError(f"--segments takes at most 20 counts, got {len(args.segments)}.")
@@ -49,11 +50,16 @@ def run(args) -> int:
     _check_flag("--steps", args.steps, lo=2, hi=10_000, integer=True)
     if args.out is not None:
         args.out = out_dir(args.out)
-    names = list(args.presets)
+    names = list(dict.fromkeys([*(args.presets or ()), *(args.preset_names or ())])) or list(DEFAULT_PRESETS)
+    if len(names) > 100:
+        raise ValueError(f"crosscheck takes at most 100 presets, got {len(names)}.")
     known = list_presets()
     for nm in names:
         if nm not in known:
             load_preset(nm)  # raises a ValueError with the closest name
+    from magsoft_env.compare.crosscheck import crosscheck_preset  # after the checks: imports mujoco
+    from magsoft_env.render.figures import crosscheck_figure
+
     rows_all = []
     print(f"{'preset':<18} {'N':>4} {'max err/L %':>12} {'mean err/L %':>13} {'MuJoCo s':>9} {'theory s':>9}  ok")
     for nm in names:

@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import time
 
-from ..io import format_table, write_json
+from ..io import format_table
 from ..units import MM
-from .solve import DEFAULT_OUT, METRIC_COLUMNS, metrics_row, out_dir
+from .solve import DEFAULT_OUT, METRIC_COLUMNS, metrics_row, out_dir, write_json
 
 DEMO_PRESETS = ("fig3a_L25", "fig4b_quadratic")
 

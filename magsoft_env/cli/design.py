@@ -4,9 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..io import write_json
 from ..units import MM, MT
-from .solve import MAX_GRAVITY, _check_flag, out_dir
+from .solve import MAX_GRAVITY, _check_flag, out_dir, write_json
 
 
 def add_parser(subparsers) -> None:

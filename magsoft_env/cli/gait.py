@@ -4,7 +4,12 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
+import inspect
+import math
+import sys
+from pathlib import Path
+
+from .solve import dumps_json, out_file, write_json
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -16,7 +21,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         description=(
             "Simulate an open-loop crawling gait of the paper's Fig. 5 on a floor (MuJoCo rod) and print the "
             "centre-of-mass displacement (mm) and speed (mm/s, signed along +x), the direction, and the paper's "
-            "value. Speed excludes the first field period (start-up transient)."
+            "value. Speed excludes the first field period (start-up transient); a run shorter than that warm-up plus "
+            "one period gets a warning (its speed is not over whole periods). --out writes the result as JSON."
         ),
     )
     p.add_argument("--preset", required=True, choices=list(list_gaits()), help="gait name")
@@ -37,6 +43,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--friction", type=float, default=None,
                    help="floor friction coefficient (default: the preset's, 0.5; docs/envs.md, 'Tacky friction')")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+    p.add_argument("--out", type=Path, default=None, metavar="PATH",
+                   help="also write the result as JSON to this file (checked before the run, written atomically)")
     p.set_defaults(run=run)
     return p
 
@@ -51,8 +59,8 @@ def run(args) -> int:
     from magsoft_env.cases.gaits import gait_preset
     from magsoft_env.sim.gait import run_gait
 
-    if not args.seconds > 0:
-        raise ValueError(f"--seconds must be > 0 (s), got {args.seconds}.")
+    if not (args.seconds > 0 and math.isfinite(args.seconds)):
+        raise ValueError(f"--seconds must be > 0 (s) and finite, got {args.seconds}.")
     if not 0 < args.timestep_ms <= 10:
         raise ValueError(f"--timestep-ms must lie in (0, 10] ms, got {args.timestep_ms}.")
     if args.segments is not None and not 2 <= args.segments <= 1000:
@@ -69,6 +77,8 @@ def run(args) -> int:
     shape = args.waveform or "sine"
     if args.coil_ms and shape != "square":
         raise ValueError(f"--coil-ms applies to --waveform square only, got --coil-ms {args.coil_ms} with a {shape}.")
+    if args.out is not None:
+        args.out = out_file(args.out)
     preset = gait_preset(args.preset, reverse=args.reverse)
     w = preset.wave
     if shape != w.shape or args.coil_ms or args.field_scale != 1.0:
@@ -86,17 +96,24 @@ def run(args) -> int:
     out["paper_direction"] = preset.paper_direction
     out["field_mT"] = {
         "amplitude_x": preset.wave.amplitude_x * 1e3, "amplitude_z": preset.wave.amplitude_z * 1e3,
-        "frequency_Hz": preset.wave.frequency, "phase_x_deg": preset.wave.phase * 180.0 / 3.141592653589793,
+        "frequency_Hz": preset.wave.frequency, "phase_x_deg": math.degrees(preset.wave.phase),
         "shape": preset.wave.shape, "coil_ms": preset.wave.coil_time * 1e3,
     }
     out["friction"] = preset.friction
     out["face_down"] = bool(args.face_down)
     out["segments"] = preset.segments if args.segments is None else args.segments
     out["timestep_ms"] = args.timestep_ms
+    short = _short_run_warning(res, preset.wave.frequency)
+    out["short_run"] = short is not None  # speed over less than one whole field period after the warm-up
+    out["speed_window_periods"] = (res.seconds - res.warmup) * preset.wave.frequency
+    out["warnings"] = [] if short is None else [short]
+    if args.out is not None:
+        write_json(args.out, out)
     if args.json:
-        print(json.dumps(out))
+        print(dumps_json(out))
+        if short is not None:
+            print(f"magsoft gait: warning: {short}", file=sys.stderr)
     else:
-        paper = "no speed given" if preset.paper_speed is None else f"{preset.paper_speed * 1e3:+.2f} mm/s"
         print(f"{out['preset']}: {preset.description}")
         if preset.wave != gait_preset(args.preset, reverse=args.reverse).wave:
             print(f"field replaced: {preset.wave.describe()}")
@@ -105,8 +122,42 @@ def run(args) -> int:
         print(f"displacement {out['displacement_mm']:+.3f} mm in {out['seconds']:.2f} s; "
               f"speed {out['speed_mm_s']:+.3f} mm/s (after {out['warmup_s']:.2f} s warm-up), "
               f"direction {out['direction']}")
-        print(f"paper: {preset.paper_direction}, {paper}; max height {out['max_height_mm']:.2f} mm, "
+        print(f"paper: {_paper_values(preset)}; max height {out['max_height_mm']:.2f} mm, "
               f"max link rotation {out['max_link_rotation_deg']:.0f} deg; {out['wall_time_s']:.1f} s wall")
+        if short is not None:
+            print(f"warning: {short}")
         if not res.success:
             print(f"UNSTABLE: {res.message}")
+        if args.out is not None:
+            print(f"wrote {args.out}")
     return 0 if res.success else 1
+
+
+def _paper_values(preset) -> str:
+    """The paper's direction and speed as the case data holds them (``paper_speed`` None: no speed to
+    compare with; any figure the paper's text gives is quoted in the case's description)."""
+    if preset.paper_speed is not None:
+        return f"{preset.paper_direction}, {preset.paper_speed * 1e3:+.2f} mm/s"
+    return f"{preset.paper_direction}, no speed to compare with in the case data (see the description)"
+
+
+def _warmup_cycles() -> float:
+    """The warm-up (field periods) :func:`magsoft_env.sim.gait.run_gait` uses by default, as called here."""
+    from magsoft_env.sim.gait import run_gait
+
+    return float(inspect.signature(run_gait).parameters["warmup_cycles"].default)
+
+
+def _short_run_warning(res, frequency: float) -> str | None:
+    """A warning when the run is shorter than the warm-up plus one field period (the speed is then
+    measured over part of a period, so it includes the gait's oscillation); None otherwise."""
+    if not frequency > 0:
+        return None
+    period = 1.0 / frequency
+    need = (_warmup_cycles() + 1.0) * period
+    if res.seconds >= need - 1e-9:
+        return None
+    window = res.seconds - res.warmup
+    return (f"the run ({res.seconds:.3g} s) is shorter than the warm-up plus one field period "
+            f"({need:.3g} s at {frequency:g} Hz): the speed is measured over {window:.3g} s, not over whole "
+            f"periods; use --seconds {need:g} or more")

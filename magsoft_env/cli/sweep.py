@@ -8,9 +8,17 @@ the resolved configuration ``sweep_config.json``.
 
 from __future__ import annotations
 
-from ..io import format_table, write_csv, write_json
+from ..io import format_table, write_csv
 from ..units import MM
-from .solve import DEFAULT_OUT, _check_flag, add_solver_flags, apply_overrides, metrics_row, out_dir
+from .solve import (
+    DEFAULT_OUT,
+    _check_flag,
+    add_solver_flags,
+    apply_overrides,
+    metrics_row,
+    out_dir,
+    write_json,
+)
 
 PATHS = {"a": "fig3a_L{L}", "b": "fig3b_L{L}"}
 BASE_LENGTH_MM = 25  # preset whose path and beam are used for lengths without their own preset

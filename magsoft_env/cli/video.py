@@ -7,8 +7,11 @@ OSMesa (each probed); when neither starts the error names the Debian packages to
 from __future__ import annotations
 
 import argparse
-import json
+import difflib
+import math
 from pathlib import Path
+
+from .solve import dumps_json, out_file
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -37,23 +40,63 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     return p
 
 
+#: The simulator's step limit (``magsoft_env.sim.health.MAX_STEPS``), not imported: that imports mujoco,
+#: which must wait until the GL backend is chosen.
+_MAX_STEPS = 10_000_000
+#: Frames are held in memory until the file is written: at most this many bytes of RGB frames.
+_MAX_FRAME_BYTES = 4 * 2**30
+#: Frames per simulated second of an --env video, for the memory estimate (the crawl envs' render rate).
+_ENV_FPS = 50
+
+
+def _check_env_id(env_id: str) -> None:
+    """``env_id`` must be one of the package's registered environments; the message suggests the closest."""
+    from magsoft_env.envs import ENV_SPECS
+
+    if env_id in ENV_SPECS:
+        return
+    hint = difflib.get_close_matches(str(env_id), list(ENV_SPECS), n=1, cutoff=0.5)
+    extra = f" Did you mean {hint[0]!r}?" if hint else ""
+    raise ValueError(f"--env must be a registered magsoft environment id ({', '.join(ENV_SPECS)}), got "
+                     f"{env_id!r}.{extra}")
+
+
 def run(args) -> int:
-    # choose the GL backend before anything imports mujoco
-    from magsoft_env.gl import RenderBackendError, select_gl_backend
     from magsoft_env.render.video import VIDEO_SUFFIXES
 
-    if args.out.suffix.lower() not in VIDEO_SUFFIXES:
-        raise ValueError(f"--out must end in one of {list(VIDEO_SUFFIXES)}, got {str(args.out)!r}.")
-    if not args.seconds > 0:
-        raise ValueError(f"--seconds must be > 0 (s), got {args.seconds}.")
-    if not args.fps > 0:
-        raise ValueError(f"--fps must be > 0, got {args.fps}.")
+    # every check before any work (and before the GL backend is chosen, which starts subprocesses)
+    args.out = out_file(args.out, suffixes=tuple(VIDEO_SUFFIXES))
+    if not (args.seconds > 0 and math.isfinite(args.seconds)):
+        raise ValueError(f"--seconds must be > 0 (s) and finite, got {args.seconds}.")
+    if not (args.fps > 0 and math.isfinite(args.fps)):
+        raise ValueError(f"--fps must be > 0 and finite, got {args.fps}.")
     for name in ("width", "height"):
         v = getattr(args, name)
         if not 16 <= v <= 4096:
             raise ValueError(f"--{name} must be an integer in [16, 4096] pixels, got {v}.")
+    if not 0 < args.timestep_ms <= 10:
+        raise ValueError(f"--timestep-ms must lie in (0, 10] ms, got {args.timestep_ms}.")
+    if args.preset is not None and args.seconds / (args.timestep_ms * 1e-3) > _MAX_STEPS:
+        raise ValueError(f"--seconds / --timestep-ms = {args.seconds:g} s / {args.timestep_ms:g} ms is more than "
+                         f"{_MAX_STEPS:.0e} simulation steps; use fewer seconds or a larger timestep.")
+    frames = (args.seconds * (args.fps if args.preset is not None else _ENV_FPS) + 1)
+    if frames * args.width * args.height * 3 > _MAX_FRAME_BYTES:
+        raise ValueError(f"the video would hold about {frames:.3g} frames of {args.width} x {args.height} pixels "
+                         f"({frames * args.width * args.height * 3 / 2**30:.3g} GiB) in memory, more than "
+                         f"{_MAX_FRAME_BYTES / 2**30:g} GiB; use fewer --seconds, a lower --fps or a smaller frame.")
     if args.policy is not None and args.env is None:
         raise ValueError("--policy needs --env (the environment the policy was trained on).")
+    if args.preset is not None:
+        from magsoft_env.cases.gaits import gait_preset
+
+        preset = gait_preset(args.preset, reverse=args.reverse)  # an unknown name: the closest one suggested
+    else:
+        _check_env_id(args.env)
+        if args.policy is not None and not args.policy.is_file():
+            raise ValueError(f"--policy must be an existing model .zip, got {str(args.policy)!r}.")
+    # choose the GL backend before anything imports mujoco
+    from magsoft_env.gl import RenderBackendError, select_gl_backend
+
     try:
         backend = select_gl_backend()
     except RenderBackendError as err:
@@ -62,9 +105,6 @@ def run(args) -> int:
     from magsoft_env.render.video import render_gait, render_policy
 
     if args.preset is not None:
-        from magsoft_env.cases.gaits import gait_preset
-
-        preset = gait_preset(args.preset, reverse=args.reverse)
         _, summary = render_gait(preset, args.seconds, args.out, fps=args.fps, width=args.width, height=args.height,
                                  timestep=args.timestep_ms * 1e-3, scene=args.scene)
     else:
@@ -72,8 +112,6 @@ def run(args) -> int:
         if args.policy is not None:
             from magsoft_env.rl import load_policy
 
-            if not args.policy.exists():
-                raise ValueError(f"--policy must be an existing model .zip, got {str(args.policy)!r}.")
             policy = load_policy(args.policy)
             cfg = args.policy.parent / "config.yml"
             if cfg.exists():  # the run's environment arguments (field limit, crawl mode, ...)
@@ -83,5 +121,5 @@ def run(args) -> int:
         env_kwargs.update(width=args.width, height=args.height)
         _, summary = render_policy(args.env, policy, args.seconds, args.out, env_kwargs=env_kwargs)
     summary["gl_backend"] = backend
-    print(json.dumps(summary))
+    print(dumps_json(summary))
     return 0
