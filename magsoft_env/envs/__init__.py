@@ -23,6 +23,28 @@ ENV_SPECS = {
 }
 
 
+def refuse_unknown_kwargs(env, unknown: dict) -> None:
+    """Raise ValueError for constructor arguments ``env`` does not take, with the closest names
+    (gymnasium would raise a bare TypeError from deep inside ``gym.make``)."""
+    if not unknown:
+        return
+    import difflib
+    import inspect
+
+    allowed = set()
+    for cls in type(env).__mro__:
+        init = cls.__dict__.get("__init__")
+        if init is not None:
+            allowed |= {n for n, p in inspect.signature(init).parameters.items()
+                        if n != "self" and p.kind not in (p.VAR_KEYWORD, p.VAR_POSITIONAL)}
+    name = next(iter(unknown))
+    hint = difflib.get_close_matches(name, sorted(allowed), n=1)
+    extra = f" Did you mean {hint[0]!r}?" if hint else ""
+    raise ValueError(
+        f"{type(env).__name__} got an unknown argument {name!r}.{extra} Allowed: {', '.join(sorted(allowed))}."
+    )
+
+
 def register_all() -> None:
     """Register every id with Gymnasium; ids already registered are left alone."""
     for env_id, (entry_point, steps, kwargs) in ENV_SPECS.items():
@@ -31,4 +53,4 @@ def register_all() -> None:
         register(id=env_id, entry_point=entry_point, max_episode_steps=steps, kwargs=dict(kwargs))
 
 
-__all__ = ["ENV_SPECS", "register_all"]
+__all__ = ["ENV_SPECS", "refuse_unknown_kwargs", "register_all"]

@@ -16,6 +16,7 @@ from ..sim.health import UnphysicalError, check_steps
 from ..sim.model import MAX_TIMESTEP
 from ..spec.drive import Waveparams
 from ..validate import choice, finite_number, nonnegative, positive
+from . import refuse_unknown_kwargs
 
 #: Default coil limit per axis (T): +-20 mT.
 DEFAULT_FIELD_LIMIT = 20e-3
@@ -181,7 +182,9 @@ class MagSoftCrawlEnv(gym.Env):
         render_mode: str | None = None,
         width: int = 480,
         height: int = 270,
+        **unknown,
     ):
+        refuse_unknown_kwargs(self, unknown)
         choice("robot", robot, list_gaits())
         self.action_mode = choice("action_mode", action_mode, ACTION_MODES)
         self.crawl_mode = choice("crawl_mode", crawl_mode, CRAWL_MODES)

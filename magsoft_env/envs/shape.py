@@ -14,6 +14,7 @@ from ..sim.health import check_steps
 from ..sim.model import MAX_TIMESTEP
 from ..spec import Beam
 from ..validate import nonnegative, positive
+from . import refuse_unknown_kwargs
 
 #: Default coil limit per axis (T).
 DEFAULT_FIELD_LIMIT = 20e-3
@@ -119,7 +120,9 @@ class MagSoftShapeEnv(gym.Env):
         render_mode: str | None = None,
         width: int = 480,
         height: int = 360,
+        **unknown,
     ):
+        refuse_unknown_kwargs(self, unknown)
         self.field_limit = positive("field_limit", field_limit, unit="T")
         if self.field_limit > 0.1:
             raise ValueError(f"field_limit must be <= 0.1 T (20 mT is 0.02), got {field_limit!r}.")
