@@ -19,3 +19,19 @@ import magsoft_env  # noqa: F401  (registers the ids)
 def test_unknown_env_argument_names_the_closest_one(env_id, kwargs, hint):
     with pytest.raises(ValueError, match=f"unknown argument {next(iter(kwargs))!r}. Did you mean {hint!r}"):
         gym.make(env_id, **kwargs)
+
+
+@pytest.mark.parametrize("limit", [0.05, 0.1])
+def test_shape_env_runs_at_its_own_field_limit(limit):
+    # issue 12: at field_limit = 0.1 T the 1 ms step went unstable on the second full reversal
+    import numpy as np
+
+    env = gym.make("MagSoftShape-v0", field_limit=limit)
+    assert env.unwrapped.sim_dt == pytest.approx(1e-3 * 0.02 / limit)
+    env.reset(seed=0)
+    for a in ([1, 1], [-1, 1], [1, -1], [-1, -1], [0, 1], [1, 0]):
+        _, _, term, trunc, info = env.step(np.array(a, np.float32))
+        assert "truncation_reason" not in info, info.get("truncation_reason")
+        if term or trunc:
+            break
+    env.close()

@@ -18,6 +18,10 @@ from . import refuse_unknown_kwargs
 
 #: Default coil limit per axis (T).
 DEFAULT_FIELD_LIMIT = 20e-3
+#: Default simulation step (s) up to :data:`STABLE_FIELD`; above it the step scales as 1 / field_limit.
+DEFAULT_SIM_DT = 1e-3
+#: Largest coil limit (T) the default 1 ms step keeps stable under sudden field reversals.
+STABLE_FIELD = 20e-3
 #: Targets are equilibria under fields drawn from this box per axis (T).
 DEFAULT_TARGET_FIELD = 10e-3
 
@@ -88,12 +92,17 @@ class MagSoftShapeEnv(gym.Env):
     | ``target_field`` | 0.01 | targets come from fields in this box per axis (T) |
     | ``slew_rate`` | None | largest field change rate per axis (T/s) |
     | ``ctrl_dt`` | 0.05 | control interval (s), >= ``sim_dt`` |
-    | ``sim_dt`` | 1e-3 | simulation step (s), discrete integrator, in (0, 0.1]; at most 1e7 steps per env step |
+    | ``sim_dt`` | None | simulation step (s), discrete integrator, in (0, 0.1]; None: see below |
     | ``segments`` | 20 | rod cells |
     | ``position_weight``, ``angle_weight``, ``field_cost_weight`` | 1, 0.2, 0.01 | reward weights |
     | ``success_tolerance`` | 1e-3 | tip position tolerance (m) for ``is_success`` |
     | ``reset_noise_scale`` | 1e-3 | initial hinge-angle noise (rad) |
     | ``render_mode`` | None | ``"rgb_array"`` (with the analytical shape at the current field overlaid) |
+
+    ``sim_dt=None`` is 1 ms up to a 20 mT ``field_limit`` and ``1 ms x 20 mT / field_limit`` above: the 1 ms
+    step goes unstable under sudden reversals of 30-100 mT, while 0.67, 0.4 and 0.2 ms ran three episodes of
+    16 extreme and random actions each at 30, 50 and 100 mT without an instability (measured). At most 1e7
+    simulation steps per env step.
 
     ## Version History
 
@@ -110,7 +119,7 @@ class MagSoftShapeEnv(gym.Env):
         target_field: float = DEFAULT_TARGET_FIELD,
         slew_rate: float | None = None,
         ctrl_dt: float = 0.05,
-        sim_dt: float = 1e-3,
+        sim_dt: float | None = None,
         segments: int = 20,
         position_weight: float = 1.0,
         angle_weight: float = 0.2,
@@ -133,6 +142,8 @@ class MagSoftShapeEnv(gym.Env):
             )
         self.slew_rate = None if slew_rate is None else positive("slew_rate", slew_rate, unit="T/s")
         self.ctrl_dt = positive("ctrl_dt", ctrl_dt, unit="s")
+        if sim_dt is None:
+            sim_dt = DEFAULT_SIM_DT * min(1.0, STABLE_FIELD / self.field_limit)
         self.sim_dt = positive("sim_dt", sim_dt, unit="s")
         if self.sim_dt > MAX_TIMESTEP:
             raise ValueError(f"sim_dt must lie in (0, {MAX_TIMESTEP:g}] s, got {sim_dt!r}.")
