@@ -123,3 +123,15 @@ def _int_range(lo, hi) -> str:
 
 def _u(unit: str) -> str:
     return f" ({unit})" if unit else ""
+
+
+def checked_replace(obj, changes: dict, what: str):
+    """``dataclasses.replace(obj, **changes)`` (which checks the copy again through ``__post_init__``),
+    refusing names that are not fields of ``obj`` with a ValueError naming ``what``."""
+    import dataclasses
+
+    names = [f.name for f in dataclasses.fields(obj)]
+    unknown = sorted(set(changes) - set(names))
+    if unknown:
+        raise ValueError(f"{what} got unknown field(s) {unknown}; allowed: {names}.")
+    return dataclasses.replace(obj, **changes)

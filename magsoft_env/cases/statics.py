@@ -62,7 +62,7 @@ from ..spec.field import as_field
 from ..spec.loading import check_loading
 from ..spec.profiles import MAX_CELLS
 from ..units import MM
-from ..validate import choice, finite_array, finite_number, integer, positive
+from ..validate import checked_replace, choice, finite_array, finite_number, integer, positive
 from .expressions import compile_expression
 
 SWEEP_AXES = ("Bx", "Bz", "magnitude")
@@ -176,11 +176,7 @@ class Preset:
 
     def replace(self, **changes) -> Preset:
         """A copy with some attributes changed (checked again)."""
-        names = [f.name for f in dataclasses.fields(self)]
-        unknown = sorted(set(changes) - set(names))
-        if unknown:
-            raise ValueError(f"Preset.replace got unknown field(s) {unknown}; allowed: {names}.")
-        return dataclasses.replace(self, **changes)
+        return checked_replace(self, changes, "Preset.replace")
 
     def with_steps(self, steps: int) -> Preset:
         """The same path with every ramp resampled to ``steps`` states (an integer in [2, MAX_PATH_STEPS])."""

@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..validate import nonnegative, positive
+from ..validate import checked_replace, nonnegative, positive
 from .field import as_field
 from .material import MAX_VOLUME_FRACTION, Material
 from .profiles import Constant, PiecewiseConstant, PiecewiseLinear, Profile, as_profile
@@ -225,11 +224,7 @@ class Beam:
 
     def replace(self, **changes) -> Beam:
         """A copy with some fields changed (validated again)."""
-        names = [f.name for f in dataclasses.fields(self)]
-        unknown = sorted(set(changes) - set(names))
-        if unknown:
-            raise ValueError(f"Beam.replace got unknown field(s) {unknown}; allowed: {names}.")
-        return dataclasses.replace(self, **changes)
+        return checked_replace(self, changes, "Beam.replace")
 
 
 def _sample(profile: Profile, s: np.ndarray, length: float, name: str) -> np.ndarray:

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..units import MT
 from ..validate import finite_number, nonnegative, positive
-from .field import MAX_FIELD
+from .field import field_component
 
 #: Drive shapes of :class:`Waveparams`.
 WAVE_SHAPES = ("sine", "square")
@@ -104,13 +104,7 @@ class Waveparams:
         if not isinstance(self.shape, str) or self.shape not in WAVE_SHAPES:
             raise ValueError(f"Waveparams.shape must be one of {list(WAVE_SHAPES)}, got {self.shape!r}.")
         for name in ("amplitude_x", "amplitude_z"):
-            v = finite_number(f"Waveparams.{name}", getattr(self, name), unit="T")
-            if abs(v) > MAX_FIELD:
-                raise ValueError(
-                    f"Waveparams.{name} must lie in [-{MAX_FIELD:g}, {MAX_FIELD:g}] T, got {v!r} "
-                    "(fields are in tesla: 2 mT is 0.002)."
-                )
-            object.__setattr__(self, name, v)
+            object.__setattr__(self, name, field_component(f"Waveparams.{name}", getattr(self, name)))
         object.__setattr__(self, "frequency", positive("Waveparams.frequency", self.frequency, unit="Hz"))
         object.__setattr__(self, "phase", finite_number("Waveparams.phase", self.phase, unit="rad"))
         object.__setattr__(self, "coil_time", nonnegative("Waveparams.coil_time", self.coil_time, unit="s"))

@@ -17,6 +17,16 @@ MAX_FIELD = 1.0
 MAX_RAMP_STEPS = 100_000
 
 
+def field_component(name: str, value) -> float:
+    """``value`` as one field component (T), within +-:data:`MAX_FIELD`, or a ValueError naming ``name``."""
+    v = finite_number(name, value, unit="T")
+    if abs(v) > MAX_FIELD:
+        raise ValueError(
+            f"{name} must lie in [-{MAX_FIELD:g}, {MAX_FIELD:g}] T, got {v!r} (fields are in tesla: 13 mT is 0.013)."
+        )
+    return v
+
+
 @dataclass(frozen=True)
 class Field:
     """A uniform applied field (T). ``alpha = atan2(B_z, B_x)`` is its angle from +x.
@@ -32,13 +42,7 @@ class Field:
 
     def __post_init__(self):
         for name in ("Bx", "Bz"):
-            v = finite_number(f"field {name}", getattr(self, name), unit="T")
-            if abs(v) > MAX_FIELD:
-                raise ValueError(
-                    f"field {name} must lie in [-{MAX_FIELD:g}, {MAX_FIELD:g}] T, got {v!r} "
-                    "(fields are in tesla: 13 mT is 0.013)."
-                )
-            object.__setattr__(self, name, v)
+            object.__setattr__(self, name, field_component(f"field {name}", getattr(self, name)))
 
     @classmethod
     def from_mT(cls, Bx_mT: float = 0.0, Bz_mT: float = 0.0) -> Field:
