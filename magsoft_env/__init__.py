@@ -25,12 +25,14 @@ from .spec import (
     PiecewiseConstant,
     PiecewiseLinear,
     Profile,
+    Sampled,
     alternating_cells,
     jig_curve,
     jig_from_function,
     jig_from_points,
     jig_from_polyline,
     ramp,
+    sample_profile,
 )
 
 __version__ = "0.4.0"
@@ -45,6 +47,16 @@ _LAZY = {
     "mujoco_equilibrium": "magsoft_env.sim",
     "design_profile": "magsoft_env.design",
     "load_preset": "magsoft_env.cases",
+    "Robot": "magsoft_env.cases",
+    "load_robot": "magsoft_env.cases",
+    "list_robots": "magsoft_env.cases",
+    "gait_preset": "magsoft_env.cases",
+    "list_gaits": "magsoft_env.cases",
+    "list_presets": "magsoft_env.cases",
+    "Waveparams": "magsoft_env.spec.drive",
+    "run_gait": "magsoft_env.sim.gait",
+    "crosscheck_preset": "magsoft_env.compare",
+    "mujoco_check": "magsoft_env.compare",
 }
 
 
@@ -80,6 +92,8 @@ __all__ = [
     "PiecewiseConstant",
     "PiecewiseLinear",
     "Profile",
+    "Robot",
+    "Sampled",
     "Waveparams",
     "alternating_cells",
     "crosscheck_preset",
@@ -91,11 +105,14 @@ __all__ = [
     "jig_from_polyline",
     "list_gaits",
     "list_presets",
+    "list_robots",
     "load_preset",
+    "load_robot",
     "mujoco_check",
     "mujoco_equilibrium",
     "ramp",
     "run_gait",
+    "sample_profile",
     "solve_equilibrium",
     "solve_path",
 ]

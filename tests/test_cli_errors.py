@@ -36,7 +36,7 @@ CASES = [
     ("solve", ["--steps", "abc"], "{never}", "invalid int value: 'abc'"),
     ("sweep", ["--paths", "c"], "{never}", "invalid choice: 'c'"),
     ("gait", ["--preset", "paper-5x"], None, "did you mean 'paper-5c'?"),
-    ("gait", [], None, "the following arguments are required: --preset"),
+    ("gait", [], None, "one of the arguments --preset --robot is required"),
     ("video", [], "{never}/x.gif", "one of the arguments --preset --env is required"),
     # out-of-range values
     ("solve", ["--steps", "1"], "{never}", "--steps must lie in [2, 10000]"),

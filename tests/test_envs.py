@@ -113,7 +113,7 @@ def test_forced_instability_truncates_with_reason(env_id):
 
 
 def test_crawl_limit_terminates_with_penalty_and_no_forward_reward():
-    env = make("MagSoftCrawl-v0")
+    env = make("MagSoftCrawl-v0", field_limit=0.02)
     env.reset(seed=0)
     for _ in range(50):  # full field along z flips the beam
         obs, r, term, trunc, info = env.step(np.array([0.0, 1.0], dtype=np.float32))
@@ -126,7 +126,7 @@ def test_crawl_limit_terminates_with_penalty_and_no_forward_reward():
 
 
 def test_crawl_violation_forfeits_the_episode_forward_reward():
-    env = make("MagSoftCrawl-v0")
+    env = make("MagSoftCrawl-v0", field_limit=0.02)
     env.reset(seed=0)
     earned, total = 0.0, 0.0
     for _ in range(50):
@@ -153,7 +153,7 @@ def test_waveform_action_mapping_round_trip():
     env = make("MagSoftCrawlWaveform-v0").unwrapped
     a = np.array([0.3, -0.5, 0.25, 0.1], dtype=np.float32)
     w = env.waveparams_of_action(a)
-    assert w.amplitude_x == pytest.approx(0.3 * 0.02)
+    assert w.amplitude_x == pytest.approx(0.3 * env.field_limit)
     assert w.phase == pytest.approx(0.25 * np.pi)
     np.testing.assert_allclose(env.action_of_waveparams(w), a, atol=1e-6)
 

@@ -72,8 +72,13 @@ def test_run_gait_validates_input():
     p = gait_preset("paper-5a")
     with pytest.raises(ValueError, match="seconds must be > 0"):
         run_gait(p, 0.0)
-    with pytest.raises(ValueError, match="preset must be a GaitPreset"):
-        run_gait("paper-5a", 1.0)
+    with pytest.raises(ValueError, match="robot must be a built-in name"):
+        run_gait(42, 1.0)
+    with pytest.raises(ValueError, match="Did you mean 'paper-5a'"):
+        run_gait("papr-5a", 1.0)
+    no_drive = p.replace(drive=None)
+    with pytest.raises(ValueError, match="has no drive"):
+        run_gait(no_drive, 1.0)
 
 
 def test_run_gait_records_a_consistent_result():
@@ -117,7 +122,7 @@ def test_5a_single_v_under_oscillating_bz_at_4hz_moves_left():
     from magsoft_env.cases.gaits import beam_5a
 
     p = gait_preset("paper-5a")
-    p = dataclasses.replace(p, beam=beam_5a(vees=1), wave=dataclasses.replace(p.wave, frequency=4.0))
+    p = dataclasses.replace(p, beam=beam_5a(vees=1), drive=dataclasses.replace(p.wave, frequency=4.0))
     r = run_gait(p, 2.0, timestep=2e-4)
     assert r.success and r.speed < -0.1e-3  # m/s
 
@@ -127,7 +132,7 @@ def test_5a_under_oscillating_bx_does_not_crawl():
     # the beam barely deforms and does not move
     import dataclasses
 
-    p = dataclasses.replace(gait_preset("paper-5a"), wave=Waveparams(5e-3, 0.0, 2.0))
+    p = dataclasses.replace(gait_preset("paper-5a"), drive=Waveparams(5e-3, 0.0, 2.0))
     r = run_gait(p, 1.5, timestep=2e-4)
     assert r.success
     assert abs(r.speed) < 0.05e-3 and max(r.max_lift_left, r.max_lift_right) < 1.5e-3
@@ -148,7 +153,7 @@ def test_square_drive_turns_5a_left_and_5b_right():
     for name in ("paper-5a", "paper-5b"):
         p = gait_preset(name)
         wave = dataclasses.replace(p.wave, amplitude_z=0.75 * p.wave.amplitude_z, shape="square")
-        r = run_gait(dataclasses.replace(p, wave=wave), 2.0, timestep=2e-4)
+        r = run_gait(dataclasses.replace(p, drive=wave), 2.0, timestep=2e-4)
         assert r.success
         speeds[name] = r.speed
     assert speeds["paper-5a"] < -0.3e-3 and speeds["paper-5b"] > 0.5e-3  # m/s
@@ -174,7 +179,7 @@ def test_symmetric_robot_under_pure_bz_does_not_drift():
     # (this caught a +0.55 mm/s drift of sphere colliders, hence capsules in the presets)
     import dataclasses
 
-    p = dataclasses.replace(gait_preset("paper-5c"), wave=Waveparams(0.0, 1.5e-3, 2.0))
+    p = dataclasses.replace(gait_preset("paper-5c"), drive=Waveparams(0.0, 1.5e-3, 2.0))
     r = run_gait(p, 1.5, timestep=5e-4)
     assert abs(r.speed) < 0.05e-3  # m/s
 
@@ -212,7 +217,7 @@ def test_gait_cli_replaces_the_drive(capsys):
     assert main(["gait", "--preset", "paper-5a", "--friction", "-1"]) == 2
     assert "--friction must lie in [0, 10]" in capsys.readouterr().err
     assert main(["gait", "--preset", "paper-5c", "--face-down"]) == 2
-    assert "--face-down applies to paper-5a and paper-5b" in capsys.readouterr().err
+    assert "--face-down applies to --preset paper-5a and paper-5b" in capsys.readouterr().err
     assert main(["gait", "--preset", "paper-5b", "--face-down", "--seconds", "0.2", "--timestep-ms", "0.5",
                  "--segments", "6", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["face_down"] is True

@@ -190,7 +190,7 @@ def run_case(case: Case, seconds: float) -> dict:
     """Run one row; returns a JSON-ready dict (mm, mm/s, mT, ms)."""
     p = gait_preset(case.preset, reverse=case.reverse)
     if case.wave is not None:
-        p = dataclasses.replace(p, wave=case.wave)
+        p = dataclasses.replace(p, drive=case.wave)
     if case.friction is not None:
         p = dataclasses.replace(p, friction=case.friction)
     if case.preset == "paper-5b" and case.face_down:

@@ -65,6 +65,7 @@ def compile_expression(text: str, *, name: str = "expression", variable: str = "
         return out
 
     f.__doc__ = f"z = {text}"
+    f.expression, f.variable = text.strip(), variable  # read back when a jig is saved to a robot file
     return f
 
 

@@ -22,14 +22,9 @@ File format (every key is checked; unknown keys are errors)::
       "extensible": false, "clamp_angle_deg": 0, "sweep_axis": "Bz"
     }
 
-Magnetization kinds: ``uniform`` (``angle_deg``), ``alternating_cells`` (``cells``,
-``angle_deg``, optional ``cell_length_mm``), ``cells`` (``angles_deg``, optional
-``fractions``), ``jig_function`` (``z_mm``: an expression in ``x`` (mm), ``x_start_mm``,
-``x_end_mm``, optional ``kinks_x_mm``) and ``jig_polyline`` (``x_mm``, ``z_mm``). A jig sets
-the beam length to its arc length unless ``length_mm`` says otherwise.
-
-Jig expressions are read by :func:`magsoft_env.cases.expressions.compile_expression`: numbers,
-``x``, ``pi``, arithmetic, comparisons and a few numpy functions; no Python code is ever executed.
+The beam block is the one robot files use (:mod:`magsoft_env.cases.beamfile` lists every profile kind);
+instead of ``"beam"`` a preset may name a robot, ``"robot": "paper-5c"`` or a robot file's path, and
+solve that robot's beam.
 
 Examples
 --------
@@ -48,39 +43,19 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..assets import assets_dir
-from ..spec import (
-    Beam,
-    Field,
-    Material,
-    PiecewiseConstant,
-    alternating_cells,
-    jig_from_function,
-    jig_from_polyline,
-    ramp,
-)
+from ..spec import Beam, Field, ramp
 from ..spec.field import as_field
 from ..spec.loading import check_loading
-from ..spec.profiles import MAX_CELLS
-from ..units import MM
-from ..validate import checked_replace, choice, finite_array, finite_number, integer, positive
-from .expressions import compile_expression
+from ..validate import checked_replace, choice, finite_number, integer
+from .beamfile import beam_from_dict, check_keys
 
 SWEEP_AXES = ("Bx", "Bz", "magnitude")
 MAX_PATH_STEPS = 10_000
 
 _TOP_KEYS = (
-    "description", "source", "beam", "path", "support", "gravity_m_per_s2", "coupling", "extensible",
+    "robot", "description", "source", "beam", "path", "support", "gravity_m_per_s2", "coupling", "extensible",
     "clamp_angle_deg", "sweep_axis",
 )
-_BEAM_KEYS = ("length_mm", "width_mm", "thickness_mm", "volume_fraction", "material", "magnetization")
-_MATERIAL_KEYS = ("E0_MPa", "particle_magnetization_kA_per_m", "density_kg_per_m3")
-_MAG_KEYS = {
-    "uniform": ("kind", "angle_deg"),
-    "alternating_cells": ("kind", "cells", "angle_deg", "cell_length_mm"),
-    "cells": ("kind", "angles_deg", "fractions"),
-    "jig_function": ("kind", "z_mm", "x_start_mm", "x_end_mm", "kinks_x_mm"),
-    "jig_polyline": ("kind", "x_mm", "z_mm"),
-}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -257,8 +232,15 @@ def load_preset(name: str) -> Preset:
 def preset_from_dict(data: dict, *, name: str) -> Preset:
     """Build a :class:`Preset` from a dict in the file format above (mm, mT -> SI)."""
     where = f"preset {name!r}"
-    _check_keys(where, data, _TOP_KEYS, required=("description", "beam", "path"))
-    beam = beam_from_dict(data["beam"], where=f"{where} beam")
+    check_keys(where, data, _TOP_KEYS, required=("description", "path"))
+    if ("beam" in data) == ("robot" in data):
+        raise ValueError(f"{where} needs exactly one of 'beam' (a beam block) and 'robot' (a robot name or file).")
+    if "beam" in data:
+        beam = beam_from_dict(data["beam"], where=f"{where} beam")
+    else:
+        from .robots import load_robot
+
+        beam = load_robot(data["robot"]).beam
     path = _path_from_list(data["path"], where=f"{where} path")
     for key in ("description", "source"):
         if key in data and not isinstance(data[key], str):
@@ -280,111 +262,6 @@ def preset_from_dict(data: dict, *, name: str) -> Preset:
     )
 
 
-def beam_from_dict(d: dict, *, where: str = "beam") -> Beam:
-    """A :class:`Beam` from ``{"length_mm", "width_mm", "thickness_mm", ...}`` (mm -> m)."""
-    _check_keys(where, d, _BEAM_KEYS, required=("width_mm", "thickness_mm"))
-    material = _material_from_dict(d.get("material", {}), where=f"{where} material")
-    beta, natural_length = _magnetization_from_dict(d.get("magnetization", {"kind": "uniform"}), where=where)
-    if "length_mm" in d:
-        length = positive(f"{where} length_mm", d["length_mm"], unit="mm") * MM
-        if natural_length is not None and abs(length - natural_length) > 1e-9 * natural_length and (
-            getattr(beta, "length", None) is None
-        ):
-            raise ValueError(
-                f"{where} length_mm is {length / MM:g} but the magnetization's cells give "
-                f"{natural_length / MM:g} mm; give one of them."
-            )
-    elif natural_length is not None:
-        length = natural_length
-    else:
-        raise ValueError(f"{where} needs length_mm (> 0, mm): the magnetization does not fix the length.")
-    vf = d.get("volume_fraction", 0.2)
-    if isinstance(vf, dict):
-        _check_keys(f"{where} volume_fraction", vf, ("cells", "fractions"), required=("cells",))
-        vf = PiecewiseConstant(vf["cells"], vf.get("fractions"))
-    return Beam(
-        length=length,
-        width=positive(f"{where} width_mm", d["width_mm"], unit="mm") * MM,
-        thickness=positive(f"{where} thickness_mm", d["thickness_mm"], unit="mm") * MM,
-        material=material,
-        volume_fraction=vf,
-        magnetization=beta,
-    )
-
-
-def _material_from_dict(d: dict, *, where: str) -> Material:
-    _check_keys(where, d, _MATERIAL_KEYS)
-    kw = {}
-    if "E0_MPa" in d:
-        kw["E0"] = positive(f"{where} E0_MPa", d["E0_MPa"], unit="MPa") * 1e6
-    if "particle_magnetization_kA_per_m" in d:
-        kw["particle_magnetization"] = (
-            finite_number(f"{where} particle_magnetization_kA_per_m", d["particle_magnetization_kA_per_m"]) * 1e3
-        )
-    if "density_kg_per_m3" in d:
-        kw["density"] = positive(f"{where} density_kg_per_m3", d["density_kg_per_m3"], unit="kg/m^3")
-    return Material(**kw)
-
-
-def _magnetization_from_dict(d: dict, *, where: str):
-    """(profile, natural length in m or None)."""
-    w = f"{where} magnetization"
-    if not isinstance(d, dict) or "kind" not in d:
-        raise ValueError(f"{w} must be an object with a 'kind' among {list(_MAG_KEYS)}, got {d!r}.")
-    kind = choice(f"{w} kind", d["kind"], list(_MAG_KEYS))
-    _check_keys(w, d, _MAG_KEYS[kind])
-    angle = math.radians(finite_number(f"{w} angle_deg", d.get("angle_deg", 0.0), unit="deg"))
-    if kind == "uniform":
-        return angle, None
-    if kind == "alternating_cells":
-        n = integer(f"{w} cells", d.get("cells"), 1, MAX_CELLS)
-        length = None
-        if "cell_length_mm" in d:
-            length = n * positive(f"{w} cell_length_mm", d["cell_length_mm"], unit="mm") * MM
-        return alternating_cells(n, angle=angle), length
-    if kind == "cells":
-        if "angles_deg" not in d:
-            raise ValueError(f"{w} of kind 'cells' needs 'angles_deg'.")
-        _check_list(f"{w} angles_deg", d["angles_deg"], min_len=1)
-        angles = [math.radians(finite_number(f"{w} angles_deg[{i}]", a, unit="deg"))
-                  for i, a in enumerate(d["angles_deg"])]
-        fractions = d.get("fractions")
-        if fractions is not None:
-            _check_list(f"{w} fractions", fractions, min_len=1)
-            fractions = finite_array(f"{w} fractions", fractions, ndim=1)
-        return PiecewiseConstant(angles, fractions), None
-    if kind == "jig_function":
-        for k in ("z_mm", "x_start_mm", "x_end_mm"):
-            if k not in d:
-                raise ValueError(f"{w} of kind 'jig_function' needs {k!r}.")
-        f = compile_expression(d["z_mm"], name=f"{w} z_mm")
-        kinks = _check_list(f"{w} kinks_x_mm", d.get("kinks_x_mm", []))
-        kinks = [finite_number(f"{w} kinks_x_mm[{i}]", k, unit="mm") for i, k in enumerate(kinks)]
-        prof = jig_from_function(
-            f,
-            finite_number(f"{w} x_start_mm", d["x_start_mm"], unit="mm"),
-            finite_number(f"{w} x_end_mm", d["x_end_mm"], unit="mm"),
-            unit=MM,
-            kinks=kinks,
-        )
-        return prof, prof.length
-    # jig_polyline
-    for k in ("x_mm", "z_mm"):
-        if k not in d:
-            raise ValueError(f"{w} of kind 'jig_polyline' needs {k!r}.")
-    xs = finite_array(f"{w} x_mm", _check_list(f"{w} x_mm", d["x_mm"], min_len=2), ndim=1)
-    zs = finite_array(f"{w} z_mm", _check_list(f"{w} z_mm", d["z_mm"], min_len=2), ndim=1)
-    prof = jig_from_polyline(xs * MM, zs * MM)
-    return prof, prof.length
-
-
-def _check_list(name: str, value, *, min_len: int = 0) -> list:
-    if not isinstance(value, list) or len(value) < min_len:
-        need = f"with at least {min_len} entries" if min_len else ""
-        raise ValueError(f"{name} must be a list {need}, got {value!r}.".replace("  ", " "))
-    return value
-
-
 def _path_from_list(items, *, where: str) -> tuple[PathSegment, ...]:
     if not isinstance(items, list) or not items:
         raise ValueError(f"{where} must be a non-empty list of segments, got {items!r}.")
@@ -395,11 +272,11 @@ def _path_from_list(items, *, where: str) -> tuple[PathSegment, ...]:
         if not isinstance(item, dict):
             raise ValueError(f"{w} must be an object, got {item!r}.")
         if "field_mT" in item:
-            _check_keys(w, item, ("field_mT",))
+            check_keys(w, item, ("field_mT",))
             end = _field_mT(item["field_mT"], f"{w} field_mT")
             segs.append(PathSegment(end, end, 1))
         else:
-            _check_keys(w, item, ("from_mT", "to_mT", "steps"), required=("to_mT", "steps"))
+            check_keys(w, item, ("from_mT", "to_mT", "steps"), required=("to_mT", "steps"))
             start = _field_mT(item["from_mT"], f"{w} from_mT") if "from_mT" in item else prev
             end = _field_mT(item["to_mT"], f"{w} to_mT")
             steps = integer(f"{w} steps", item["steps"], 2, MAX_PATH_STEPS)
@@ -416,16 +293,3 @@ def _field_mT(value, name: str) -> Field:
     except (TypeError, ValueError):
         raise ValueError(f"{name} must be a pair [B_x, B_z] in mT, got {value!r}.") from None
     return Field.from_mT(finite_number(f"{name} B_x", bx, unit="mT"), finite_number(f"{name} B_z", bz, unit="mT"))
-
-
-def _check_keys(where: str, d, allowed, *, required=()) -> None:
-    if not isinstance(d, dict):
-        raise ValueError(f"{where} must be an object with keys among {list(allowed)}, got {d!r}.")
-    for k in d:
-        if k not in allowed:
-            hint = difflib.get_close_matches(k, list(allowed), n=1)
-            extra = f" Did you mean {hint[0]!r}?" if hint else ""
-            raise ValueError(f"{where} has unknown key {k!r}; allowed: {list(allowed)}.{extra}")
-    for k in required:
-        if k not in d:
-            raise ValueError(f"{where} needs key {k!r}.")

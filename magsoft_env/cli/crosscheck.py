@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from ..io import write_text_atomic
-from .solve import _check_flag, out_dir
+from .solve import _check_flag, out_dir, robot_preset
 
 DEFAULT_PRESETS = (
     "fig3a_L20", "fig3a_L25", "fig3a_L30", "fig3b_L20", "fig3b_L25", "fig3b_L30",
@@ -29,6 +29,11 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="preset names (default: Fig. 3 and 4b-d); or give them with --preset")
     p.add_argument("--preset", "--presets", dest="preset_names", nargs="+", metavar="NAME", default=None,
                    help="preset names, as with the other commands (added to any given positionally)")
+    p.add_argument("--robot", nargs="+", metavar="PATH", default=None,
+                   help="robot files (or built-in names): each beam as a cantilever, field ramped from zero to "
+                        "--field-mT (instead of the default presets)")
+    p.add_argument("--field-mT", type=float, nargs=2, metavar=("BX", "BZ"), default=None,
+                   help="final field for --robot, mT (default 0 13)")
     p.add_argument("--segments", type=int, nargs="+", default=[10, 20, 40], help="segment counts (default 10 20 40)")
     p.add_argument("--grading", type=float, default=None,
                    help="last/first cell length ratio (default: the rod's cantilever default, 1.5; 1 = equal cells)")
@@ -39,7 +44,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def run(args) -> int:
-    from magsoft_env.cases import list_presets, load_preset
+    from magsoft_env.cases import load_preset
 
     if len(args.segments) > 20:
         raise ValueError(f"--segments takes at most 20 counts, got {len(args.segments)}.")
@@ -50,20 +55,31 @@ def run(args) -> int:
     _check_flag("--steps", args.steps, lo=2, hi=10_000, integer=True)
     if args.out is not None:
         args.out = out_dir(args.out)
-    names = list(dict.fromkeys([*(args.presets or ()), *(args.preset_names or ())])) or list(DEFAULT_PRESETS)
-    if len(names) > 100:
-        raise ValueError(f"crosscheck takes at most 100 presets, got {len(names)}.")
-    known = list_presets()
+    given = list(dict.fromkeys([*(args.presets or ()), *(args.preset_names or ())]))
+    names = given or ([] if args.robot else list(DEFAULT_PRESETS))
+    if len(names) + len(args.robot or ()) > 100:
+        raise ValueError(f"crosscheck takes at most 100 presets and robots, got {len(names) + len(args.robot)}.")
+    if args.field_mT is not None and not args.robot:
+        raise ValueError("--field-mT applies to --robot (a preset has its own loading path).")
+    field = None
+    if args.field_mT is not None:
+        from magsoft_env.spec import Field
+
+        for v in args.field_mT:
+            _check_flag("--field-mT", v, lo=-1000.0, hi=1000.0)
+        field = Field.from_mT(*args.field_mT)
+    cases = []
     for nm in names:
-        if nm not in known:
-            load_preset(nm)  # raises a ValueError with the closest name
+        cases.append(load_preset(nm))  # an unknown name: the closest one suggested
+    for src in args.robot or ():
+        cases.append(robot_preset(src, field, args.steps))  # a bad file: its key named, before any work
     from magsoft_env.compare.crosscheck import crosscheck_preset  # after the checks: imports mujoco
     from magsoft_env.render.figures import crosscheck_figure
 
     rows_all = []
     print(f"{'preset':<18} {'N':>4} {'max err/L %':>12} {'mean err/L %':>13} {'MuJoCo s':>9} {'theory s':>9}  ok")
-    for nm in names:
-        preset = load_preset(nm)
+    for preset in cases:
+        nm = preset.name
         if preset.support != "cantilever":
             print(f"{nm:<18} skipped: support={preset.support!r} (the MuJoCo rod is clamped only)")
             continue

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from ..units import MM, MT
 from .solve import MAX_GRAVITY, _check_flag, out_dir, write_json
 
@@ -82,6 +84,8 @@ def run(args) -> int:
         global_stage=args.global_stage, gravity=args.gravity, coupling=args.coupling, progress=not args.quiet,
     )
     files = write_design(res, out, name=name, figures=not args.no_figures)
+    robot_file, tip_change = write_robot(res, out / "robot.yml", name)
+    files.append(robot_file)
     f = res.field
     print(f"target {name}: beam length {res.beam.length / MM:.2f} mm (= curve length), "
           f"{res.family.kind} profile with {res.family.size} parameters")
@@ -101,8 +105,35 @@ def run(args) -> int:
             "rms_to_analytical_mm": chk["rms_to_analytical"] / MM,
             "rms_to_target_mm": chk["rms_to_target"] / MM, "sim_xz_mm": (chk["sim_xz"] / MM).tolist(),
         }))
+    print(f"robot.yml: the designed beam as a robot file (load_robot, --robot); reloaded, its tip under the design "
+          f"field moves {tip_change / MM:.2e} mm from the design's")
     print(f"wrote {len(files)} files to {out}/")
     return 0 if res.success else 1
+
+
+def write_robot(res, path, name: str):
+    """Write the designed beam as a robot file and check it: reload it and solve its equilibrium under the design
+    field; returns (path, distance in m between that tip and the design's predicted tip)."""
+    from magsoft_env.cases.robots import Robot, load_robot
+    from magsoft_env.theory import solve_path
+
+    f, st = res.field, res.settings
+    robot = Robot(
+        name=f"design-{name}", beam=res.beam, source="magsoft design",
+        description=(f"Designed by magsoft design for the target {name!r}: {res.family.kind} magnetization profile "
+                     f"with {res.family.size} parameters, beam length {res.beam.length / MM:.3f} mm (the curve's), "
+                     f"held field Bx = {f.Bx / MT:.4g} mT, Bz = {f.Bz / MT:.4g} mT (field.csv), fit RMS "
+                     f"{res.rms_error_percent:.3f} % of L. No drive: the design field is static."),
+    )
+    written = robot.save(path, sample_functions=True)  # a polynomial or Fourier profile is stored as samples
+    back = load_robot(written)
+    fields = [(f.Bx * t, f.Bz * t) for t in np.linspace(0.0, 1.0, 9)[1:]]
+    last = solve_path(back.beam, fields, gravity=st["gravity_m_s2"], coupling=st["coupling"],
+                      extensible=st["extensible"], clamp_angle=st["clamp_angle_rad"])[-1]
+    if not last.success:
+        raise RuntimeError(f"the robot file {written} does not reproduce the design: {last.message}")
+    tip = np.array([last.x[-1], last.z[-1]])
+    return written, float(np.hypot(*(tip - np.asarray(res.predicted_xz[-1], dtype=float))))
 
 
 def check_flags(args) -> None:

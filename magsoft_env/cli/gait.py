@@ -1,4 +1,4 @@
-"""``magsoft gait``: run one of the paper's crawling gaits (Fig. 5) on the floor and report its speed."""
+"""``magsoft gait``: run a crawling gait (a paper Fig. 5 robot, or a robot file) on the floor and report its speed."""
 
 from __future__ import annotations
 
@@ -17,15 +17,19 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
     p = subparsers.add_parser(
         "gait",
-        help="run a paper crawling gait (paper-5a, paper-5b, paper-5c) and print displacement and speed",
+        help="run a crawling gait (--preset paper-5a/5b/5c or --robot FILE) and print displacement and speed",
         description=(
-            "Simulate an open-loop crawling gait of the paper's Fig. 5 on a floor (MuJoCo rod) and print the "
-            "centre-of-mass displacement (mm) and speed (mm/s, signed along +x), the direction, and the paper's "
-            "value. Speed excludes the first field period (start-up transient); a run shorter than that warm-up plus "
-            "one period gets a warning (its speed is not over whole periods). --out writes the result as JSON."
+            "Simulate an open-loop crawling gait (a robot of the paper's Fig. 5, or your own robot file with a drive) "
+            "on a floor (MuJoCo rod) and print the centre-of-mass displacement (mm) and speed (mm/s, signed along "
+            "+x), the direction, and the paper's value. The speed is measured over whole field periods after the "
+            "first one (start-up transient); a run shorter than that warm-up plus one period gets a warning (its "
+            "speed is not over whole periods). --out writes the result as JSON."
         ),
     )
-    p.add_argument("--preset", required=True, choices=list(list_gaits()), help="gait name")
+    src = p.add_mutually_exclusive_group(required=True)
+    src.add_argument("--preset", choices=list(list_gaits()), help="built-in gait name")
+    src.add_argument("--robot", type=Path, metavar="PATH",
+                     help="robot file (.yml, .yaml, .json; Robot.save, magsoft design) with a drive block")
     p.add_argument("--reverse", action="store_true", help="invert B_x (paper Fig. 5c: reverses the direction)")
     p.add_argument("--seconds", type=float, default=4.0, help="simulated time in s (default 4)")
     p.add_argument("--timestep-ms", type=float, default=0.1, help="simulation step in ms (default 0.1, converged)")
@@ -70,8 +74,9 @@ def run(args) -> int:
     if not 0 <= args.coil_ms <= 1000:
         raise ValueError(f"--coil-ms must lie in [0, 1000] ms, got {args.coil_ms}.")
     if args.face_down and args.preset not in ("paper-5a", "paper-5b"):
-        raise ValueError(f"--face-down applies to paper-5a and paper-5b (paper-5c is its own mirror image), got "
-                         f"--preset {args.preset}.")
+        got = f"--preset {args.preset}" if args.preset else "--robot"
+        raise ValueError(f"--face-down applies to --preset paper-5a and paper-5b (paper-5c is its own mirror image; "
+                         f"turn a robot file's beam over in the file), got {got}.")
     if args.friction is not None and not 0 <= args.friction <= 10:
         raise ValueError(f"--friction must lie in [0, 10], got {args.friction}.")
     shape = args.waveform or "sine"
@@ -79,13 +84,14 @@ def run(args) -> int:
         raise ValueError(f"--coil-ms applies to --waveform square only, got --coil-ms {args.coil_ms} with a {shape}.")
     if args.out is not None:
         args.out = out_file(args.out)
-    preset = gait_preset(args.preset, reverse=args.reverse)
+    source = args.preset if args.preset is not None else args.robot
+    preset = gait_preset(source, reverse=args.reverse)  # a robot file: loaded and checked here, before the run
     w = preset.wave
     if shape != w.shape or args.coil_ms or args.field_scale != 1.0:
         k = args.field_scale
         w = dataclasses.replace(w, amplitude_x=w.amplitude_x * k, amplitude_z=w.amplitude_z * k, shape=shape,
                                 coil_time=args.coil_ms * 1e-3)
-        preset = dataclasses.replace(preset, wave=w)
+        preset = dataclasses.replace(preset, drive=w)
     if args.friction is not None:
         preset = dataclasses.replace(preset, friction=args.friction)
     if args.face_down:
@@ -105,7 +111,7 @@ def run(args) -> int:
     out["timestep_ms"] = args.timestep_ms
     short = _short_run_warning(res, preset.wave.frequency)
     out["short_run"] = short is not None  # speed over less than one whole field period after the warm-up
-    out["speed_window_periods"] = (res.seconds - res.warmup) * preset.wave.frequency
+    out["speed_window_periods"] = res.window * preset.wave.frequency
     out["warnings"] = [] if short is None else [short]
     if args.out is not None:
         write_json(args.out, out)
@@ -115,12 +121,13 @@ def run(args) -> int:
             print(f"magsoft gait: warning: {short}", file=sys.stderr)
     else:
         print(f"{out['preset']}: {preset.description}")
-        if preset.wave != gait_preset(args.preset, reverse=args.reverse).wave:
+        if preset.wave != gait_preset(source, reverse=args.reverse).wave:
             print(f"field replaced: {preset.wave.describe()}")
         if args.face_down or args.friction is not None:
             print(f"robot: {'face down' if args.face_down else 'face up'}, friction {preset.friction:g}")
         print(f"displacement {out['displacement_mm']:+.3f} mm in {out['seconds']:.2f} s; "
-              f"speed {out['speed_mm_s']:+.3f} mm/s (after {out['warmup_s']:.2f} s warm-up), "
+              f"speed {out['speed_mm_s']:+.3f} mm/s (over {out['speed_window_s']:.2f} s after {out['warmup_s']:.2f} "
+              "s warm-up), "
               f"direction {out['direction']}")
         print(f"paper: {_paper_values(preset)}; max height {out['max_height_mm']:.2f} mm, "
               f"max link rotation {out['max_link_rotation_deg']:.0f} deg; {out['wall_time_s']:.1f} s wall")
@@ -155,9 +162,9 @@ def _short_run_warning(res, frequency: float) -> str | None:
         return None
     period = 1.0 / frequency
     need = (_warmup_cycles() + 1.0) * period
-    if res.seconds >= need - 1e-9:
+    if res.whole_periods and res.seconds >= need - 1e-9:
         return None
-    window = res.seconds - res.warmup
+    window = res.window
     return (f"the run ({res.seconds:.3g} s) is shorter than the warm-up plus one field period "
             f"({need:.3g} s at {frequency:g} Hz): the speed is measured over {window:.3g} s, not over whole "
             f"periods; use --seconds {need:g} or more")

@@ -224,11 +224,14 @@ def add_parser(subparsers) -> None:
         "solve",
         help="equilibrium shape(s) of a preset or a uniform beam; prints metrics, writes JSON and PNG",
         description="Solve the equilibrium along a loading path (gravity first, then the field ramped from zero). "
-        "Give --preset NAME (see --list) or the beam's parameters. Metrics: v/L (tip z over length), tip angle, "
-        "rotation angle (chord angle atan2(Z_tip, X_tip)).",
+        "Give --preset NAME (see --list), --robot PATH or the beam's parameters. Metrics: v/L (tip z over length), "
+        "tip angle, rotation angle (chord angle atan2(Z_tip, X_tip)).",
     )
     src = p.add_argument_group("case")
     src.add_argument("--preset", metavar="NAME", help="a shipped preset (or a path to a preset .json file)")
+    src.add_argument("--robot", metavar="PATH",
+                     help="a robot (file .yml/.yaml/.json or built-in name): its beam as a cantilever, field ramped "
+                          "from zero to --field-mT (default 0 13)")
     src.add_argument("--list", action="store_true", help="list the presets and exit")
     for flag, default, text in BEAM_FLAGS:
         src.add_argument(flag, type=float, default=None, help=f"{text} (default {default:g})")
@@ -257,6 +260,12 @@ def build_case(args):
     given = [flag for flag, _, _ in BEAM_FLAGS if getattr(args, _dest(flag)) is not None]
     if args.preset and given:
         raise ValueError(f"give --preset or beam parameters, not both: got --preset {args.preset} and {given}.")
+    robot = getattr(args, "robot", None)
+    if robot is not None and (args.preset or given):
+        raise ValueError(f"give --robot, --preset or beam parameters, one of them: got --robot {robot} and "
+                         f"{'--preset ' + args.preset if args.preset else given}.")
+    if robot is not None:
+        return apply_overrides(robot_preset(robot, field, args.steps), args)
     for flag, default, _ in BEAM_FLAGS:
         if getattr(args, _dest(flag)) is None:
             setattr(args, _dest(flag), default)
@@ -293,6 +302,24 @@ def build_case(args):
     if args.steps is not None and field is None:
         preset = preset.with_steps(args.steps)
     return apply_overrides(preset, args)
+
+
+#: Field a robot's beam is solved under when none is given (mT): the paper's Fig. 3a ramp end.
+ROBOT_FIELD_MT = (0.0, 13.0)
+
+
+def robot_preset(source, field=None, steps: int | None = None):
+    """A cantilever :class:`~magsoft_env.cases.Preset` of a robot's beam (a robot file, name or Robot): the field
+    ramped from zero to ``field`` (default :data:`ROBOT_FIELD_MT`) in ``steps`` states (default 14)."""
+    from magsoft_env.cases import PathSegment, Preset
+    from magsoft_env.cases.robots import load_robot
+    from magsoft_env.spec import Field
+
+    robot = load_robot(source)
+    field = Field.from_mT(*ROBOT_FIELD_MT) if field is None else field
+    return Preset(name=robot.name, description=robot.description or f"robot {robot.name}", beam=robot.beam,
+                  path=(PathSegment(Field(), field, steps or 14),), source=str(source),
+                  config={"robot": str(source), "field_mT": [field.Bx / MT, field.Bz / MT]})
 
 
 def _dest(flag: str) -> str:

@@ -13,7 +13,7 @@ from functools import cached_property
 
 import numpy as np
 
-from ..spec import PiecewiseLinear, Profile
+from ..spec import PiecewiseLinear, Profile, Sampled
 from ..validate import choice, finite_array, integer, positive
 
 FAMILIES = ("polynomial", "fourier", "piecewise_linear", "spline")
@@ -118,6 +118,14 @@ class BasisProfile(Profile):
         if self.family.kind != "spline":
             return ()
         return tuple(float(u) * self.length for u in self.family.knots[1:-1])
+
+    def portable(self) -> Profile | None:
+        """The same profile as a file-serializable one, or None: a spline family is the not-a-knot spline
+        through its knot values (:class:`~magsoft_env.spec.Sampled`, equal to round-off); the polynomial and
+        Fourier series have none (a robot file samples them: ``Robot.save(path, sample_functions=True)``)."""
+        if self.family.kind != "spline":
+            return None
+        return Sampled(tuple((self.family.knots * self.length).tolist()), self.params)
 
     def values(self, s, length):
         s = np.asarray(s, dtype=float)

@@ -52,13 +52,13 @@ class MagSoftChannelEnv(MagSoftCrawlEnv):
 
     _scene = "channel"
 
-    def __init__(self, robot: str = "paper-5a", *, entrance_gap: float = DEFAULT_ENTRANCE_GAP,
+    def __init__(self, robot="paper-5a", *, entrance_gap: float = DEFAULT_ENTRANCE_GAP,
                  success_reward: float = 100.0, crawl_mode: str = "height", **kwargs):
-        from ..cases.gaits import gait_preset, list_gaits
-        from ..validate import choice, finite_number, nonnegative
+        from ..cases.robots import resolve_robot
+        from ..validate import finite_number, nonnegative
 
-        choice("robot", robot, list_gaits())
-        length = gait_preset(robot).beam.length
+        robot = resolve_robot(robot)
+        length = robot.beam.length
         # the beam starts outside the box (a negative gap would start it inside)
         gap = finite_number("entrance_gap", entrance_gap, unit="m")
         if not 0.0 <= gap <= MAX_GAP:

@@ -50,13 +50,13 @@ class MagSoftObstacleEnv(MagSoftCrawlEnv):
 
     _scene = "obstacle"
 
-    def __init__(self, robot: str = "paper-5b", *, obstacle_gap: float = DEFAULT_OBSTACLE_GAP,
+    def __init__(self, robot="paper-5b", *, obstacle_gap: float = DEFAULT_OBSTACLE_GAP,
                  success_reward: float = 100.0, **kwargs):
-        from ..cases.gaits import gait_preset, list_gaits
-        from ..validate import choice, finite_number, nonnegative
+        from ..cases.robots import resolve_robot
+        from ..validate import finite_number, nonnegative
 
-        choice("robot", robot, list_gaits())
-        beam = gait_preset(robot).beam
+        robot = resolve_robot(robot)
+        beam = robot.beam
         length = beam.length
         # the rod's colliders (radius h/2) reach h/2 past its end: a block face nearer than that
         # would start inside the resting beam

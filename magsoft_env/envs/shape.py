@@ -18,6 +18,8 @@ from . import refuse_unknown_kwargs
 
 #: Default coil limit per axis (T).
 DEFAULT_FIELD_LIMIT = 20e-3
+#: Length of the default beam (m): the paper's Fig. 3 cantilever.
+DEFAULT_LENGTH = 25e-3
 #: Default simulation step (s) up to :data:`STABLE_FIELD`; above it the step scales as 1 / field_limit.
 DEFAULT_SIM_DT = 1e-3
 #: Largest coil limit (T) the default 1 ms step keeps stable under sudden field reversals.
@@ -30,8 +32,8 @@ class MagSoftShapeEnv(gym.Env):
     """
     ## Description
 
-    A 25 x 5 x 1.13 mm cantilever (phi = 20 %, axial magnetization: the paper's Fig. 3 beam)
-    is clamped horizontally at its left end and sags under gravity. Each episode draws a
+    A 25 x 5 x 1.13 mm cantilever (phi = 20 %, axial magnetization: the paper's Fig. 3 beam; or the
+    beam of ``robot``) is clamped horizontally at its left end and sags under gravity. Each episode draws a
     target tip pose: the analytical equilibrium (:func:`magsoft_env.solve_equilibrium`, rotated
     coupling, loading path from zero field) under a field drawn uniformly from
     ``[-target_field, target_field]^2``. The agent chooses the field every ``ctrl_dt`` and
@@ -87,7 +89,8 @@ class MagSoftShapeEnv(gym.Env):
 
     | Parameter | Default | Description |
     |-----------|---------|-------------|
-    | ``length`` | 0.025 | beam length (m) |
+    | ``robot`` | None | a robot (built-in name, robot file or ``Robot``) whose beam is clamped instead |
+    | ``length`` | None | beam length (m) of the default beam (0.025); not with ``robot`` |
     | ``field_limit`` | 0.02 | coil limit per axis (T) |
     | ``target_field`` | 0.01 | targets come from fields in this box per axis (T) |
     | ``slew_rate`` | None | largest field change rate per axis (T/s) |
@@ -114,7 +117,8 @@ class MagSoftShapeEnv(gym.Env):
     def __init__(
         self,
         *,
-        length: float = 25e-3,
+        robot=None,
+        length: float | None = None,
         field_limit: float = DEFAULT_FIELD_LIMIT,
         target_field: float = DEFAULT_TARGET_FIELD,
         slew_rate: float | None = None,
@@ -127,11 +131,21 @@ class MagSoftShapeEnv(gym.Env):
         success_tolerance: float = 1e-3,
         reset_noise_scale: float = 1e-3,
         render_mode: str | None = None,
-        width: int = 480,
-        height: int = 360,
+        width: int = 960,
+        height: int = 540,
         **unknown,
     ):
         refuse_unknown_kwargs(self, unknown)
+        if robot is not None and length is not None:
+            raise ValueError(f"give robot or length, not both: the robot's beam has its own length, got "
+                             f"robot={robot!r} and length={length!r}.")
+        if robot is not None:
+            from ..cases.robots import resolve_robot
+
+            beam = resolve_robot(robot).beam
+        else:
+            beam = Beam(length=positive("length", DEFAULT_LENGTH if length is None else length, unit="m"),
+                        width=5e-3, thickness=1.13e-3, volume_fraction=0.2)
         self.field_limit = positive("field_limit", field_limit, unit="T")
         if self.field_limit > 0.1:
             raise ValueError(f"field_limit must be <= 0.1 T (20 mT is 0.02), got {field_limit!r}.")
@@ -166,8 +180,7 @@ class MagSoftShapeEnv(gym.Env):
                 raise ValueError(f"{name} must be an integer number of pixels in [16, 4096], got {v!r}.")
         self.render_mode = render_mode
         self.width, self.height = int(width), int(height)
-        self.beam = Beam(length=positive("length", length, unit="m"), width=5e-3, thickness=1.13e-3,
-                         volume_fraction=0.2)
+        self.beam = beam
         self.sim = Simulator(self.beam, RodOptions(scene="cantilever", segments=segments, timestep=self.sim_dt,
                                                    render=render_mode is not None))
         self.segments = int(segments)

@@ -16,7 +16,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..cases.gaits import GAIT_CONTACT_GEOM, GAIT_ROD_OPTIONS, GAIT_TIMESTEP, GaitPreset
+from ..cases.gaits import GAIT_CONTACT_GEOM, GAIT_ROD_OPTIONS, GAIT_TIMESTEP, gait_preset
+from ..cases.robots import Robot
 from ..units import MM
 from ..validate import nonnegative, positive
 from .health import UnphysicalError, check_steps
@@ -25,20 +26,24 @@ from .simulator import SimulationError, Simulator
 from .waveforms import as_waveform
 
 
-def gait_rod_options(preset: GaitPreset, *, scene: str = "floor", segments: int | None = None,
+def gait_rod_options(robot: Robot, *, scene: str = "floor", segments: int | None = None,
                      timestep: float = GAIT_TIMESTEP, render: bool = False, feature_x: float | None = None,
                      friction: float | None = None) -> RodOptions:
-    """The :class:`~magsoft_env.sim.RodOptions` of a gait: its friction, capsule colliders, the
-    beam's own contact time constant and the pinned :data:`~magsoft_env.cases.gaits.GAIT_ROD_OPTIONS`.
+    """The :class:`~magsoft_env.sim.RodOptions` of a robot on the floor: its friction and hinge damping
+    (retardation time), capsule colliders, the beam's own contact time constant and the pinned
+    :data:`~magsoft_env.cases.gaits.GAIT_ROD_OPTIONS`.
 
-    ``segments`` ``None``: the preset's own; ``friction`` ``None``: the preset's own. The gaits
+    ``segments`` ``None``: the robot's own; ``friction`` ``None``: the robot's own. The gaits
     and the floor environments build their rods here, so both describe the same physics.
     """
-    segments = preset.segments if segments is None else segments
-    friction = preset.friction if friction is None else friction
+    if not isinstance(robot, Robot):
+        raise ValueError(f"robot must be a magsoft_env.Robot (see load_robot), got {type(robot).__name__}.")
+    segments = robot.segments if segments is None else segments
+    friction = robot.friction if friction is None else friction
     return RodOptions(scene=scene, segments=segments, timestep=timestep, friction=friction,
                       render=render, feature_x=feature_x, contact_geom=GAIT_CONTACT_GEOM,
-                      contact_timeconst=material_contact_timeconst(preset.beam), **GAIT_ROD_OPTIONS)
+                      retardation_time=robot.retardation_time,
+                      contact_timeconst=material_contact_timeconst(robot.beam), **GAIT_ROD_OPTIONS)
 
 
 @dataclass(frozen=True)
@@ -52,7 +57,10 @@ class GaitResult:
     seconds : float
         Simulated time (s) actually run (shorter than asked when the rod became unstable).
     warmup : float
-        Time (s) excluded from the speed (the first cycle, a start-up transient).
+        Time (s) excluded from the speed (the first cycle, a start-up transient): the speed window starts here.
+    window : float
+        Length (s) of the speed window: whole field periods after the warm-up (the whole rest of the run when
+        it is shorter than one period; :attr:`whole_periods` is then False).
     displacement : float
         Centre-of-mass travel along +x over the whole run (m).
     speed : float
@@ -109,6 +117,8 @@ class GaitResult:
     max_penetration_h: float = math.nan
     energy_drift: float = math.nan
     unphysical: str = ""
+    window: float = math.nan
+    whole_periods: bool = True
 
     def to_dict(self) -> dict:
         """JSON-ready summary with units in the keys (mm, mm/s, deg)."""
@@ -116,6 +126,8 @@ class GaitResult:
             "preset": self.name,
             "seconds": self.seconds,
             "warmup_s": self.warmup,
+            "speed_window_s": self.window,
+            "whole_periods": self.whole_periods,
             "displacement_mm": self.displacement / MM,
             "speed_mm_s": self.speed / MM,
             "direction": self.direction,
@@ -143,14 +155,20 @@ def direction_of(speed: float, *, threshold: float = 1e-5) -> str:
 
 
 def run_gait(
-    preset: GaitPreset, seconds: float = 4.0, *, segments: int | None = None, timestep: float = GAIT_TIMESTEP,
+    preset, seconds: float = 4.0, *, segments: int | None = None, timestep: float = GAIT_TIMESTEP,
     warmup_cycles: float = 1.0, sample_dt: float = 0.01,
 ) -> GaitResult:
     """Run a gait on the floor and measure the centre-of-mass speed.
 
+    The speed is measured over whole field periods after the warm-up (the centre of mass swings
+    back and forth within a period, by 3.4 mm for paper-5b, so a window that cuts a period reads a
+    wrong speed); a run too short for one whole period after the warm-up measures over what is left
+    and says so (``whole_periods`` False).
+
     Parameters
     ----------
-    preset : GaitPreset
+    preset : Robot, str or path
+        A robot with a drive (:class:`~magsoft_env.cases.robots.Robot`), a built-in gait name or a robot file.
     seconds : float
         Simulated time (s), > 0, at most :data:`~magsoft_env.sim.health.MAX_STEPS` steps.
     segments : int or None
@@ -168,8 +186,7 @@ def run_gait(
     GaitResult
         ``success`` False (and the partial record) when the rod became unstable.
     """
-    if not isinstance(preset, GaitPreset):
-        raise ValueError(f"preset must be a GaitPreset (see gait_preset), got {type(preset).__name__}.")
+    preset = gait_preset(preset)  # a name or a path loads; a robot without a drive is refused
     seconds = positive("seconds", seconds, unit="s")
     warmup_cycles = nonnegative("warmup_cycles", warmup_cycles)
     sample_dt = positive("sample_dt", sample_dt, unit="s")
@@ -205,17 +222,34 @@ def run_gait(
         lift_l, lift_r = max(lift_l, float(np.max(z[left])) - z_rest), max(lift_r, float(np.max(z[right])) - z_rest)
         rot = max(rot, float(np.max(np.abs(sim.angles()))))
     t, x = np.asarray(ts), np.asarray(xs)
-    warm = min(warmup_cycles / preset.wave.frequency, 0.5 * t[-1])
-    i0 = int(np.searchsorted(t, warm))
-    speed = (x[-1] - x[i0]) / (t[-1] - t[i0]) if t[-1] > t[i0] else 0.0
+    i0, i1, whole = speed_window(t, preset.wave.frequency, warmup_cycles)
+    speed = (x[i1] - x[i0]) / (t[i1] - t[i0]) if t[i1] > t[i0] else 0.0
     return GaitResult(
         name=preset.name + (" (reverse)" if preset.reverse else ""), seconds=float(t[-1]), warmup=float(t[i0]),
         displacement=float(x[-1] - x[0]), speed=float(speed), direction=direction_of(speed),
         max_height=zmax, max_link_rotation=rot, wall_time=_time.perf_counter() - t0, time=t, com_x=x,
         success=ok, message=msg, max_lift_left=lift_l, max_lift_right=lift_r,
         max_penetration=sim.max_penetration, max_penetration_h=sim.max_penetration / preset.beam.thickness,
-        energy_drift=sim.energy_drift, unphysical=unphysical,
+        energy_drift=sim.energy_drift, unphysical=unphysical, window=float(t[i1] - t[i0]), whole_periods=whole,
     )
 
 
-__all__ = ["GaitResult", "direction_of", "gait_rod_options", "run_gait"]
+def speed_window(t, frequency: float, warmup_cycles: float = 1.0) -> tuple[int, int, bool]:
+    """Sample indices ``(i0, i1)`` of the speed window of a record at times ``t`` (s), and whether it is whole periods.
+
+    ``i0`` is the sample nearest to ``warmup_cycles / frequency`` (at most half the run), ``i1`` the sample
+    nearest to the last whole period after it. Nearest, not the next one: accumulated step times read
+    0.49999... where 0.5 s is meant. Without a whole period left, ``i1`` is the last sample (False).
+    """
+    t = np.asarray(t, dtype=float)
+    period = 1.0 / frequency
+    warm = min(warmup_cycles * period, 0.5 * t[-1])
+    i0 = int(np.argmin(np.abs(t - warm)))
+    periods = math.floor((t[-1] - t[i0]) / period + 1e-6)
+    if periods < 1:
+        return i0, len(t) - 1, False
+    i1 = int(np.argmin(np.abs(t - (t[i0] + periods * period))))
+    return i0, i1, True
+
+
+__all__ = ["GaitResult", "direction_of", "gait_rod_options", "run_gait", "speed_window"]

@@ -10,12 +10,14 @@ from .profiles import (
     PiecewiseConstant,
     PiecewiseLinear,
     Profile,
+    Sampled,
     alternating_cells,
     as_profile,
     jig_curve,
     jig_from_function,
     jig_from_points,
     jig_from_polyline,
+    sample_profile,
 )
 
 __all__ = [
@@ -31,6 +33,7 @@ __all__ = [
     "PiecewiseConstant",
     "PiecewiseLinear",
     "Profile",
+    "Sampled",
     "alternating_cells",
     "as_field",
     "as_fields",
@@ -39,5 +42,6 @@ __all__ = [
     "jig_from_function",
     "jig_from_points",
     "jig_from_polyline",
+    "sample_profile",
     "ramp",
 ]

@@ -242,6 +242,10 @@ class JigProfile(Profile):
     piecewise_constant: bool = False
     length: float | None = None
     _splines: object = field(default=None, repr=False, compare=False)
+    #: How the jig was built (``("polyline", x, z)``, ``("points", x, z, corners)`` or ``("function", expression,
+    #: x_start, x_end, unit, kinks, samples)`` for a jig expression), so that a robot file can store the jig
+    #: itself rather than its samples; ``None`` when built from samples or from a Python function.
+    recipe: tuple | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self):
         flat = boolean("JigProfile piecewise_constant", self.piecewise_constant)
@@ -275,6 +279,80 @@ class JigProfile(Profile):
         return tuple(float(v) for ps, _ in self.pieces for v in ps[1:-1] if 0.0 < v < length)
 
 
+@dataclass(frozen=True)
+class Sampled(Profile):
+    """A free profile given by samples: a cubic spline (not-a-knot) through ``values`` at ``s_samples`` (m).
+
+    ``s_samples`` start at 0 and increase strictly; the profile covers ``[0, s_samples[-1]]``.
+    :func:`sample_profile` samples any profile (a Python function too) this way, piece by piece
+    between its breakpoints, so that it can be saved in a robot file.
+
+    Examples
+    --------
+    >>> p = Sampled([0.0, 0.01, 0.02], [0.1, 0.2, 0.3])
+    >>> round(float(p(0.005)), 12)
+    0.15
+    """
+
+    s_samples: Sequence[float]
+    sample_values: Sequence[float]
+    length: float | None = None
+    _spline: object = field(default=None, repr=False, compare=False)
+
+    def __post_init__(self):
+        s = finite_array("Sampled s_samples", self.s_samples, ndim=1, min_len=2)
+        v = finite_array("Sampled values", self.sample_values, ndim=1, min_len=2)
+        if len(s) != len(v):
+            raise ValueError(f"Sampled needs as many values as samples ({len(s)}), got {len(v)}.")
+        if len(s) > MAX_SAMPLES:
+            raise ValueError(f"Sampled takes at most {MAX_SAMPLES} samples, got {len(s)}.")
+        if s[0] != 0.0:
+            raise ValueError(f"Sampled s_samples must start at 0 m, got {s[0]!r}.")
+        if np.any(np.diff(s) <= 0):
+            raise ValueError(f"Sampled s_samples must be strictly increasing (m), got {s.tolist()[:8]}...")
+        object.__setattr__(self, "s_samples", tuple(s.tolist()))
+        object.__setattr__(self, "sample_values", tuple(v.tolist()))
+        object.__setattr__(self, "length", float(s[-1]))
+        kind = "not-a-knot" if len(s) >= 4 else "natural"
+        object.__setattr__(self, "_spline", CubicSpline(s, v, bc_type=kind))
+
+    def values(self, s, length):
+        return np.asarray(self._spline(np.asarray(s, dtype=float)), dtype=float)
+
+    def spline_knots(self, length):
+        return tuple(float(v) for v in self.s_samples[1:-1] if 0.0 < v < length)
+
+
+def sample_profile(profile, length: float, *, n: int = 257) -> Profile:
+    """``profile`` on ``[0, length]`` (m) as samples that a robot file can hold.
+
+    A smooth profile becomes one :class:`Sampled` spline of ``n`` points (an integer in [4, 100000]);
+    one with breakpoints (cells, corners, a Function's ``kinks``) becomes a :class:`JigProfile` of
+    spline pieces between them, ``n`` points in all (at least 4 per piece), so that jumps stay sharp.
+    Raises ValueError where the profile cannot be evaluated.
+    """
+    length = positive("length", length, unit="m")
+    n = integer("sample_profile n", n, 4, MAX_JIG_CURVE_POINTS)
+    prof = as_profile(profile, "profile")
+    prof.check_covers(length, "profile")
+    bps = [b for b in prof.breakpoints(length) if 0.0 < b < length]
+    edges = [0.0, *bps, length]
+    per = max(4, n // (len(edges) - 1))
+    pieces = []
+    for a, c in zip(edges[:-1], edges[1:], strict=True):
+        s = np.linspace(a, c, per)
+        # evaluate just inside the piece, so that a jump at a breakpoint belongs to the right side
+        inside = s.copy()
+        inside[0], inside[-1] = np.nextafter(a, c), np.nextafter(c, a)
+        v = np.asarray(prof.values(inside, length), dtype=float)
+        if v.shape != s.shape or not np.all(np.isfinite(v)):
+            raise ValueError("sample_profile: the profile must give one finite number per arc length.")
+        pieces.append((tuple(s.tolist()), tuple(v.tolist())))
+    if len(pieces) == 1:
+        return Sampled(pieces[0][0], pieces[0][1])
+    return JigProfile(tuple(pieces))
+
+
 def jig_from_polyline(x, z) -> JigProfile:
     """Jig made of straight pieces through points ``(x, z)`` (m): beta is constant on each piece."""
     x = finite_array("jig x", x, ndim=1, min_len=2)
@@ -291,7 +369,7 @@ def jig_from_polyline(x, z) -> JigProfile:
         if i == len(beta) or beta[i] != beta[start]:
             pieces.append(((float(s[start]), float(s[i])), (float(beta[start]),) * 2))
             start = i
-    return JigProfile(tuple(pieces), piecewise_constant=True)
+    return JigProfile(tuple(pieces), piecewise_constant=True, recipe=("polyline", tuple(x.tolist()), tuple(z.tolist())))
 
 
 def jig_from_points(x, z, *, corners: Sequence[int] = ()) -> JigProfile:
@@ -322,7 +400,7 @@ def jig_from_points(x, z, *, corners: Sequence[int] = ()) -> JigProfile:
         ang = np.unwrap(-np.arctan2(sz(t, 1), sx(t, 1)))
         pieces.append((tuple((s0 + arc).tolist()), tuple(ang.tolist())))
         s0 += arc[-1]
-    return JigProfile(tuple(pieces))
+    return JigProfile(tuple(pieces), recipe=("points", tuple(x.tolist()), tuple(z.tolist()), tuple(corner_idx)))
 
 
 def jig_from_function(
@@ -388,7 +466,9 @@ def jig_from_function(
         arc = _cumulative_arc(xs, lambda u, slope=slope: np.sqrt(1.0 + slope(u) ** 2)) * unit
         pieces.append((tuple((s0 + arc).tolist()), tuple((-np.arctan(dz)).tolist())))
         s0 += arc[-1]
-    return JigProfile(tuple(pieces))
+    text = getattr(f, "expression", None)  # a jig expression (compile_expression) can be stored as text
+    recipe = ("function", text, x0, x1, unit, tuple(ks), samples) if isinstance(text, str) else None
+    return JigProfile(tuple(pieces), recipe=recipe)
 
 
 def jig_curve(profile, length: float, *, n: int = 201) -> tuple[np.ndarray, np.ndarray]:
