@@ -37,6 +37,11 @@ CASES = [
     ("sweep", ["--paths", "c"], "{never}", "invalid choice: 'c'"),
     ("gait", ["--preset", "paper-5x"], None, "did you mean 'paper-5c'?"),
     ("gait", [], None, "one of the arguments --preset --robot is required"),
+    # robot files
+    ("gait", ["--robot", "{never}/robot.yml"], None, "does not exist"),
+    ("gait", ["--robot", "robot.txt"], None, "must end in one of ['.yml', '.yaml', '.json']"),
+    ("solve", ["--robot", "paper5c"], "{never}", "Did you mean 'paper-5c'?"),
+    ("crosscheck", ["--robot", "paper-5c", "--field-mT", "0", "1e9"], "{never}", "--field-mT must lie in"),
     ("video", [], "{never}/x.gif", "one of the arguments --preset --env is required"),
     # out-of-range values
     ("solve", ["--steps", "1"], "{never}", "--steps must lie in [2, 10000]"),
