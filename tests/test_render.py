@@ -113,3 +113,48 @@ def test_video_cli_rejects_bad_input_before_any_work(capsys):
     assert "--out must end in one of" in capsys.readouterr().err
     assert main(["video", "--env", "MagSoftCrawl-v0", "--seconds", "0", "--out", "x.gif"]) == 2
     assert "--seconds must be > 0" in capsys.readouterr().err
+
+
+def test_video_cli_robot_file_with_panel(tmp_path):
+    """``--robot FILE`` renders like ``--preset``; ``--panel`` widens the frames by the panel."""
+    from magsoft_env.cases.robots import robots_dir
+
+    env = {**os.environ}
+    env.setdefault("MUJOCO_GL", "egl")
+    out = tmp_path / "robot.gif"
+    r = subprocess.run(
+        [sys.executable, "-m", "magsoft_env.cli", "video", "--robot", str(robots_dir() / "paper-5c.yml"), "--seconds",
+         "0.2", "--fps", "10", "--width", "64", "--height", "48", "--timestep-ms", "0.5", "--panel", "--out", str(out)],
+        capture_output=True, text=True, env=env, timeout=300,
+    )
+    if r.returncode == 1 and "headless OpenGL" in r.stdout:
+        pytest.skip("no headless OpenGL here")
+    assert r.returncode == 0, r.stderr
+    summary = json.loads(r.stdout.strip().splitlines()[-1])
+    assert summary["frames"] == 3 and summary["width"] == 64 + 2 * round(0.45 * 48) and summary["height"] == 48
+    import imageio.v2 as iio
+
+    assert iio.mimread(out)[0].shape[:2] == (48, 108)
+
+
+def test_video_cli_defaults_to_960x540():
+    from magsoft_env.cli import build_parser
+
+    args = build_parser().parse_args(["video", "--preset", "paper-5c", "--out", "x.mp4"])
+    assert (args.width, args.height, args.panel, args.robot) == (960, 540, False, None)
+
+
+@pytest.mark.parametrize(("argv", "fragment"), [
+    (["--preset", "paper-5a", "--robot", "paper-5c"], "--preset and --robot both name the robot"),
+    ([], "one of the arguments --preset --env is required"),
+    (["--robot", "missing.yml"], "does not exist"),
+    (["--robot", "paper-5x"], "Did you mean 'paper-5c'"),
+    (["--robot", "paper-5c", "--panel", "--seconds", "1e4", "--timestep-ms", "10"], "in memory"),
+])
+def test_video_cli_robot_and_panel_errors_before_any_work(tmp_path, capsys, argv, fragment):
+    from magsoft_env.cli import main
+
+    out = tmp_path / "never" / "x.gif"
+    assert main(["video", *argv, "--out", str(out)]) == 2
+    assert fragment in capsys.readouterr().err
+    assert not out.parent.exists()

@@ -1,7 +1,8 @@
 """``magsoft video``: render a gait, a trained policy or an environment headless to MP4 or GIF.
 
-The OpenGL backend is chosen before mujoco is imported: ``MUJOCO_GL`` if set, else EGL, else
-OSMesa (each probed); when neither starts the error names the Debian packages to install.
+What the frames show, the flags and their defaults: docs/rendering.md. The OpenGL backend is chosen
+before mujoco is imported: ``MUJOCO_GL`` if set, else EGL, else OSMesa (each probed); when neither
+starts the error names the Debian packages to install.
 """
 
 from __future__ import annotations
@@ -17,23 +18,30 @@ from .solve import dumps_json, out_file
 def add_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "video",
-        help="render a gait (--preset), or an environment with a policy (--env, --policy), to MP4/GIF",
+        help="render a gait (--preset, --robot), or an environment with a policy (--env, --policy), to MP4/GIF",
         description=(
-            "Render headless (MUJOCO_GL=egl or osmesa) with a side camera, a mm grid and the field arrow. "
-            "--preset NAME renders a paper gait on the floor; --env ID renders a Gymnasium environment driven by "
-            "a Stable-Baselines3 model (--policy model.zip) or, without one, by the robot's open-loop gait."
+            "Render headless (MUJOCO_GL=egl or osmesa) with an orthographic side camera: mm grid and scale bar, "
+            "the field dial with its value, the centre-of-mass path and the start line. --preset NAME (or --robot "
+            "FILE) renders a gait on the floor; --env ID renders a Gymnasium environment driven by a "
+            "Stable-Baselines3 model (--policy model.zip) or, without one, by the robot's open-loop gait "
+            "(--robot FILE: that robot in the environment). --panel adds plots of x(t) and B(t) beside the frames."
         ),
     )
-    src = p.add_mutually_exclusive_group(required=True)
+    src = p.add_mutually_exclusive_group()
     src.add_argument("--preset", help="gait preset (paper-5a, paper-5b, paper-5c)")
     src.add_argument("--env", help="environment id, e.g. MagSoftCrawl-v0")
+    p.add_argument("--robot", default=None,
+                   help="robot file (.yml, .yaml, .json) or built-in name: rendered like --preset, or with --env the "
+                        "environment's robot")
     p.add_argument("--policy", type=Path, default=None, help="SB3 model .zip for --env (algorithm read from run)")
     p.add_argument("--reverse", action="store_true", help="invert B_x of the gait")
     p.add_argument("--scene", default="floor", choices=["floor", "channel", "obstacle"], help="scene for --preset")
     p.add_argument("--seconds", type=float, default=4.0, help="simulated seconds (default 4)")
     p.add_argument("--fps", type=float, default=25.0, help="frames per simulated second (default 25)")
-    p.add_argument("--width", type=int, default=480, help="pixels (default 480)")
-    p.add_argument("--height", type=int, default=270, help="pixels (default 270)")
+    p.add_argument("--width", type=int, default=960, help="side view, pixels (default 960)")
+    p.add_argument("--height", type=int, default=540, help="pixels (default 540)")
+    p.add_argument("--panel", action="store_true",
+                   help="add a panel of x(t) and B(t) to the right (the frame grows by 0.9 x --height)")
     p.add_argument("--timestep-ms", type=float, default=0.1, help="simulation step for --preset, ms (default 0.1)")
     p.add_argument("--out", type=Path, required=True, help="output file, .mp4 or .gif")
     p.set_defaults(run=run)
@@ -61,10 +69,20 @@ def _check_env_id(env_id: str) -> None:
                      f"{env_id!r}.{extra}")
 
 
+def _panel_width(height: int) -> int:
+    """Width (pixels) of the --panel beside a frame of ``height`` (:class:`~magsoft_env.render.frames.TimePanel`)."""
+    return 2 * int(round(0.45 * height))
+
+
 def run(args) -> int:
     from magsoft_env.render.video import VIDEO_SUFFIXES
 
     # every check before any work (and before the GL backend is chosen, which starts subprocesses)
+    if args.preset is None and args.env is None and args.robot is None:
+        raise ValueError("one of the arguments --preset --env is required (or --robot FILE alone, for its gait).")
+    if args.preset is not None and args.robot is not None:
+        raise ValueError("--preset and --robot both name the robot; give one (--robot takes built-in names too).")
+    gait = args.env is None  # --preset or --robot alone: an open-loop gait
     args.out = out_file(args.out, suffixes=tuple(VIDEO_SUFFIXES))
     if not (args.seconds > 0 and math.isfinite(args.seconds)):
         raise ValueError(f"--seconds must be > 0 (s) and finite, got {args.seconds}.")
@@ -76,20 +94,27 @@ def run(args) -> int:
             raise ValueError(f"--{name} must be an integer in [16, 4096] pixels, got {v}.")
     if not 0 < args.timestep_ms <= 10:
         raise ValueError(f"--timestep-ms must lie in (0, 10] ms, got {args.timestep_ms}.")
-    if args.preset is not None and args.seconds / (args.timestep_ms * 1e-3) > _MAX_STEPS:
+    if gait and args.seconds / (args.timestep_ms * 1e-3) > _MAX_STEPS:
         raise ValueError(f"--seconds / --timestep-ms = {args.seconds:g} s / {args.timestep_ms:g} ms is more than "
                          f"{_MAX_STEPS:.0e} simulation steps; use fewer seconds or a larger timestep.")
-    frames = (args.seconds * (args.fps if args.preset is not None else _ENV_FPS) + 1)
-    if frames * args.width * args.height * 3 > _MAX_FRAME_BYTES:
-        raise ValueError(f"the video would hold about {frames:.3g} frames of {args.width} x {args.height} pixels "
-                         f"({frames * args.width * args.height * 3 / 2**30:.3g} GiB) in memory, more than "
+    frames = (args.seconds * (args.fps if gait else _ENV_FPS) + 1)
+    width = args.width + (_panel_width(args.height) if args.panel else 0)
+    if frames * width * args.height * 3 > _MAX_FRAME_BYTES:
+        raise ValueError(f"the video would hold about {frames:.3g} frames of {width} x {args.height} pixels "
+                         f"({frames * width * args.height * 3 / 2**30:.3g} GiB) in memory, more than "
                          f"{_MAX_FRAME_BYTES / 2**30:g} GiB; use fewer --seconds, a lower --fps or a smaller frame.")
     if args.policy is not None and args.env is None:
         raise ValueError("--policy needs --env (the environment the policy was trained on).")
-    if args.preset is not None:
+    robot = None
+    if args.robot is not None:
+        from magsoft_env.cases.robots import resolve_robot
+
+        robot = resolve_robot(args.robot, name="--robot")  # a missing or invalid file: ValueError naming it
+    if gait:
         from magsoft_env.cases.gaits import gait_preset
 
-        preset = gait_preset(args.preset, reverse=args.reverse)  # an unknown name: the closest one suggested
+        # an unknown name: the closest one suggested; a robot without a drive: refused
+        preset = gait_preset(robot if robot is not None else args.preset, reverse=args.reverse)
     else:
         _check_env_id(args.env)
         if args.policy is not None and not args.policy.is_file():
@@ -104,9 +129,9 @@ def run(args) -> int:
         return 1
     from magsoft_env.render.video import render_gait, render_policy
 
-    if args.preset is not None:
+    if gait:
         _, summary = render_gait(preset, args.seconds, args.out, fps=args.fps, width=args.width, height=args.height,
-                                 timestep=args.timestep_ms * 1e-3, scene=args.scene)
+                                 timestep=args.timestep_ms * 1e-3, scene=args.scene, panel=args.panel)
     else:
         policy, env_kwargs = None, {}
         if args.policy is not None:
@@ -118,8 +143,10 @@ def run(args) -> int:
                 import yaml
 
                 env_kwargs = dict(yaml.safe_load(cfg.read_text()).get("env_kwargs") or {})
-        env_kwargs.update(width=args.width, height=args.height)
-        _, summary = render_policy(args.env, policy, args.seconds, args.out, env_kwargs=env_kwargs)
+        if robot is not None:
+            env_kwargs["robot"] = robot
+        _, summary = render_policy(args.env, policy, args.seconds, args.out, env_kwargs=env_kwargs, width=args.width,
+                                   height=args.height, panel=args.panel)
     summary["gl_backend"] = backend
     print(dumps_json(summary))
     return 0

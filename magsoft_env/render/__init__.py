@@ -1,10 +1,12 @@
-"""Offscreen frames and videos of the rod: side camera, mm grid, field arrow, analytical overlay.
+"""Offscreen frames and videos of the rod: side camera, mm grid and scale bar, field dial, path, overlays.
 
 The headless OpenGL backend (EGL, then OSMesa) is chosen by :mod:`magsoft_env.gl`: programs that
 know they will render call :func:`~magsoft_env.gl.select_gl_backend` before mujoco is imported;
 :class:`RodRenderer` binds one late otherwise. Figures (matplotlib) are :mod:`.figures`;
-a design written to files is :func:`magsoft_env.render.design.write_design`. Importing this
-package does not import mujoco: :class:`RodRenderer` and :func:`write_video` load lazily.
+a design written to files is :func:`magsoft_env.render.design.write_design`. One palette
+(:data:`.figures.PALETTE`) colours the figures and the frames. Importing this package does not
+import mujoco: :class:`RodRenderer`, :class:`TimePanel` and :func:`write_video` load lazily.
+What a frame shows: docs/rendering.md.
 """
 
 from __future__ import annotations
@@ -13,8 +15,9 @@ import importlib
 
 from ..gl import GL_BACKENDS, RenderBackendError, preselect_gl_backend, select_gl_backend
 
-_LAZY = {"RodRenderer": "magsoft_env.render.frames", "write_video": "magsoft_env.render.video",
-         "render_gait": "magsoft_env.render.video", "render_policy": "magsoft_env.render.video"}
+_LAZY = {"RodRenderer": "magsoft_env.render.frames", "TimePanel": "magsoft_env.render.frames",
+         "write_video": "magsoft_env.render.video", "render_gait": "magsoft_env.render.video",
+         "render_policy": "magsoft_env.render.video", "PALETTE": "magsoft_env.render.figures"}
 
 
 def __getattr__(name):
@@ -24,5 +27,5 @@ def __getattr__(name):
     return getattr(importlib.import_module(mod), name)
 
 
-__all__ = ["GL_BACKENDS", "RenderBackendError", "RodRenderer", "preselect_gl_backend", "render_gait",
-           "render_policy", "select_gl_backend", "write_video"]
+__all__ = ["GL_BACKENDS", "PALETTE", "RenderBackendError", "RodRenderer", "TimePanel", "preselect_gl_backend",
+           "render_gait", "render_policy", "select_gl_backend", "write_video"]

@@ -11,7 +11,7 @@ from ..design.svg import jig_svg
 from ..io import write_csv, write_json, write_text_atomic
 from ..threads import single_threaded_blas
 from ..units import MM, MT
-from .figures import _figure, _shape_axes, draw_path_shapes, save_figure
+from .figures import PALETTE, _figure, _shape_axes, draw_path_shapes, save_figure, styled
 
 
 def write_design(result, out, *, name: str = "design", ramp_steps: int = 8, figures: bool = True) -> list[Path]:
@@ -63,6 +63,7 @@ def write_design(result, out, *, name: str = "design", ramp_steps: int = 8, figu
     return written
 
 
+@styled
 def fit_figure(result, path, *, title: str = ""):
     """Target against prediction (left), the profile beta(s) (middle) and the jig curve (right)."""
 
@@ -71,9 +72,9 @@ def fit_figure(result, path, *, title: str = ""):
     t, p = result.target_xz / MM, result.predicted_xz / MM
     th0 = result.settings.get("clamp_angle_rad", 0.0)
     end = result.beam.length / MM * np.array([math.cos(th0), math.sin(th0)])
-    ax.plot([0, end[0]], [0, end[1]], color="0.6", ls="--", lw=1.0, label="undeformed")
-    ax.plot(t[:, 0], t[:, 1], "o", ms=3.5, mfc="none", color="tab:blue", label="target")
-    ax.plot(p[:, 0], p[:, 1], "-", color="tab:green", lw=1.8,
+    ax.plot([0, end[0]], [0, end[1]], color=PALETTE["scene"], ls="--", lw=1.0, label="undeformed")
+    ax.plot(t[:, 0], t[:, 1], "o", ms=3.5, mfc="none", color=PALETTE["target"], label="target")
+    ax.plot(p[:, 0], p[:, 1], "-", color=PALETTE["theory"], lw=1.8,
             label=f"prediction, |B| = {result.field.magnitude / MT:.3g} mT")
     _shape_axes(ax)
     ax.set_title(f"{title}: RMS {result.rms_error / MM:.3f} mm ({result.rms_error_percent:.2f}% of L), "
@@ -81,21 +82,22 @@ def fit_figure(result, path, *, title: str = ""):
     ax.legend(fontsize=7)
     ax = axes[0, 1]
     s = np.linspace(0.0, result.beam.length, 201)
-    ax.plot(s / MM, np.degrees(result.beam.beta(s)), color="tab:red")
+    ax.plot(s / MM, np.degrees(result.beam.beta(s)), color=PALETTE["field"])
     ax.set_xlabel("s (mm)")
     ax.set_ylabel(r"magnetization angle $\beta$ (deg)")
     ax.set_title(f"profile: {result.family.kind}, {result.family.size} parameters", fontsize=9)
-    ax.grid(True, lw=0.4, alpha=0.5)
+    ax.grid(True)
     ax = axes[0, 2]
     j = result.jig_xz / MM
-    ax.plot(j[:, 0], j[:, 1], color="k")
-    ax.plot(j[0, 0], j[0, 1], "o", color="red", ms=4, label="s = 0 (clamp end)")
+    ax.plot(j[:, 0], j[:, 1], color=PALETTE["robot"])
+    ax.plot(j[0, 0], j[0, 1], "o", color=PALETTE["field"], ms=4, label="s = 0 (clamp end)")
     _shape_axes(ax)
     ax.set_title("jig curve (eq. 1), magnetize along +x", fontsize=9)
     ax.legend(fontsize=7)
     return save_figure(fig, path)
 
 
+@styled
 def ramp_figure(result, path_results, path):
     """Predicted shapes as the field ramps up to the designed field, with the target (paper Fig. 6 III)."""
 
@@ -105,7 +107,7 @@ def ramp_figure(result, path_results, path):
     ref = (np.array([0.0, result.beam.length * math.cos(th0)]), np.array([0.0, result.beam.length * math.sin(th0)]))
     draw_path_shapes(ax, path_results, length=result.beam.length, max_shapes=8, reference=ref)
     t = result.target_xz / MM
-    ax.plot(t[:, 0], t[:, 1], "o", ms=3, mfc="none", color="tab:red", label="target")
+    ax.plot(t[:, 0], t[:, 1], "o", ms=3, mfc="none", color=PALETTE["target"], label="target")
     ax.legend(fontsize=6)
     ax.set_title("shapes along the field ramp", fontsize=10)
     return save_figure(fig, path)

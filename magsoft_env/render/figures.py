@@ -3,10 +3,16 @@
 Shapes are drawn in millimetres with equal aspect. Figures are built on
 ``matplotlib.figure.Figure`` directly (no pyplot, no global backend switch) and saved
 atomically: a figure file is either complete or absent.
+
+One style serves the figures and the videos (:mod:`.frames`): :data:`PALETTE` names the
+colours (robot, field, trace, theory, target, ...), :data:`RC_PARAMS` the matplotlib settings
+(font, sizes, grid, colour cycle), applied by :func:`styled` around every figure function and by
+:func:`_figure`. The font is DejaVu Sans, matplotlib's own, which the video frames load too.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from pathlib import Path
@@ -16,21 +22,95 @@ import numpy as np
 from ..io import atomic_path
 from ..units import MM, MT
 
+#: Colours shared by the figures and the video frames (hex sRGB).
+PALETTE = {
+    "robot": "#2c3e50",        # the MuJoCo rod
+    "field": "#c0392b",        # field arrow, B_x
+    "field_z": "#8e44ad",      # B_z in the time panel
+    "trace": "#e67e22",        # centre-of-mass (or tip) path
+    "start": "#7f8c8d",        # start marker
+    "theory": "#1f77b4",       # analytical equilibrium
+    "target": "#16a085",       # target point
+    "scene": "#95a5a6",        # channel, obstacle, clamp
+    "floor": "#e2ddd3",        # floor band in the side view
+    "floor_edge": "#8a8275",
+    "background": "#f7f8fa",
+    "grid_minor": "#e8ebef",
+    "grid_major": "#d3d9e1",
+    "text": "#1c2833",
+    "muted": "#5d6d7e",        # secondary text
+}
+#: Colour cycle of the figures: the palette's data colours first, then tab10's.
+COLOR_CYCLE = (PALETTE["theory"], PALETTE["trace"], PALETTE["target"], PALETTE["field"], PALETTE["field_z"],
+               "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf")
+#: matplotlib settings of every figure (and of the video's time panel).
+RC_PARAMS = {
+    "font.family": "DejaVu Sans",
+    "font.size": 9.0,
+    "axes.titlesize": 10.0,
+    "axes.labelsize": 9.0,
+    "legend.fontsize": 7.0,
+    "legend.frameon": False,
+    "xtick.labelsize": 8.0,
+    "ytick.labelsize": 8.0,
+    "text.color": PALETTE["text"],
+    "axes.labelcolor": PALETTE["text"],
+    "axes.edgecolor": PALETTE["muted"],
+    "xtick.color": PALETTE["muted"],
+    "ytick.color": PALETTE["muted"],
+    "axes.spines.top": False,
+    "axes.spines.right": False,
+    "axes.grid": True,
+    "grid.color": PALETTE["grid_major"],
+    "grid.linewidth": 0.6,
+    "grid.alpha": 1.0,
+    "lines.linewidth": 1.6,
+    "figure.facecolor": "white",
+    "axes.facecolor": "white",
+    "savefig.facecolor": "white",
+}
+
+
+def _rc() -> dict:
+    from cycler import cycler
+
+    return {**RC_PARAMS, "axes.prop_cycle": cycler(color=list(COLOR_CYCLE))}
+
+
+def styled(fn):
+    """Run ``fn`` (a function that builds and saves a figure) under :data:`RC_PARAMS`: the
+    settings are read when artists are created and drawn, so the whole function runs inside them."""
+
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        import matplotlib
+
+        with matplotlib.rc_context(_rc()):
+            return fn(*args, **kwargs)
+
+    return wrapper
+
+
 _SHAPE_SAMPLES = 201
 
 
 def _figure(nrows: int = 1, ncols: int = 1, *, size=(6.4, 4.8)):
+    """A constrained-layout figure and its ``(nrows, ncols)`` axes, built under :data:`RC_PARAMS`."""
+    import matplotlib
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=size, layout="constrained")
-    axes = fig.subplots(nrows, ncols, squeeze=False)
+    with matplotlib.rc_context(_rc()):
+        fig = Figure(figsize=size, layout="constrained")
+        axes = fig.subplots(nrows, ncols, squeeze=False)
     return fig, axes
 
 
 def save_figure(fig, path) -> Path:
     """Write ``fig`` to ``path`` (format from the suffix) through a temporary file; returns the path."""
     path = Path(path)
-    with atomic_path(path) as tmp:
+    import matplotlib
+
+    with atomic_path(path) as tmp, matplotlib.rc_context(_rc()):
         fig.savefig(tmp, dpi=150)
     return path
 
@@ -52,6 +132,7 @@ def _pick(n_total: int, n_max: int) -> list[int]:
     return sorted({int(round(i)) for i in np.linspace(0, n_total - 1, n_max)})
 
 
+@styled
 def draw_path_shapes(ax, results: Sequence, *, length: float, max_shapes: int = 8, cmap: str = "viridis",
                      reference: tuple | None = None) -> None:
     """Draw shapes along a loading path on ``ax``, coloured by the step, with the undeformed beam.
@@ -62,9 +143,9 @@ def draw_path_shapes(ax, results: Sequence, *, length: float, max_shapes: int = 
 
     colours = matplotlib.colormaps[cmap]
     if reference is None:
-        ax.plot([0.0, length / MM], [0.0, 0.0], color="0.6", ls="--", lw=1.0, label="undeformed")
+        ax.plot([0.0, length / MM], [0.0, 0.0], color=PALETTE["scene"], ls="--", lw=1.0, label="undeformed")
     else:
-        ax.plot(np.asarray(reference[0]) / MM, np.asarray(reference[1]) / MM, color="0.6", ls="--", lw=1.0,
+        ax.plot(np.asarray(reference[0]) / MM, np.asarray(reference[1]) / MM, color=PALETTE["scene"], ls="--", lw=1.0,
                 label="undeformed")
     idx = _pick(len(results), max_shapes)
     for k, i in enumerate(idx):
@@ -80,9 +161,10 @@ def _shape_axes(ax) -> None:
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x (mm)")
     ax.set_ylabel("z (mm)")
-    ax.grid(True, lw=0.4, alpha=0.5)
+    ax.grid(True)
 
 
+@styled
 def path_figure(cases: Sequence[tuple], path, *, max_shapes: int = 8) -> Path:
     """One panel per case ``(title, results, length_m)``: shapes along each loading path; saved to ``path``."""
     n = len(cases)
@@ -105,6 +187,7 @@ SWEEP_METRICS = (
 )
 
 
+@styled
 def sweep_figure(rows: Sequence[dict], path) -> Path:
     """Fig. 3-style curves: one row of panels per loading path (v/L, tip angle, rotation angle against P).
 
@@ -133,10 +216,10 @@ def sweep_figure(rows: Sequence[dict], path) -> Path:
                             label=f"l/h = {lh:.1f}" + ("" if g_on else ", no gravity"))
                     bad = [(pp, yy) for pp, yy, r in zip(P, y, sel, strict=True) if not (r["success"] and r["stable"])]
                     if bad:
-                        ax.plot(*zip(*bad, strict=True), ls="none", marker="x", color="red", ms=5)
+                        ax.plot(*zip(*bad, strict=True), ls="none", marker="x", color=PALETTE["field"], ms=5)
             ax.set_xlabel(sel_axis_label(p))
             ax.set_ylabel(label)
-            ax.grid(True, lw=0.4, alpha=0.5)
+            ax.grid(True)
             ax.set_title(f"path {p}", fontsize=10)
             if j == 0:
                 ax.legend(fontsize=7)
@@ -150,6 +233,7 @@ def sel_axis_label(path_name: str) -> str:
     return "P of $B_z$"
 
 
+@styled
 def couplings_figure(cases: Sequence[dict], path) -> Path:
     """Overlay of the two couplings. Each case: ``title``, ``length`` (m), ``reference`` (x, z) m,
     ``rotated`` and ``paper`` (lists of results at the same fields), optionally ``beta``
@@ -167,13 +251,14 @@ def couplings_figure(cases: Sequence[dict], path) -> Path:
     if with_beta:
         for ax, case in zip(axes[1], cases, strict=True):
             s, beta = case["beta"]
-            ax.plot(np.asarray(s) / MM, np.degrees(beta), color="k", lw=1.4)
+            ax.plot(np.asarray(s) / MM, np.degrees(beta), color=PALETTE["robot"], lw=1.4)
             ax.set_xlabel("s (mm)")
             ax.set_ylabel("magnetization angle beta (deg)")
-            ax.grid(True, lw=0.4, alpha=0.5)
+            ax.grid(True)
     for ax, case in zip(axes[0], cases, strict=True):
         ref = case["reference"]
-        ax.plot(np.asarray(ref[0]) / MM, np.asarray(ref[1]) / MM, color="0.6", ls="--", lw=1.0, label="undeformed")
+        ax.plot(np.asarray(ref[0]) / MM, np.asarray(ref[1]) / MM, color=PALETTE["scene"], ls="--", lw=1.0,
+                label="undeformed")
         m = len(case["rotated"])
         for k, (rr, rp) in enumerate(zip(case["rotated"], case["paper"], strict=True)):
             c = colours(k / max(m - 1, 1))
@@ -188,6 +273,7 @@ def couplings_figure(cases: Sequence[dict], path) -> Path:
     return save_figure(fig, path)
 
 
+@styled
 def letters_figure(results: dict, path, *, spacing_mm: float = 22.0):
     """Designed letters side by side (target dots, predicted centreline), with their fields and errors."""
     fig, axes = _figure(1, 1, size=(2.6 * len(results) + 1.0, 4.2))
@@ -196,9 +282,10 @@ def letters_figure(results: dict, path, *, spacing_mm: float = 22.0):
         off = np.array([k * spacing_mm, 0.0])
         t = r.target_xz / MM - r.target_xz.min(axis=0) / MM + off
         p = r.predicted_xz / MM - r.target_xz.min(axis=0) / MM + off
-        ax.plot(t[:, 0], t[:, 1], "o", ms=2.5, mfc="none", color="tab:blue", label="target" if k == 0 else None)
-        ax.plot(p[:, 0], p[:, 1], "-", lw=4, color="tab:green", alpha=0.8, label="designed beam" if k == 0 else None)
-        ax.plot(*p[0], "s", color="k", ms=5, label="clamp" if k == 0 else None)
+        ax.plot(t[:, 0], t[:, 1], "o", ms=2.5, mfc="none", color=PALETTE["target"], label="target" if k == 0 else None)
+        ax.plot(p[:, 0], p[:, 1], "-", lw=4, color=PALETTE["theory"], alpha=0.8,
+                label="designed beam" if k == 0 else None)
+        ax.plot(*p[0], "s", color=PALETTE["robot"], ms=5, label="clamp" if k == 0 else None)
         ax.text(off[0], -3.0, f"{ch}: |B| {r.field.magnitude / MT:.1f} mT\nRMS {r.rms_error_percent:.2f}% L",
                 fontsize=7, va="top")
     ax.set_aspect("equal", adjustable="datalim")
@@ -206,10 +293,15 @@ def letters_figure(results: dict, path, *, spacing_mm: float = 22.0):
     ax.set_ylabel("z (mm)")
     ax.set_title("SJTU letters (paper Fig. 4e): one designed beam per letter, vertical field", fontsize=10)
     ax.legend(fontsize=7, loc="upper right")
-    ax.grid(True, lw=0.4, alpha=0.4)
+    ax.grid(True)
     return save_figure(fig, path)
 
 
+#: Marker and palette colour of each MuJoCo segment count in :func:`crosscheck_figure`.
+_SIM_MARKERS = (("o", "robot"), ("s", "trace"), ("^", "target"), ("v", "field_z"))
+
+
+@styled
 def crosscheck_figure(name: str, theory_results: Sequence, sims: dict, path) -> Path:
     """Analytical shapes (lines) against MuJoCo rods (markers, one per segment count) at the first,
     middle and last state of a loading path (``magsoft crosscheck --out``)."""
@@ -218,10 +310,11 @@ def crosscheck_figure(name: str, theory_results: Sequence, sims: dict, path) -> 
     idx = sorted({0, len(theory_results) // 2, len(theory_results) - 1})
     for i in idx:
         t = theory_results[i]
-        ax.plot(t.x / MM, t.z / MM, "k-", lw=1.5, label="theory" if i == idx[0] else None)
-        for n, style in zip(sorted(sims), ("C0o", "C1s", "C2^", "C3v"), strict=False):
+        ax.plot(t.x / MM, t.z / MM, "-", color=PALETTE["theory"], lw=1.5, label="theory" if i == idx[0] else None)
+        for n, (mk, key) in zip(sorted(sims), _SIM_MARKERS, strict=False):
             s = sims[n][i]
-            ax.plot(s.x / MM, s.z / MM, style, ms=3, mfc="none", label=f"MuJoCo N={n}" if i == idx[0] else None)
+            ax.plot(s.x / MM, s.z / MM, mk, color=PALETTE[key], ls="none", ms=3, mfc="none",
+                    label=f"MuJoCo N={n}" if i == idx[0] else None)
         f = t.field
         ax.annotate(f"({f.Bx / MT:.3g}, {f.Bz / MT:.3g}) mT", (t.x[-1] / MM, t.z[-1] / MM), fontsize=7)
     ax.set_aspect("equal")

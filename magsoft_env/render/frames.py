@@ -1,60 +1,272 @@
-"""Side-view frames of a :class:`~magsoft_env.sim.Simulator`: mm grid, field arrow, overlays."""
+"""Side-view frames of a :class:`~magsoft_env.sim.Simulator`: mm grid and scale bar, field arrow, path, overlays."""
 
 from __future__ import annotations
+
+import functools
+import math
+from pathlib import Path
 
 import mujoco
 import numpy as np
 
 from ..gl import bind_headless_context, context_error
-from ..units import MM
+from ..units import MM, MT
+from .figures import PALETTE, _rc
 
-_MINOR_RGBA = np.array([0.75, 0.78, 0.82, 1.0], dtype=np.float32)
-_MAJOR_RGBA = np.array([0.45, 0.50, 0.58, 1.0], dtype=np.float32)
-_ARROW_RGBA = np.array([0.85, 0.15, 0.10, 1.0], dtype=np.float32)
-_OVERLAY_RGBA = np.array([0.10, 0.45, 0.95, 1.0], dtype=np.float32)
-_TARGET_RGBA = np.array([0.10, 0.75, 0.25, 1.0], dtype=np.float32)
+#: The 2-D overlay (lines, text) is drawn at this multiple of the frame size and averaged down:
+#: anti-aliased lines for the cost of a few milliseconds.
+_SUPERSAMPLE = 2
+#: Depths (m, along the camera's +y) of the layers behind the rod (which spans |y| <= w / 2): the
+#: backdrop, the grid in front of it, the floor band in front of the grid. All lie behind the
+#: channel's far wall (5.25 mm), which is not drawn.
+_Y_BACKDROP, _Y_GRID, _Y_FLOOR = 30e-3, 25e-3, 20e-3
+#: Opacity of the channel's near wall (it lies between the camera and the robot).
+_NEAR_WALL_ALPHA = 0.22
+#: Length of the field arrow as a fraction of the dial radius: for the weakest field, and at the full scale.
+_ARROW_MIN, _ARROW_MAX = 0.4, 1.0
+#: Full-scale fields (T) the dial steps through when ``field_scale`` is not given.
+_FIELD_STEPS = tuple(m * 10.0**e * MT for e in range(0, 4) for m in (1.0, 2.0, 5.0))
+#: Fields weaker than this (T) draw as zero: a dot and "B = 0" (a sine's zero crossing leaves ~1e-19 T).
+_ZERO_FIELD = 1e-9
+#: Trace points kept (older ones are thinned out to every second one).
+_MAX_TRACE = 4000
+
+
+def _rgb(name: str) -> tuple[int, int, int]:
+    h = PALETTE[name].lstrip("#")
+    return int(h[0:2], 16), int(h[2:4], 16), int(h[4:6], 16)
+
+
+def _rgba32(name: str, alpha: float = 1.0) -> np.ndarray:
+    return np.array([*(c / 255.0 for c in _rgb(name)), alpha], dtype=np.float32)
+
+
+@functools.lru_cache(maxsize=32)
+def _font(size: int, bold: bool = False):
+    """DejaVu Sans (the figures' font, shipped with matplotlib) at ``size`` pixels."""
+    import matplotlib
+    from PIL import ImageFont
+
+    path = Path(matplotlib.get_data_path()) / "fonts" / "ttf" / ("DejaVuSans-Bold.ttf" if bold else "DejaVuSans.ttf")
+    try:
+        return ImageFont.truetype(str(path), size)
+    except OSError:  # a matplotlib without its fonts: Pillow's own
+        return ImageFont.load_default(size)
+
+
+def _nice(value: float) -> float:
+    """The 1-2-5 number nearest to ``value`` (> 0) on a log scale."""
+    e = math.floor(math.log10(value))
+    m = value / 10.0**e
+    return min((1.0, 2.0, 5.0, 10.0), key=lambda c: abs(math.log(m / c))) * 10.0**e
+
+
+def _signed(v: float, fmt: str = "+.2f") -> str:
+    """``v`` formatted with a true minus sign; a value that rounds to zero shows as +0."""
+    text = format(v, fmt)
+    if float(text) == 0.0:
+        text = format(0.0, fmt)
+    return text.replace("-", "\u2212")
+
+
+def dial_scale(peak: float) -> float:
+    """The field dial's full scale (T) for fields up to ``peak`` (T): the smallest of 1, 2, 5, 10, ... mT
+    at or above it (1 mT for a zero peak)."""
+    return next((s for s in _FIELD_STEPS if s >= peak * (1 - 1e-9)), _FIELD_STEPS[-1])
+
+
+def field_text(b, *, digits: int = 2) -> str:
+    """``"B = (+1.20, −0.50) mT"`` for a field ``(B_x, B_z)`` in T (``"B = 0"`` for zero)."""
+    if math.hypot(float(b[0]), float(b[1])) < _ZERO_FIELD:
+        return "B = 0"
+    bx, bz = (float(v) / MT for v in b)
+    f = f"+.{digits}f"
+    return f"B = ({_signed(bx, f)}, {_signed(bz, f)}) mT"
+
+
+class _Canvas:
+    """PIL drawing in frame pixels on a supersampled copy of a frame (see :data:`_SUPERSAMPLE`)."""
+
+    def __init__(self, img: np.ndarray):
+        from PIL import Image, ImageDraw
+
+        self.h, self.w = img.shape[:2]
+        k = self.k = _SUPERSAMPLE
+        self.im = Image.fromarray(img).resize((self.w * k, self.h * k), Image.Resampling.NEAREST)
+        self.draw = ImageDraw.Draw(self.im, "RGBA")
+        self.unit = max(self.h / 540.0, 0.25)  # line widths and fonts scale with the frame height
+
+    def _p(self, pts):
+        return [(float(u) * self.k, float(v) * self.k) for u, v in pts]
+
+    def lw(self, px: float) -> int:
+        return max(1, int(round(px * self.unit * self.k)))
+
+    def line(self, pts, colour, width: float, *, dash: float | None = None) -> None:
+        pts = list(pts)
+        if len(pts) < 2:
+            return
+        if dash is None:
+            self.draw.line(self._p(pts), fill=colour, width=self.lw(width), joint="curve")
+            return
+        # dashes of ``dash`` px (frame pixels) along the polyline, gaps as long
+        d = dash * self.unit
+        p = np.asarray(pts, dtype=float)
+        seg = np.hypot(*np.diff(p, axis=0).T)
+        s = np.concatenate([[0.0], np.cumsum(seg)])
+        for a in np.arange(0.0, s[-1], 2 * d):
+            b = min(a + d, s[-1])
+            ts = np.concatenate([[a], s[(s > a) & (s < b)], [b]])
+            q = np.column_stack([np.interp(ts, s, p[:, 0]), np.interp(ts, s, p[:, 1])])
+            self.draw.line(self._p(q), fill=colour, width=self.lw(width), joint="curve")
+
+    def circle(self, c, r: float, *, fill=None, outline=None, width: float = 1.0) -> None:
+        u, v = c[0] * self.k, c[1] * self.k
+        rr = r * self.k
+        self.draw.ellipse((u - rr, v - rr, u + rr, v + rr), fill=fill, outline=outline,
+                          width=self.lw(width) if outline is not None else 0)
+
+    def polygon(self, pts, fill) -> None:
+        self.draw.polygon(self._p(pts), fill=fill)
+
+    def rect(self, box, fill, *, radius: float = 0.0) -> None:
+        b = [c * self.k for c in box]
+        if radius > 0:
+            self.draw.rounded_rectangle(b, radius=radius * self.k, fill=fill)
+        else:
+            self.draw.rectangle(b, fill=fill)
+
+    def font(self, px: float, bold: bool = False):
+        return _font(max(6, int(round(px * self.unit))) * self.k, bold)
+
+    def text(self, xy, s: str, colour, *, px: float = 15.0, bold: bool = False, anchor: str = "la",
+             box: bool = False) -> tuple[float, float, float, float]:
+        """Draw ``s`` at ``xy`` (frame pixels, PIL anchor); returns its box in frame pixels."""
+        f = self.font(px, bold)
+        p = (xy[0] * self.k, xy[1] * self.k)
+        bb = self.draw.textbbox(p, s, font=f, anchor=anchor)
+        if box:  # a pale box keeps text readable over the scene
+            pad = 3 * self.unit * self.k
+            self.draw.rounded_rectangle((bb[0] - pad, bb[1] - pad, bb[2] + pad, bb[3] + pad), radius=pad,
+                                        fill=(255, 255, 255, 200))
+        self.draw.text(p, s, font=f, fill=colour, anchor=anchor)
+        return tuple(c / self.k for c in bb)
+
+    def text_width(self, s: str, *, px: float = 15.0, bold: bool = False) -> float:
+        return self.draw.textlength(s, font=self.font(px, bold)) / self.k
+
+    def arrow(self, a, b, colour, *, width: float, head: float) -> None:
+        """A filled arrow from ``a`` to ``b`` (frame pixels); ``head`` is the head length (px)."""
+        a, b = np.asarray(a, float), np.asarray(b, float)
+        d = b - a
+        n = float(np.hypot(*d))
+        if n == 0:
+            return
+        e = d / n
+        o = np.array([-e[1], e[0]])
+        hl = min(head, n)
+        base = b - hl * e
+        self.line([a, base + 0.2 * hl * e], colour, width)
+        self.polygon([b, base + 0.5 * hl * o, base - 0.5 * hl * o], colour)
+
+    def result(self) -> np.ndarray:
+        return np.asarray(self.im.reduce(self.k))  # the mean of each k x k block
 
 
 class RodRenderer:
-    """Offscreen side-camera frames of a rod.
+    """Offscreen side-camera frames of a rod, for videos and papers.
 
-    The camera looks along +y at the x-z plane. Behind the rod: a grid with lines every
-    ``minor`` (m, default 1 mm) and heavier lines every ``major`` (default 5 mm), labelled in
-    mm. A red arrow shows the applied field (length ``arrow_per_tesla`` m per T, capped); an
-    optional blue polyline overlays another shape (e.g. the analytical quasi-static
-    equilibrium) and a green dot a target point.
+    An orthographic camera looks along +y at the x-z plane, so lengths read true anywhere in the
+    frame. The frame shows, on a light backdrop:
+
+    - the rod (flat, robot colour), the floor as a band below z = 0, the channel (ceiling, and its
+      near wall see-through) or the obstacle, a clamp block for a cantilever;
+    - a grid behind the rod, lines every ``minor`` (default 1 mm, left out when closer than 8 px)
+      and heavier every ``major`` (5 mm), and a scale bar with its length in mm (1-2-5 steps,
+      about 15 % of the view) bottom left;
+    - the path of the centre of mass (floor scenes) or of the tip (cantilever) since the first
+      frame, with the current point, and the start: a dashed vertical line at the first frame's
+      centre-of-mass x (a ring at the first tip position for a cantilever). The header reads the
+      time, the displacement ``dx`` of the centre of mass since the start (floor scenes) and,
+      with a ``target``, the tip's distance to it;
+    - the field in a dial top right, with its value as text (``B = (B_x, B_z) mT`` and ``|B|``).
+      The arrow points along the field; its length is ``r * (0.4 + 0.6 * min(|B| / B_ring, 1))``
+      for a dial of radius ``r``: 0.4 r for the weakest field, the full radius at the dial's full
+      scale ``B_ring`` and above (the label says "ring = B_ring"). Zero field draws a dot;
+    - optionally an overlay polyline (dashed, e.g. the analytical equilibrium) and a target (ring).
+
+    The renderer remembers the path across :meth:`render` calls and starts a new one when the
+    simulator's time goes backwards (an environment reset), so environments only call
+    ``render()``.
 
     Parameters
     ----------
     sim : Simulator
-        Built with ``RodOptions(render=True)`` for the visual box geoms (otherwise only the
-        floor and the grid show).
+        Built with ``RodOptions(render=True)`` for the rod's box geoms (otherwise its colliders
+        show).
     width, height : int
-        Frame size (pixels).
+        Frame size (pixels), default 960 x 540.
     follow : bool
-        Keep the centre of the rod in view (crawlers); False: fixed view of the clamp region.
+        Floor scenes: move the view with the rod when it nears the frame's edge. False: a fixed
+        view. A cantilever's view is fixed either way: a circle of radius 1.08 L about the clamp.
     span : float or None
-        Width of the view (m); default 2.4 L.
+        Width of the view (m). Default: floor scenes 2.4 L, widened to hold the channel or the
+        obstacle whole (and their height under the header); cantilever 2.16 L (or the width
+        that makes the height 2.16 L, whichever is larger).
     minor, major : float
         Grid spacings (m).
-    arrow_per_tesla : float
-        Field-arrow length per tesla (m/T); default 4 mm per mT.
+    field_scale : float or None
+        The dial's full scale ``B_ring`` (T). None: the smallest of 1, 2, 5, 10, 20, ... mT at or
+        above the largest |B| drawn so far (it only grows).
+    trace : bool
+        Draw the path and the start marker.
+    panel : bool
+        Put a :class:`TimePanel` (x(t) and B(t)) to the right of each frame; the frame grows by
+        the panel's width (about half the height's 16:9 width, even).
+    panel_seconds : float or None
+        Time axis of the panel (s); None: grows with the time.
+
+    Attributes
+    ----------
+    view : tuple of float
+        The last frame's view ``(x_lo, x_hi, z_lo, z_hi)`` (m).
+    scale_bar : tuple of float
+        The last frame's scale bar: length (m) and pixels.
+    displacement : float
+        x displacement (m) of the centre of mass since the path started.
 
     Raises
     ------
     RenderBackendError
         When no OpenGL context starts (the message names the packages to install).
+    ValueError
+        For a size outside [16, 8192] pixels, a grid spacing, span or field scale that is not > 0.
     """
 
-    def __init__(self, sim, *, width: int = 480, height: int = 270, follow: bool = True, span: float | None = None,
-                 minor: float = 1 * MM, major: float = 5 * MM, arrow_per_tesla: float = 4.0):
+    def __init__(self, sim, *, width: int = 960, height: int = 540, follow: bool = True, span: float | None = None,
+                 minor: float = 1 * MM, major: float = 5 * MM, field_scale: float | None = None, trace: bool = True,
+                 panel: bool = False, panel_seconds: float | None = None):
+        for name, v in (("width", width), ("height", height)):
+            if int(v) != v or not 16 <= v <= 8192:
+                raise ValueError(f"{name} must be an integer in [16, 8192] pixels, got {v!r}.")
+        for name, v in (("minor", minor), ("major", major)):
+            if not (v > 0 and math.isfinite(v)):
+                raise ValueError(f"{name} must be a grid spacing > 0 (m), got {v!r}.")
+        if span is not None and not (span > 0 and math.isfinite(span)):
+            raise ValueError(f"span must be a view width > 0 (m) or None, got {span!r}.")
+        if field_scale is not None and not (field_scale > 0 and math.isfinite(field_scale)):
+            raise ValueError(f"field_scale must be a field > 0 (T) or None, got {field_scale!r}.")
         self.sim = sim
         self.width, self.height = int(width), int(height)
         self.follow = bool(follow)
-        L = sim.beam.length
-        self.span = 2.4 * L if span is None else float(span)
         self.minor, self.major = float(minor), float(major)
-        self.arrow_per_tesla = float(arrow_per_tesla)
+        self.trace = bool(trace)
+        self._field_scale_fixed = field_scale is not None
+        self.field_scale = float(field_scale) if field_scale is not None else _FIELD_STEPS[0]
+        self._floor = bool(sim.options.has_contact)
+        self._static = self._static_geoms()
+        self._pieces = self._piece_boxes()
+        self._frame_view(span)
         vis = sim.model.vis.global_
         vis.offwidth = max(int(vis.offwidth), self.width)
         vis.offheight = max(int(vis.offheight), self.height)
@@ -63,6 +275,11 @@ class RodRenderer:
             self._renderer = mujoco.Renderer(sim.model, self.height, self.width)
         except Exception as exc:  # noqa: BLE001  (any GL failure gets the same explanation)
             raise context_error(exc) from exc
+        flags = self._renderer.scene.flags
+        # a flat, evenly lit side view: no shadows (the field arrow's smudge), reflections or sky
+        for f in (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTION,
+                  mujoco.mjtRndFlag.mjRND_SKYBOX, mujoco.mjtRndFlag.mjRND_FOG, mujoco.mjtRndFlag.mjRND_HAZE):
+            flags[f] = 0
         self._cam = mujoco.MjvCamera()
         self._cam.type = mujoco.mjtCamera.mjCAMERA_FREE
         self._cam.azimuth = 90.0
@@ -70,27 +287,104 @@ class RodRenderer:
         # orthographic: the mm grid reads true at any depth; the free camera's vertical extent
         # is the model's global fovy, in metres
         self._cam.orthographic = 1
-        self._x0 = 0.5 * L
         self._opt = mujoco.MjvOption()
+        self.panel = TimePanel(height=self.height, seconds=panel_seconds) if panel else None
+        self.view: tuple[float, float, float, float] | None = None
+        self.scale_bar: tuple[float, float] | None = None
+        self._reset_path()
 
-    def _center(self) -> tuple[float, float]:
+    # ------------------------------------------------------------------ framing
+    def _static_geoms(self) -> dict[int, tuple[np.ndarray, np.ndarray, str]]:
+        """World boxes (channel, obstacle): id -> (lower, upper corner (m), role)."""
+        m = self.sim.model
+        out = {}
+        for g in range(m.ngeom):
+            if m.geom_bodyid[g] != 0 or m.geom_type[g] != mujoco.mjtGeom.mjGEOM_BOX:
+                continue
+            lo, hi = m.geom_pos[g] - m.geom_size[g], m.geom_pos[g] + m.geom_size[g]
+            role = "near" if hi[1] < 0 else "far" if lo[1] > 0 else "solid"
+            out[g] = (lo, hi, role)
+        return out
+
+    def _piece_boxes(self) -> dict[int, int]:
+        """The rod's box geoms (``RodOptions(render=True)``): geom id -> piece index."""
+        m = self.sim.model
+        out = {}
+        for g in range(m.ngeom):
+            name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or ""
+            if m.geom_bodyid[g] != 0 and name.startswith("box") and name[3:].isdigit():
+                out[g] = int(name[3:])
+        return out
+
+    def _frame_view(self, span: float | None) -> None:
+        L = self.sim.beam.length
+        aspect = self.height / self.width
         x, z = self.sim.centerline()
-        if self.follow:
-            cx = float(np.mean(x))
-            # move the view in whole major-grid steps so the grid does not crawl with the rod
-            if abs(cx - self._x0) > 0.25 * self.span:
-                self._x0 = cx
-            return self._x0, 0.3 * self.span * self.height / self.width
-        return 0.3 * self.sim.beam.length, 0.0  # clamp region, fixed
+        if not self._floor:  # cantilever: every pose of the beam lies within L of the clamp
+            r = 1.08 * L
+            self.span = float(span) if span is not None else max(2 * r, 2 * r / aspect)
+            self._cx = self._cx0 = self._cz = 0.0
+            return
+        x_lo, x_hi, top = float(np.min(x)), float(np.max(x)), 0.0
+        for lo, hi, role in self._static.values():
+            if role != "far":
+                x_lo, x_hi, top = min(x_lo, lo[0]), max(x_hi, hi[0]), max(top, hi[2])
+        need = 1.15 * (x_hi - x_lo)
+        # the floor band takes the bottom 17 % of the view, the header the top 22 %
+        need = max(need, top / (0.61 * aspect))
+        self.span = float(span) if span is not None else max(2.4 * L, need)
+        self._cx = self._cx0 = 0.5 * (x_lo + x_hi)
+        self._cz = (0.5 - 0.17) * self.span * aspect
 
-    def _line(self, scn, a, b, rgba, width):
-        self._connector(scn, mujoco.mjtGeom.mjGEOM_LINE, a, b, rgba, width)
+    def _view(self) -> tuple[float, float, float, float]:
+        """The view (x_lo, x_hi, z_lo, z_hi) in m, moved to keep the rod in sight."""
+        half_w = 0.5 * self.span
+        half_h = half_w * self.height / self.width
+        if self.follow and self._floor:
+            x, _ = self.sim.centerline()
+            margin = 0.04 * self.span
+            if np.min(x) < self._cx - half_w + margin or np.max(x) > self._cx + half_w - margin:
+                self._cx = 0.5 * float(np.min(x) + np.max(x))
+        return self._cx - half_w, self._cx + half_w, self._cz - half_h, self._cz + half_h
 
-    def _arrow(self, scn, a, b, rgba, radius):
-        self._connector(scn, mujoco.mjtGeom.mjGEOM_ARROW, a, b, rgba, radius)
+    # ------------------------------------------------------------------ path
+    def _reset_path(self) -> None:
+        self._t: list[float] = []
+        self._path: list[tuple[float, float]] = []
+        self._start: tuple[float, float] | None = None
+        self._tip0: tuple[float, float] | None = None
 
-    @staticmethod
-    def _connector(scn, kind, a, b, rgba, width):
+    def _record(self) -> None:
+        sim = self.sim
+        t = float(sim.time)
+        if self._t and t < self._t[-1] - 1e-12:  # time went backwards: an environment reset
+            self._reset_path()
+            self._cx = self._cx0
+            if self.panel is not None:
+                self.panel.reset()
+        com = sim.center_of_mass()
+        p = (float(com[0]), float(com[1])) if self._floor else sim.tip_position()
+        if self._start is None:
+            self._start = (float(com[0]), float(com[1]))
+            self._tip0 = sim.tip_position()
+        if self._t and t == self._t[-1]:
+            self._path[-1] = p
+            return
+        self._t.append(t)
+        self._path.append(p)
+        if len(self._path) > _MAX_TRACE:  # keep the first and the newest points, thin the rest
+            self._t = self._t[:1] + self._t[1:-100:2] + self._t[-100:]
+            self._path = self._path[:1] + self._path[1:-100:2] + self._path[-100:]
+
+    @property
+    def displacement(self) -> float:
+        """x displacement (m) of the centre of mass since the path started (0 before any frame)."""
+        if self._start is None:
+            return 0.0
+        return float(self.sim.center_of_mass()[0] - self._start[0])
+
+    # ------------------------------------------------------------------ scene (GL)
+    def _connector(self, scn, kind, a, b, rgba, width) -> None:
         if scn.ngeom >= scn.maxgeom:
             return
         g = scn.geoms[scn.ngeom]
@@ -98,81 +392,407 @@ class RodRenderer:
         mujoco.mjv_connector(g, kind, width, np.asarray(a, float), np.asarray(b, float))
         scn.ngeom += 1
 
-    def _sphere(self, scn, p, rgba, radius):
+    def _box(self, scn, center, half, rgba, mat=None) -> None:
         if scn.ngeom >= scn.maxgeom:
             return
         g = scn.geoms[scn.ngeom]
-        mujoco.mjv_initGeom(g, mujoco.mjtGeom.mjGEOM_SPHERE, np.array([radius, 0, 0]), np.asarray(p, float),
-                            np.eye(3).ravel(), rgba)
+        mujoco.mjv_initGeom(g, mujoco.mjtGeom.mjGEOM_BOX, np.asarray(half, float), np.asarray(center, float),
+                            (np.eye(3) if mat is None else mat).ravel(), rgba)
+        g.specular = 0.0
         scn.ngeom += 1
 
+    def _restyle(self, scn) -> None:
+        """The model's geoms in the palette; one even light from the camera."""
+        m = self.sim.model
+        robot, scene = _rgba32("robot"), _rgba32("scene")
+        boxes = {}
+        for i in range(scn.ngeom):
+            g = scn.geoms[i]
+            if g.objtype != mujoco.mjtObj.mjOBJ_GEOM:
+                continue
+            gid = g.objid
+            if m.geom_bodyid[gid] != 0:
+                g.rgba[:] = robot
+                if gid in self._pieces:
+                    boxes[self._pieces[gid]] = g
+            elif gid in self._static:
+                role = self._static[gid][2]
+                g.rgba[:] = scene if role == "solid" else _rgba32("scene", _NEAR_WALL_ALPHA if role == "near" else 0.0)
+            else:  # the floor plane, seen edge-on: the floor band stands for it
+                g.rgba[3] = 0.0
+            g.specular, g.emission, g.reflectance = 0.0, 0.0, 0.0
+        self._close_joints(boxes)
+        # a single directional light along the view: a face turned to the camera shows its colour
+        light = scn.lights[0]
+        light.type = mujoco.mjtLightType.mjLIGHT_DIRECTIONAL
+        light.headlight = 0
+        light.castshadow = 0
+        light.dir[:] = (0.0, 1.0, 0.0)
+        light.pos[:] = (self._cx, -1.0, self._cz)
+        light.ambient[:] = 0.35
+        light.diffuse[:] = 0.65
+        light.specular[:] = 0.0
+        scn.nlight = 1
+
+    def _close_joints(self, boxes: dict) -> None:
+        """Lengthen the rod's boxes into the wedge that opens on the outside of each bent joint
+        (by h/2 tan(|dtheta|/2) each), so the strip shows without notches."""
+        if len(boxes) < 2:
+            return
+        order = sorted(boxes)
+        geoms = [boxes[i] for i in order]
+        axes = [np.array([g.mat[0, 0], g.mat[1, 0], g.mat[2, 0]]) for g in geoms]
+        theta = np.array([math.atan2(a[2], a[0]) for a in axes])
+        d = np.angle(np.exp(1j * np.diff(theta)))
+        ext = 0.5 * self.sim.beam.thickness * np.tan(np.minimum(np.abs(d), 1.2) / 2)
+        for k, (g, a) in enumerate(zip(geoms, axes, strict=True)):
+            left = ext[k - 1] if k > 0 else 0.0
+            right = ext[k] if k < len(ext) else 0.0
+            g.size[0] += 0.5 * (left + right)
+            g.pos[:] += a * 0.5 * (right - left)
+
+    def _grid_lines(self, scn, view) -> None:
+        x_lo, x_hi, z_lo, z_hi = view
+        px_per_m = self.width / (x_hi - x_lo)
+        lw = max(1.0, round(self.height / 540.0))
+        if self._floor:
+            z_lo = 0.0  # no grid below the floor
+        for step, colour, width in ((self.minor, "grid_minor", lw), (self.major, "grid_major", 1.5 * lw)):
+            if step * px_per_m < 8 or (x_hi - x_lo) / step > 600:
+                continue
+            rgba = _rgba32(colour)
+            for gx in np.arange(math.ceil(x_lo / step) * step, x_hi, step):
+                self._connector(scn, mujoco.mjtGeom.mjGEOM_LINE, (gx, _Y_GRID, z_lo), (gx, _Y_GRID, z_hi), rgba, width)
+            for gz in np.arange(math.ceil(z_lo / step) * step, z_hi, step):
+                self._connector(scn, mujoco.mjtGeom.mjGEOM_LINE, (x_lo, _Y_GRID, gz), (x_hi, _Y_GRID, gz), rgba, width)
+
+    def _scene(self, view) -> None:
+        sim = self.sim
+        x_lo, x_hi, z_lo, z_hi = view
+        cam = self._cam
+        cam.lookat[:] = (self._cx, 0.0, self._cz)
+        cam.distance = 10.0 * self.span
+        sim.model.vis.global_.fovy = z_hi - z_lo
+        r = self._renderer
+        r.update_scene(sim.data, camera=cam, scene_option=self._opt)
+        scn = r.scene
+        self._restyle(scn)
+        cx, cz, w, h = 0.5 * (x_lo + x_hi), 0.5 * (z_lo + z_hi), x_hi - x_lo, z_hi - z_lo
+        self._box(scn, (cx, _Y_BACKDROP, cz), (w, 1e-4, h), _rgba32("background"))
+        self._grid_lines(scn, view)
+        if self._floor:
+            depth = max(-z_lo, 0.0) + h
+            self._box(scn, (cx, _Y_FLOOR, -0.5 * depth), (w, 1e-4, 0.5 * depth), _rgba32("floor"))
+            lw = max(2.0, 2 * round(self.height / 540.0))
+            self._connector(scn, mujoco.mjtGeom.mjGEOM_LINE, (x_lo, _Y_FLOOR - 1e-3, 0.0), (x_hi, _Y_FLOOR - 1e-3, 0.0),
+                            _rgba32("floor_edge"), lw)
+        else:  # a clamp block behind the rod's base, along the clamp angle
+            th = float(sim.options.clamp_angle)
+            c, s = math.cos(th), math.sin(th)
+            half = np.array([1.0 * MM, 0.75 * sim.beam.width, 2.0 * sim.beam.thickness])
+            rot = np.array([[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]])
+            self._box(scn, (-half[0] * c, 0.0, -half[0] * s), half, _rgba32("scene"), rot)
+
+    # ------------------------------------------------------------------ overlay (2-D)
+    def _to_px(self, view, x, z):
+        x_lo, x_hi, z_lo, z_hi = view
+        u = (np.asarray(x, float) - x_lo) / (x_hi - x_lo) * self.width
+        v = (z_hi - np.asarray(z, float)) / (z_hi - z_lo) * self.height
+        return u, v
+
+    def _draw_path(self, cv: _Canvas, view) -> None:
+        start, trace = _rgb("start"), _rgb("trace")
+        if self._floor and self._start is not None:
+            u0, v0 = self._to_px(view, self._start[0], 0.0)
+            top = self.height * 0.30
+            cv.line([(u0, v0), (u0, top)], start + (255,), 1.6, dash=6.0)
+            cv.polygon([(u0, v0 - 1), (u0 - 6 * cv.unit, v0 + 9 * cv.unit), (u0 + 6 * cv.unit, v0 + 9 * cv.unit)],
+                       start + (255,))
+            cv.text((u0, top - 3 * cv.unit), "start", start, px=13, anchor="md")
+        elif self._tip0 is not None:
+            u0, v0 = self._to_px(view, *self._tip0)
+            cv.circle((u0, v0), 5 * cv.unit, outline=start + (255,), width=1.6)
+        if not self._path:
+            return
+        p = np.asarray(self._path)
+        u, v = self._to_px(view, p[:, 0], p[:, 1])
+        if self._floor:  # the distance covered, as a bar just under the floor line from start to now
+            v0 = self._to_px(view, 0.0, 0.0)[1] + 5 * cv.unit
+            u0 = self._to_px(view, self._start[0], 0.0)[0]
+            cv.line([(u0, v0), (u[-1], v0)], trace + (255,), 4.0)
+            cv.circle((u[-1], v0), 3.5 * cv.unit, fill=trace + (255,))
+        cv.line(list(zip(u, v, strict=True)), trace + (180,), 1.3)
+        cv.circle((u[-1], v[-1]), 4.0 * cv.unit, fill=trace + (255,), outline=(255, 255, 255, 255), width=1.2)
+
+    def _draw_overlay(self, cv: _Canvas, view, overlay, target) -> None:
+        if overlay is not None:
+            ox, oz = (np.asarray(a, dtype=float).ravel() for a in overlay)
+            u, v = self._to_px(view, ox, oz)
+            cv.line(list(zip(u, v, strict=True)), _rgb("theory") + (255,), 3.0, dash=7.0)
+        if target is not None:
+            u, v = self._to_px(view, float(target[0]), float(target[1]))
+            col = _rgb("target") + (255,)
+            r = 8 * cv.unit
+            cv.circle((u, v), r, outline=col, width=2.4)
+            cv.line([(u - 1.6 * r, v), (u - 0.5 * r, v)], col, 1.6)
+            cv.line([(u + 0.5 * r, v), (u + 1.6 * r, v)], col, 1.6)
+            cv.line([(u, v - 1.6 * r), (u, v - 0.5 * r)], col, 1.6)
+            cv.line([(u, v + 0.5 * r), (u, v + 1.6 * r)], col, 1.6)
+
+    def _draw_field(self, cv: _Canvas, b: np.ndarray) -> None:
+        bmag = float(np.hypot(*b))
+        if bmag < _ZERO_FIELD:
+            bmag = 0.0
+        if not self._field_scale_fixed and bmag > self.field_scale:
+            self.field_scale = max(self.field_scale, dial_scale(bmag))
+        u = cv.unit
+        R = 46 * u
+        m = 16 * u
+        c = (self.width - m - R, m + R)
+        col = _rgb("field") + (255,)
+        muted = _rgb("muted")
+        cv.circle(c, R + 4 * u, fill=(255, 255, 255, 190))
+        cv.circle(c, R, outline=_rgb("grid_major") + (255,), width=1.2)
+        for k in range(4):  # ticks at 0, 90, 180, 270 degrees
+            e = np.array([math.cos(k * math.pi / 2), -math.sin(k * math.pi / 2)])
+            cv.line([c + 0.86 * R * e, c + R * e], _rgb("grid_major") + (255,), 1.2)
+        if bmag > 0:
+            length = R * (_ARROW_MIN + (_ARROW_MAX - _ARROW_MIN) * min(bmag / self.field_scale, 1.0))
+            tip = np.array(c) + length * np.array([b[0], -b[1]]) / bmag
+            cv.arrow(c, tip, col, width=4.0, head=15 * u)
+        cv.circle(c, 3.2 * u, fill=col)
+        tx = self.width - 2 * m - 2 * R - 6 * u
+        cv.text((tx, c[1] - 3 * u), field_text(b), col, px=16, bold=True, anchor="rd", box=True)
+        sub = (f"|B| = {bmag / MT:.2f} mT   " if bmag > 0 else "") + f"ring = {self.field_scale / MT:g} mT"
+        cv.text((tx, c[1] + 5 * u), sub, muted, px=12.5, anchor="ra", box=True)
+
+    def _draw_header(self, cv: _Canvas, label: str, target) -> None:
+        u = cv.unit
+        x, y = 16 * u, 14 * u
+        ink = _rgb("text")
+        if label:
+            bb = cv.text((x, y), label, ink, px=17, bold=True, box=True)
+            x_t = bb[2] + 14 * u
+        else:
+            x_t = x
+        bb = cv.text((x_t, y), f"t = {self.sim.time:.2f} s", ink, px=17, box=True)
+        y = bb[3] + 7 * u
+        lines = []
+        if self._floor:
+            lines.append(f"\u0394x = {_signed(self.displacement / MM)} mm (centre of mass)")
+        if target is not None:
+            tip = self.sim.tip_position()
+            d = math.hypot(tip[0] - float(target[0]), tip[1] - float(target[1]))
+            lines.append(f"tip to target = {d / MM:.2f} mm")
+        for line in lines:
+            bb = cv.text((x, y), line, ink, px=14, box=True)
+            y = bb[3] + 6 * u
+
+    def _draw_legend(self, cv: _Canvas, overlay, target) -> None:
+        u = cv.unit
+        items = []
+        if self.trace:
+            items.append(("trace", "path of the centre of mass" if self._floor else "path of the tip", None))
+            items.append(("start", "start", 6.0 if self._floor else "ring"))
+        if overlay is not None:
+            items.append(("theory", "analytical equilibrium", 7.0))
+        if target is not None:
+            items.append(("target", "target", "ring"))
+        if not items:
+            return
+        px = 12.5
+        x = self.width - 16 * u
+        y = 2 * (16 + 46) * u + 22 * u  # under the field dial
+        for key, text, style in items:
+            w = cv.text_width(text, px=px)
+            cv.text((x, y), text, _rgb("muted"), px=px, anchor="rm", box=True)
+            x0, x1 = x - w - 36 * u, x - w - 8 * u
+            col = _rgb(key) + (255,)
+            if style == "ring":
+                cv.circle((0.5 * (x0 + x1), y), 6 * u, outline=col, width=2.0)
+            else:
+                cv.line([(x0, y), (x1, y)], col, 2.4, dash=style)
+            y += 20 * u
+
+    def _draw_scale(self, cv: _Canvas, view) -> None:
+        x_lo, x_hi, z_lo, z_hi = view
+        u = cv.unit
+        px_per_m = self.width / (x_hi - x_lo)
+        bar = _nice(0.15 * (x_hi - x_lo))
+        n = bar * px_per_m
+        self.scale_bar = (bar, n)
+        ink = _rgb("text")
+        if self._floor:  # centred in the floor band
+            v0 = self._to_px(view, 0.0, 0.0)[1]
+            y = min(0.5 * (v0 + self.height) + 8 * u, self.height - 12 * u)
+        else:
+            y = self.height - 18 * u
+        x = 18 * u
+        cv.rect((x, y - 3 * u, x + n, y + 3 * u), ink + (255,))
+        for e in (x, x + n):
+            cv.rect((e - 1 * u, y - 7 * u, e + 1 * u, y + 7 * u), ink + (255,))
+        cv.text((x + 0.5 * n, y - 10 * u), f"{bar / MM:g} mm", ink, px=14, bold=True, anchor="md")
+        grid = f"grid {self.minor / MM:g} mm, bold {self.major / MM:g} mm"
+        cv.text((self.width - 16 * u, y), grid, _rgb("muted"), px=12, anchor="rm")
+
+    # ------------------------------------------------------------------ public
     def render(self, *, field=None, overlay=None, target=None, label: str = "") -> np.ndarray:
-        """One frame, shape ``(height, width, 3)`` uint8.
+        """One frame, shape ``(height, width, 3)`` uint8 (``width`` plus the panel's with ``panel``).
 
         Parameters
         ----------
         field : Field or (B_x, B_z), optional
             Field to draw (T); default the simulator's.
         overlay : (x, z) arrays, optional
-            A centerline (m) drawn in blue.
+            A centerline (m) drawn dashed in the theory colour.
         target : (x, z), optional
-            A point (m) drawn in green.
+            A point (m) drawn as a ring; the header gives the tip's distance to it.
         label : str
-            Extra text for the caption.
+            Title in the header (e.g. the robot's name).
         """
         sim = self.sim
-        cx, cz = self._center()
-        half_w = 0.5 * self.span
-        half_h = half_w * self.height / self.width
-        cam = self._cam
-        cam.lookat[:] = (cx, 0.0, cz)
-        cam.distance = 10.0 * self.span
-        sim.model.vis.global_.fovy = 2.0 * half_h
-        r = self._renderer
-        r.update_scene(sim.data, camera=cam, scene_option=self._opt)
-        scn = r.scene
-        y = sim.beam.width  # grid plane behind the rod
-        x_lo, x_hi = cx - half_w, cx + half_w
-        z_lo, z_hi = cz - half_h, cz + half_h
-        if sim.options.has_contact:
-            z_lo = max(z_lo, 0.0)  # no grid below the floor
-        for step, rgba, lw in ((self.minor, _MINOR_RGBA, 1.0), (self.major, _MAJOR_RGBA, 2.0)):
-            if step <= 0 or (x_hi - x_lo) / step > 400:
-                continue
-            for gx in np.arange(np.ceil(x_lo / step) * step, x_hi, step):
-                self._line(scn, (gx, y, z_lo), (gx, y, z_hi), rgba, lw)
-            for gz in np.arange(np.ceil(z_lo / step) * step, z_hi, step):
-                self._line(scn, (x_lo, y, gz), (x_hi, y, gz), rgba, lw)
         f = sim.field if field is None else field
         b = np.array([f.Bx, f.Bz] if hasattr(f, "Bx") else f, dtype=float).ravel()[:2]
-        bmag = float(np.hypot(*b))
-        if bmag > 0:
-            length = min(self.arrow_per_tesla * bmag, 0.3 * half_h * 2)
-            a0 = np.array([x_lo + 0.12 * self.span, -2 * sim.beam.width, z_hi - 0.45 * half_h])
-            a1 = a0 + length * np.array([b[0], 0.0, b[1]]) / bmag
-            self._arrow(scn, a0, a1, _ARROW_RGBA, 0.006 * self.span)
-        if overlay is not None:
-            ox, oz = (np.asarray(v, dtype=float) for v in overlay)
-            for i in range(len(ox) - 1):
-                self._line(scn, (ox[i], -2 * sim.beam.width, oz[i]), (ox[i + 1], -2 * sim.beam.width, oz[i + 1]),
-                           _OVERLAY_RGBA, 3.0)
-        if target is not None:
-            self._sphere(scn, (target[0], -2 * sim.beam.width, target[1]), _TARGET_RGBA, 0.6 * MM)
-        img = r.render().copy()
-        return _caption(img, f"t = {sim.time:.2f} s   B = ({b[0] * 1e3:+.2f}, {b[1] * 1e3:+.2f}) mT   "
-                             f"grid {self.minor * 1e3:g} / {self.major * 1e3:g} mm {label}".rstrip())
+        self._record()
+        view = self.view = self._view()
+        self._scene(view)
+        img = self._renderer.render()
+        cv = _Canvas(img)
+        if self.trace:
+            self._draw_path(cv, view)
+        self._draw_overlay(cv, view, overlay, target)
+        self._draw_scale(cv, view)
+        self._draw_field(cv, b)
+        self._draw_header(cv, str(label), target)
+        self._draw_legend(cv, overlay, target)
+        frame = cv.result()
+        if self.panel is not None:
+            x = self.displacement if self._floor else self.sim.tip_position()[0]
+            frame = np.concatenate([frame, self.panel.update(sim.time, x, b)], axis=1)
+        return frame
 
     def close(self) -> None:
         self._renderer.close()
+        if self.panel is not None:
+            self.panel.close()
 
 
-def _caption(img: np.ndarray, text: str) -> np.ndarray:
-    try:
-        from PIL import Image, ImageDraw
-    except ImportError:  # captions are optional
-        return img
-    im = Image.fromarray(img)
-    draw = ImageDraw.Draw(im)
-    draw.rectangle((0, 0, im.width, 16), fill=(255, 255, 255))
-    draw.text((6, 3), text, fill=(20, 20, 20))
-    return np.asarray(im)
+class TimePanel:
+    """A side panel for videos: displacement x(t) (mm) above the field B_x(t), B_z(t) (mT).
+
+    Drawn with matplotlib (Agg) in the figures' style (:data:`~magsoft_env.render.figures.RC_PARAMS`).
+    Each :meth:`update` adds a sample and returns the panel, shape ``(height, width, 3)`` uint8;
+    a time before the last sample starts a new history (an environment reset). The axes only
+    widen (the time axis in 1-2-5 steps), and between widenings only the curves are redrawn.
+
+    Parameters
+    ----------
+    height : int
+        Pixels; the frame's height.
+    width : int or None
+        Pixels; default ``0.9 * height`` rounded to even.
+    seconds : float or None
+        Time axis (s); None: grows in 1-2-5 steps with the time.
+    x_label : str
+        Label of the upper plot.
+    """
+
+    def __init__(self, *, height: int, width: int | None = None, seconds: float | None = None,
+                 x_label: str = "\u0394x centre of mass (mm)"):
+        import matplotlib
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+
+        self.height = int(height)
+        self.width = int(width) if width is not None else 2 * int(round(0.45 * self.height))
+        if seconds is not None and not (seconds > 0 and math.isfinite(seconds)):
+            raise ValueError(f"seconds must be a time > 0 (s) or None, got {seconds!r}.")
+        self.seconds = None if seconds is None else float(seconds)
+        dpi = 120.0 * max(self.height / 540.0, 0.2)
+        with matplotlib.rc_context(_rc()):
+            self.fig = Figure(figsize=(self.width / dpi, self.height / dpi), dpi=dpi, layout="constrained")
+            self.canvas = FigureCanvasAgg(self.fig)
+            self.ax_x, self.ax_b = self.fig.subplots(2, 1, sharex=True)
+            (self._lx,) = self.ax_x.plot([], [], color=PALETTE["trace"], lw=1.8, animated=True)
+            (self._lbx,) = self.ax_b.plot([], [], color=PALETTE["field"], lw=1.6, label="$B_x$", animated=True)
+            (self._lbz,) = self.ax_b.plot([], [], color=PALETTE["field_z"], lw=1.6, ls="--", label="$B_z$",
+                                          animated=True)
+            self.ax_x.set_ylabel(x_label)
+            self.ax_b.set_ylabel("field (mT)")
+            self.ax_b.set_xlabel("t (s)")
+            self.ax_b.legend(loc="upper right", ncols=2)
+            for ax in (self.ax_x, self.ax_b):
+                ax.axhline(0.0, color=PALETTE["muted"], lw=0.6)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the history."""
+        self._t, self._x, self._b = [], [], []
+        self._lims = None
+        self._xlim = (-0.1, 0.1)
+        self._blim = (-0.5, 0.5)
+        self._background = None
+
+    def update(self, t: float, x: float, b) -> np.ndarray:
+        """Add the sample (t s, x m, b = (B_x, B_z) T) and draw the panel."""
+        import matplotlib
+
+        t = float(t)
+        if self._t and t < self._t[-1]:
+            self.reset()
+        self._t.append(t)
+        self._x.append(float(x) / MM)
+        self._b.append((float(b[0]) / MT, float(b[1]) / MT))
+        tb = np.asarray(self._b)
+        self._lx.set_data(self._t, self._x)
+        self._lbx.set_data(self._t, tb[:, 0])
+        self._lbz.set_data(self._t, tb[:, 1])
+        t_max = self.seconds if self.seconds is not None else _nice_ceil(max(t, 0.1))
+        self._xlim = _grow(self._xlim, min(self._x), max(self._x))
+        self._blim = _grow(self._blim, float(tb.min()), float(tb.max()))
+        lims = (t_max, self._xlim, self._blim)
+        with matplotlib.rc_context(_rc()):
+            if lims != self._lims or self._background is None:  # new axes: draw all, keep it without curves
+                self.ax_b.set_xlim(0.0, t_max)
+                self.ax_x.set_ylim(*self._xlim)
+                self.ax_b.set_ylim(*self._blim)
+                self.canvas.draw()
+                self._background = self.canvas.copy_from_bbox(self.fig.bbox)
+                self._lims = lims
+            else:
+                self.canvas.restore_region(self._background)
+            self.ax_x.draw_artist(self._lx)
+            self.ax_b.draw_artist(self._lbx)
+            self.ax_b.draw_artist(self._lbz)
+        img = np.asarray(self.canvas.buffer_rgba())[..., :3]
+        if img.shape[:2] != (self.height, self.width):  # the figure size rounds to whole pixels
+            out = np.full((self.height, self.width, 3), 255, np.uint8)
+            h, w = min(self.height, img.shape[0]), min(self.width, img.shape[1])
+            out[:h, :w] = img[:h, :w]
+            img = out
+        return img.copy()
+
+    def close(self) -> None:
+        self.fig.clear()
+
+
+def _nice_ceil(v: float) -> float:
+    """The smallest 1-2-5 number >= v (> 0)."""
+    e = math.floor(math.log10(v))
+    for m in (1.0, 2.0, 5.0, 10.0):
+        if m * 10.0**e >= v * (1 - 1e-12):
+            return m * 10.0**e
+    return 10.0 ** (e + 1)
+
+
+def _grow(lim: tuple[float, float], lo: float, hi: float) -> tuple[float, float]:
+    """Axis limits that only widen, and then by 30 % of the range beyond the data, so that the
+    panel redraws its axes rarely and does not jitter."""
+    a, b = lim
+    if lo >= a and hi <= b:
+        return lim
+    pad = 0.3 * max(hi - lo, b - a)
+    return (min(a, lo - pad) if lo < a else a, max(b, hi + pad) if hi > b else b)
+
+
+__all__ = ["RodRenderer", "TimePanel", "dial_scale", "field_text"]

@@ -39,85 +39,147 @@ def write_video(frames, path, *, fps: float = 25.0) -> Path:
     return path
 
 
+def _check_size(width, height) -> tuple[int, int]:
+    for name, v in (("width", width), ("height", height)):
+        if int(v) != v or not 16 <= v <= 8192:
+            raise ValueError(f"{name} must be an integer in [16, 8192] pixels, got {v!r}.")
+    return int(width), int(height)
+
+
 def render_gait(
-    preset, seconds: float, path=None, *, fps: float = 25.0, width: int = 480, height: int = 270,
-    timestep: float = 1e-4, segments: int = 20, scene: str = "floor",
+    preset, seconds: float, path=None, *, fps: float = 25.0, width: int = 960, height: int = 540,
+    timestep: float = 1e-4, segments: int = 20, scene: str = "floor", panel: bool = False, overlay=None,
 ) -> tuple[list[np.ndarray], dict]:
-    """Frames of an open-loop gait (:class:`~magsoft_env.gaits.GaitPreset`), optionally written.
+    """Frames of an open-loop gait (a :class:`~magsoft_env.cases.robots.Robot` with a drive), optionally written.
+
+    Each frame is a :class:`~magsoft_env.render.frames.RodRenderer` side view: the robot on the
+    floor, grid and scale bar, the field dial (full scale: the drive's peak |B| rounded up to 1-2-5
+    mT), the centre-of-mass path and the start line, ``Δx`` since the start.
 
     Parameters
     ----------
-    preset : GaitPreset
+    preset : Robot
+        ``name``, ``beam`` and ``wave`` are used (``gait_preset(...)``).
     seconds : float
         Simulated time (s).
     path : str or Path, optional
         ``.mp4`` or ``.gif`` to write.
     fps : float
         Frames per simulated second (the video plays in real time).
+    width, height : int
+        Frame size (pixels) of the side view; ``panel`` adds its width to the right.
     timestep : float
         Simulation step (s).
+    segments : int
+        Rod segments.
     scene : str
         ``floor``, ``channel`` or ``obstacle``.
+    panel : bool
+        Add a :class:`~magsoft_env.render.frames.TimePanel` (Δx(t), B(t) over ``[0, seconds]``).
+    overlay : callable, optional
+        ``overlay(sim) -> (x, z)`` arrays (m), drawn dashed on each frame (e.g. an analytical shape).
 
     Returns
     -------
     frames : list of ndarray
-        ``round(seconds * fps) + 1`` frames (the first shows t = 0), each ``(height, width, 3)``.
+        ``round(seconds * fps) + 1`` frames (the first shows t = 0), each ``(height, width, 3)``
+        (wider with ``panel``).
     summary : dict
-        ``displacement_mm``, ``speed_mm_s`` (centre of mass), ``frames``, ``fps``, ``path``,
-        ``message`` (``"ok"`` or the instability that stopped the run early).
+        ``displacement_mm``, ``speed_mm_s`` (centre of mass), ``frames``, ``fps``, ``width``,
+        ``height`` (of the frames written), ``path``, ``message`` (``"ok"`` or the instability that
+        stopped the run early).
     """
     if path is not None:
         path = _check_path(path)
+    if not seconds > 0:
+        raise ValueError(f"seconds must be > 0 (s), got {seconds!r}.")
+    if not (fps > 0 and np.isfinite(fps)):
+        raise ValueError(f"fps must be > 0 (frames per second), got {fps!r}.")
+    width, height = _check_size(width, height)
+    if overlay is not None and not callable(overlay):
+        raise ValueError(f"overlay must be a function sim -> (x, z) or None, got {type(overlay).__name__}.")
     select_gl_backend()
     from ..sim import SimulationError, Simulator, as_waveform
     from ..sim.gait import gait_rod_options
-    from .frames import RodRenderer
+    from .frames import RodRenderer, dial_scale
 
-    if not seconds > 0:
-        raise ValueError(f"seconds must be > 0 (s), got {seconds!r}.")
     sim = Simulator(preset.beam, gait_rod_options(preset, scene=scene, segments=segments, timestep=timestep,
                                                  render=True))
-    sim.set_waveform(as_waveform(preset.wave))
-    renderer = RodRenderer(sim, width=width, height=height)
+    wave = as_waveform(preset.wave)
+    sim.set_waveform(wave)
+    peak = float(np.max(np.hypot(*wave.sample(np.linspace(0.0, seconds, 1001)).T)))
+    renderer = RodRenderer(sim, width=width, height=height, field_scale=dial_scale(peak), panel=panel,
+                           panel_seconds=seconds)
     n_frames = int(round(seconds * fps))
     per_frame = max(1, int(round(1.0 / (fps * sim.timestep))))
     x0 = sim.center_of_mass()[0]
-    frames, message = [renderer.render(label=preset.name)], "ok"
+
+    def frame():
+        return renderer.render(label=preset.name, overlay=None if overlay is None else overlay(sim))
+
+    frames, message = [frame()], "ok"
     try:
         for _ in range(n_frames):
             sim.step(per_frame)
-            frames.append(renderer.render(label=preset.name))
+            frames.append(frame())
     except SimulationError as err:
         message = str(err)
     finally:
         renderer.close()
     dx = float(sim.center_of_mass()[0] - x0)
     summary = {"displacement_mm": dx * 1e3, "speed_mm_s": dx / max(sim.time, 1e-12) * 1e3, "frames": len(frames),
-               "fps": fps, "path": None if path is None else str(path), "message": message}
+               "fps": fps, "width": int(frames[0].shape[1]), "height": int(frames[0].shape[0]),
+               "path": None if path is None else str(path), "message": message}
     if path is not None:
         write_video(frames, path, fps=fps)
     return frames, summary
 
 
 def render_policy(env_id: str, policy=None, seconds: float = 4.0, path=None, *, seed: int = 0,
-                  env_kwargs: dict | None = None) -> tuple[list[np.ndarray], dict]:
+                  env_kwargs: dict | None = None, width: int = 960, height: int = 540,
+                  panel: bool = False) -> tuple[list[np.ndarray], dict]:
     """Frames of an environment driven by ``policy`` (``obs -> action``; None: the robot's
     open-loop gait for crawl envs, the target's field for the shape env), one frame per step.
 
-    Returns frames and a summary (``steps``, ``return``, ``x_displacement_mm``, ``path``).
+    The environment is made with ``render_mode="rgb_array"``, ``env_kwargs`` and the frame size
+    ``width`` x ``height`` (these two win over ``env_kwargs``). ``panel`` adds a
+    :class:`~magsoft_env.render.frames.TimePanel` to the right: the centre of mass's Δx (floor
+    envs) or the tip's distance to the target (shape env) and the field, over ``[0, seconds]``.
+
+    Returns frames and a summary (``steps``, ``return``, ``x_displacement_mm``, ``frames``, ``fps``,
+    ``width``, ``height``, ``path``).
     """
     if path is not None:
         path = _check_path(path)
+    if not seconds > 0:
+        raise ValueError(f"seconds must be > 0 (s), got {seconds!r}.")
+    width, height = _check_size(width, height)
     select_gl_backend()
     import gymnasium as gym  # the ids are registered by importing magsoft_env, which ran first
 
-    env = gym.make(env_id, render_mode="rgb_array", **(env_kwargs or {}))
+    env = gym.make(env_id, render_mode="rgb_array", **{**(env_kwargs or {}), "width": width, "height": height})
     base = env.unwrapped
     obs, info = env.reset(seed=seed)
     x0 = info.get("x_position", 0.0)
-    frames, total, steps = [env.render()], 0.0, 0
     t_end = float(seconds)
+    side = None
+    if panel:
+        from .frames import TimePanel
+
+        floor = bool(base.sim.options.has_contact)
+        side = TimePanel(height=height, seconds=t_end,
+                         x_label="\u0394x centre of mass (mm)" if floor else "tip to target (mm)")
+        com0 = float(base.sim.center_of_mass()[0])
+
+    def frame(info):
+        img = env.render()
+        if side is None:
+            return img
+        sim = base.sim
+        x = sim.center_of_mass()[0] - com0 if floor else info.get("position_error", 0.0)
+        return np.concatenate([img, side.update(sim.time, x, (sim.field.Bx, sim.field.Bz))], axis=1)
+
+    frames, total, steps = [frame(info)], 0.0, 0
     while base.sim.time < t_end - 1e-9:
         if policy is not None:
             action = policy(obs)
@@ -130,13 +192,16 @@ def render_policy(env_id: str, policy=None, seconds: float = 4.0, path=None, *, 
         obs, r, term, trunc, info = env.step(action)
         total += float(r)
         steps += 1
-        frames.append(env.render())
+        frames.append(frame(info))
         if term or trunc:
             break
     fps = base.metadata.get("render_fps", 25)
     env.close()
+    if side is not None:
+        side.close()
     summary = {"steps": steps, "return": total, "x_displacement_mm": (info.get("x_position", 0.0) - x0) * 1e3,
-               "frames": len(frames), "fps": fps, "path": None if path is None else str(path)}
+               "frames": len(frames), "fps": fps, "width": int(frames[0].shape[1]),
+               "height": int(frames[0].shape[0]), "path": None if path is None else str(path)}
     if path is not None:
         write_video(frames, path, fps=fps)
     return frames, summary
