@@ -36,13 +36,13 @@ ALLOWED = {
     "facade": {"spec", "leaf"},  # the rest is reached lazily by name (importlib), never imported at import time
 }
 # third-party packages a unit may import; all others may import none of these
-HEAVY = {"mujoco", "gymnasium", "torch", "stable_baselines3", "matplotlib", "imageio"}
+HEAVY = {"mujoco", "gymnasium", "torch", "stable_baselines3", "rl_zoo3", "matplotlib", "imageio"}
 HEAVY_ALLOWED = {
     "sim": {"mujoco"},
     "compare": {"mujoco"},
     "render": {"mujoco", "matplotlib", "imageio", "gymnasium"},
     "envs": {"mujoco", "gymnasium"},
-    "rl": {"gymnasium", "torch", "stable_baselines3", "matplotlib"},
+    "rl": {"gymnasium", "torch", "stable_baselines3", "rl_zoo3", "matplotlib"},
     "cli": {"gymnasium"},
     "bench": {"mujoco", "gymnasium", "torch", "stable_baselines3"},
     "leaf": {"mujoco"},  # gl: binds mujoco's offscreen context class, lazily

@@ -1,10 +1,9 @@
-"""RL helpers and the train/ command line."""
+"""RL helpers and the train/ command line (fast: checks before any work, one 64-step run)."""
 
 from __future__ import annotations
 
+import importlib.util
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -13,49 +12,91 @@ import pytest
 from magsoft_env.rl import load_hyperparams, open_loop_actor, run_episodes
 
 ROOT = Path(__file__).resolve().parents[1]
-HYPER = ROOT / "train" / "hyperparams.yml"
+PPO_FILE = ROOT / "train" / "hyperparams.yml"
+SAC_FILE = ROOT / "train" / "hyperparams_sac.yml"
 
 
-def test_hyperparams_merge_default_and_env_blocks(tmp_path):
+def _script(name: str):
+    spec = importlib.util.spec_from_file_location(f"train_{name}", ROOT / "train" / f"{name}.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+# ---------------------------------------------------------------------------- hyperparameter files
+def test_hyperparams_env_block_else_default_with_merge_keys(tmp_path):
     f = tmp_path / "h.yml"
     f.write_text(
-        "default:\n  n_envs: 2\n  env_kwargs: {segments: 10}\n"
-        "  ppo: {n_timesteps: 100, learning_rate: 0.001, n_steps: 8}\n"
-        "MagSoftCrawl-v0:\n  env_kwargs: {robot: paper-5a}\n  ppo: {n_steps: 16}\n"
+        "default: &d\n  n_timesteps: 100\n  policy: MlpPolicy\n  n_envs: 2\n  learning_rate: 0.001\n"
+        "  n_steps: 8\n  env_kwargs: {segments: 10}\n"
+        "MagSoftCrawl-v0:\n  <<: *d\n  n_steps: 16\n  env_kwargs: {robot: paper-5a}\n"
     )
     cfg = load_hyperparams(f, "MagSoftCrawl-v0", "ppo")
-    assert cfg["env_kwargs"] == {"segments": 10, "robot": "paper-5a"}
-    assert cfg["algo_kwargs"] == {"learning_rate": 0.001, "n_steps": 16}
-    assert cfg["n_timesteps"] == 100 and cfg["n_envs"] == 2
+    assert cfg == {"n_timesteps": 100, "policy": "MlpPolicy", "n_envs": 2, "learning_rate": 0.001, "n_steps": 16,
+                   "env_kwargs": {"robot": "paper-5a"}}  # rl-zoo: one block, merged one level deep
     other = load_hyperparams(f, "MagSoftShape-v0", "ppo")  # registered id without its own block
-    assert other["env_kwargs"] == {"segments": 10}
+    assert other["env_kwargs"] == {"segments": 10} and other["n_steps"] == 8
 
 
-def test_hyperparams_read_yaml_exponent_strings_as_numbers(tmp_path):
-    # YAML 1.1 reads 2e-3 (no dot) as a string; the simulator refuses strings for numbers
-    f = tmp_path / "h.yml"
-    f.write_text("default:\n  env_kwargs: {field_limit: 2e-3, robot: paper-5a}\n  ppo: {learning_rate: 3e-4}\n")
-    cfg = load_hyperparams(f, "MagSoftCrawl-v0", "ppo")
-    assert cfg["env_kwargs"] == {"field_limit": 2e-3, "robot": "paper-5a"}
-    assert cfg["algo_kwargs"] == {"learning_rate": 3e-4}
+def test_shipped_hyperparams_are_what_rl_zoo_reads():
+    pytest.importorskip("rl_zoo3")
+    import argparse
 
+    from rl_zoo3.exp_manager import ExperimentManager
 
-def test_shipped_hyperparams_cover_every_id_and_algo():
     from magsoft_env.envs import ENV_SPECS
 
-    for env_id in ENV_SPECS:
-        for algo in ("ppo", "sac"):
-            cfg = load_hyperparams(HYPER, env_id, algo)
-            assert cfg["n_timesteps"] > 0
+    for algo, path in (("ppo", PPO_FILE), ("sac", SAC_FILE)):
+        for env_id in ENV_SPECS:
+            ours = load_hyperparams(path, env_id, algo)
+            zoo = ExperimentManager(argparse.Namespace(), algo, env_id, "/nonexistent", config=str(path))
+            theirs, _ = zoo.read_hyperparameters()
+            assert ours == dict(theirs), (algo, env_id)
+            assert ours["n_timesteps"] >= 1
 
 
-def test_hyperparams_errors():
+def test_hyperparams_refuse_yaml_exponent_strings(tmp_path):
+    # YAML 1.1 (rl-zoo3's reader) reads 2e-3 (no dot) as a string and would hand the env a string
+    f = tmp_path / "h.yml"
+    f.write_text("default:\n  n_timesteps: 10\n  policy: MlpPolicy\n  env_kwargs: {field_limit: 2e-3}\n")
+    with pytest.raises(ValueError, match=r"field_limit = '2e-3' is a string in YAML 1\.1.*0\.002"):
+        load_hyperparams(f, "MagSoftCrawl-v0", "ppo")
+
+
+def test_hyperparams_errors(tmp_path):
     with pytest.raises(ValueError, match="Did you mean 'MagSoftCrawl-v0'"):
-        load_hyperparams(HYPER, "MagSoftCrawl-v9", "ppo")
-    with pytest.raises(ValueError, match="algo must be one of"):
-        load_hyperparams(HYPER, "MagSoftCrawl-v0", "td3")
+        load_hyperparams(PPO_FILE, "MagSoftCrawl-v9", "ppo")
+    with pytest.raises(ValueError, match="algo must be one of .*got 'ppp'.* Did you mean 'ppo'"):
+        load_hyperparams(PPO_FILE, "MagSoftCrawl-v0", "ppp")
+    f = tmp_path / "h.yml"
+    f.write_text("default:\n  n_timesteps: 10\n  policy: MlpPolicy\n  learnin_rate: 0.001\n")
+    with pytest.raises(ValueError, match="unknown PPO hyperparameter 'learnin_rate'. Did you mean 'learning_rate'"):
+        load_hyperparams(f, "MagSoftCrawl-v0", "ppo")
+    f.write_text("default:\n  n_timesteps: 10\n  policy: MlpPolicy\n  policy_kwargs: {net_ach: [8]}\n")
+    with pytest.raises(ValueError, match="policy_kwargs key 'net_ach'. Did you mean 'net_arch'"):
+        load_hyperparams(f, "MagSoftCrawl-v0", "ppo")
+    f.write_text("default:\n  n_timesteps: 10\n  policy: MlpPolicy\n  env_kwargs: {fieldlimit: 0.004}\n")
+    with pytest.raises(ValueError, match="no argument 'fieldlimit'. Did you mean 'field_limit'"):
+        load_hyperparams(f, "MagSoftChannel-v0", "ppo")
+    f.write_text("default:\n  n_timesteps: 0\n  policy: MlpPolicy\n")
+    with pytest.raises(ValueError, match="n_timesteps must be a whole number >= 1, got 0"):
+        load_hyperparams(f, "MagSoftCrawl-v0", "ppo")
+    f.write_text("MagSoftShape-v0:\n  n_timesteps: 10\n")
+    with pytest.raises(ValueError, match="no block for 'MagSoftCrawl-v0' and no 'default' block"):
+        load_hyperparams(f, "MagSoftCrawl-v0", "ppo")
 
 
+def test_zoo_argv_gives_the_eval_env_the_files_env_kwargs():
+    # rl-zoo3 2.9.2 builds the evaluation env from the command line's env kwargs only
+    from magsoft_env.rl import zoo_argv
+
+    argv = zoo_argv("MagSoftCrawl-v0", "h.yml", "runs/x", eval_env_kwargs={"robot": "paper-5c", "segments": 6})
+    k = argv.index("--eval-env-kwargs")
+    assert argv[k + 1:k + 3] == ["robot:'paper-5c'", "segments:6"]
+    assert "--eval-env-kwargs" not in zoo_argv("MagSoftCrawl-v0", "h.yml", "runs/x")
+
+
+# ---------------------------------------------------------------------------- episodes
 def test_open_loop_gait_in_the_env_matches_its_definition():
     import gymnasium as gym
 
@@ -66,7 +107,6 @@ def test_open_loop_gait_in_the_env_matches_its_definition():
     assert np.isfinite(res.speed) and res.crawl_violations == 0
 
 
-@pytest.mark.slow
 def test_run_episodes_counts_successes_and_their_times():
     import gymnasium as gym
 
@@ -91,19 +131,108 @@ def test_run_episodes_counts_successes_and_their_times():
     assert none.successes == 0 and none.to_dict()["success_s"] is None
 
 
-def test_ppo_cli_trains_saves_and_loads(tmp_path):
-    cmd = [sys.executable, str(ROOT / "train" / "train.py"), "--env", "MagSoftCrawl-v0", "--algo", "ppo",
-           "--timesteps", "2048", "--n-envs", "2", "--runs", str(tmp_path), "--run-id", "t", "--no-eval",
-           "--env-kwarg", "segments=6", "--set", "n_steps=256", "batch_size=128", "n_epochs=2"]
-    r = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=tmp_path)
-    assert r.returncode == 0, r.stderr
-    run = tmp_path / "t"
-    for name in ("config.yml", "model.zip", "vecnormalize.pkl", "learning_curve.png", "evaluation.json"):
-        assert (run / name).exists(), name
-    summary = json.loads((run / "evaluation.json").read_text())
-    assert summary["n_timesteps"] == 2048 and summary["episodes"] > 0
+# ---------------------------------------------------------------------------- policies and the env they play in
+def _untrained(env_id: str, folder: Path, **env_kwargs) -> Path:
+    """An untrained PPO model saved in an rl-zoo3-like log folder (``<env>/args.yml`` beside it)."""
+    import gymnasium as gym
+    import yaml
+    from stable_baselines3 import PPO
+
+    env = gym.make(env_id, **env_kwargs)
+    model = PPO("MlpPolicy", env, n_steps=16, batch_size=16, device="cpu")
+    (folder / env_id).mkdir(parents=True)
+    (folder / env_id / "args.yml").write_text(yaml.safe_dump({"algo": "ppo", "env": env_id, "env_kwargs": env_kwargs}))
+    model.save(folder / f"{env_id}.zip")
+    env.close()
+    return folder / f"{env_id}.zip"
+
+
+def test_policy_refused_in_another_env(tmp_path):
     from magsoft_env.rl import load_policy
 
-    policy = load_policy(run / "model.zip")
+    path = _untrained("MagSoftCrawl-v0", tmp_path / "crawl", segments=6)
+    policy = load_policy(path, env="MagSoftCrawl-v0")  # made with the run's env_kwargs (6 segments)
+    assert policy.env_id == "MagSoftCrawl-v0" and policy.env_kwargs == {"segments": 6}
     action = policy(np.zeros(2 * 7 + 6, dtype=np.float32))
     assert action.shape == (2,) and np.all(np.abs(action) <= 1.0)
+    with pytest.raises(ValueError, match="was trained on MagSoftCrawl-v0, not MagSoftChannel-v0"):
+        load_policy(path, env="MagSoftChannel-v0")
+    with pytest.raises(ValueError, match=r"observation space is Box.*\(20,\).*\(48,\)"):
+        load_policy(path, env="MagSoftCrawl-v0", env_kwargs={})  # 20 segments: another observation
+    (tmp_path / "bare").mkdir()
+    bare = tmp_path / "bare" / "model.zip"  # no run recorded: the spaces are still checked
+    path.rename(bare)
+    with pytest.raises(ValueError, match="does not fit MagSoftShape-v0"):
+        load_policy(bare, env="MagSoftShape-v0")
+
+
+# ---------------------------------------------------------------------------- train/train.py
+def test_train_refuses_an_existing_run_id_before_any_work(tmp_path, capsys):
+    (tmp_path / "taken").mkdir()
+    (tmp_path / "taken" / "keep.txt").write_text("an earlier run")
+    rc = _script("train").main(["--env", "MagSoftCrawl-v0", "--runs", str(tmp_path), "--run-id", "taken"])
+    assert rc == 2
+    err = capsys.readouterr().err
+    assert "exists already; a run is never overwritten" in err and "another --run-id" in err
+    assert sorted(p.name for p in (tmp_path / "taken").iterdir()) == ["keep.txt"]
+
+
+@pytest.mark.parametrize("option, item, message", [
+    ("--set", "learnin_rate=1e-3", "unknown PPO hyperparameter 'learnin_rate'. Did you mean 'learning_rate'"),
+    ("--set", "n_step=64", "Did you mean 'n_steps'"),
+    ("--env-kwarg", "fieldlimit=0.004", "MagSoftCrawl-v0 has no argument 'fieldlimit'. Did you mean 'field_limit'"),
+    ("--env-kwarg", "field_limit=0.5", "field_limit must be <= 0.1 T"),
+    ("--set", "learning_rate", "--set expects KEY=VALUE"),
+])
+def test_train_misspelt_overrides_get_suggestions(tmp_path, capsys, option, item, message):
+    rc = _script("train").main(["--env", "MagSoftCrawl-v0", "--runs", str(tmp_path), "--run-id", "r", option, item])
+    assert rc == 2
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "r").exists()
+
+
+def test_train_runs_rl_zoo_prints_progress_and_refuses_a_second_run(tmp_path, capsys):
+    pytest.importorskip("rl_zoo3")
+    train = _script("train")
+    args = ["--env", "MagSoftCrawl-v0", "--runs", str(tmp_path), "--run-id", "t", "--timesteps", "64",
+            "--set", "n_steps=32", "batch_size=32", "n_epochs=1", "--env-kwarg", "segments=6",
+            "--eval-freq", "64", "--eval-episodes", "1", "--no-eval"]
+    assert train.main(args) == 0
+    out = capsys.readouterr().out
+    assert "python -m rl_zoo3.train --algo ppo --env MagSoftCrawl-v0 --gym-packages magsoft_env" in out
+    assert "total_timesteps" in out and "Eval num_timesteps=64" in out  # log tables, evaluation callback
+    run = tmp_path / "t"
+    log = run / "ppo" / "MagSoftCrawl-v0_1"
+    for p in ("hyperparams.yml", "zoo_command.txt", "train.json"):
+        assert (run / p).is_file(), p
+    for p in ("MagSoftCrawl-v0.zip", "best_model.zip", "evaluations.npz", "MagSoftCrawl-v0/args.yml",
+              "MagSoftCrawl-v0/config.yml", "MagSoftCrawl-v0/vecnormalize.pkl"):
+        assert (log / p).is_file(), p
+    from magsoft_env.rl import find_run, learning_curve
+
+    rec = find_run(run)
+    assert rec.log_dir == log and rec.env_id == "MagSoftCrawl-v0" and rec.algo == "ppo"
+    assert rec.env_kwargs["segments"] == 6 and rec.env_kwargs["field_limit"] == 0.004  # the file's, and the override
+    assert rec.args["eval_env_kwargs"] == rec.env_kwargs  # the evaluation callback played the same env
+    curve = learning_curve(rec, tmp_path / "c.png")
+    assert curve["eval_timesteps"] == [64] and curve["eval_mean_ep_length"][0] > 0
+    assert (tmp_path / "c.png").is_file()
+    assert json.loads((run / "train.json").read_text())["wall_s"] > 0
+    assert train.main(args) == 2  # the same run id again
+    assert "exists already" in capsys.readouterr().err
+
+
+def test_policy_of_a_run_before_rl_zoo_loads_and_is_checked(tmp_path):
+    import yaml
+
+    from magsoft_env.rl import load_policy
+
+    path = _untrained("MagSoftCrawl-v0", tmp_path / "zoo", segments=6)
+    (tmp_path / "old").mkdir()
+    old = tmp_path / "old" / "model.zip"  # train/train.py's former layout: config.yml with env_id beside
+    path.rename(old)
+    (tmp_path / "old" / "config.yml").write_text(yaml.safe_dump(
+        {"env_id": "MagSoftCrawl-v0", "algo": "ppo", "env_kwargs": {"segments": 6}}))
+    assert load_policy(old, env="MagSoftCrawl-v0").env_kwargs == {"segments": 6}
+    with pytest.raises(ValueError, match="was trained on MagSoftCrawl-v0, not MagSoftObstacle-v0"):
+        load_policy(old, env="MagSoftObstacle-v0")

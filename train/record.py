@@ -1,6 +1,9 @@
-"""Record a video (MP4 or GIF) of a trained policy, headless (MUJOCO_GL=egl, else osmesa).
+"""Record a video (MP4 or GIF) of a trained policy with the project's overlays, headless (MUJOCO_GL=egl, else osmesa).
 
-    python train/record.py runs/<run-id> --out crawl_policy.mp4 [--seconds 4]
+    python train/record.py RUN --out crawl_policy.mp4 [--seconds 4] [--best]
+
+RUN: a run folder of train/train.py, an rl-zoo3 log folder or a model .zip in one; the env id and env
+arguments are the run's. (rl-zoo3's own ``python -m rl_zoo3.record_video`` films the plain env.)
 """
 
 from __future__ import annotations
@@ -13,10 +16,11 @@ from pathlib import Path
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("run", type=Path, help="run folder written by train/train.py")
+    p.add_argument("run", type=Path, help="run folder (train/train.py or rl-zoo3 log folder) or model .zip")
     p.add_argument("--out", type=Path, required=True, help=".mp4 or .gif")
     p.add_argument("--seconds", type=float, default=4.0)
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--best", action="store_true", help="the best evaluated model (best_model.zip), not the final")
     args = p.parse_args(argv)
     # the GL backend must be chosen before mujoco is imported
     from magsoft_env.gl import RenderBackendError, select_gl_backend
@@ -26,18 +30,17 @@ def main(argv=None) -> int:
     except RenderBackendError as err:
         print(f"record.py: {err}", file=sys.stderr)
         return 1
-    import yaml
-
     from magsoft_env.render.video import render_policy
-    from magsoft_env.rl import load_policy
+    from magsoft_env.rl import find_run, load_policy
 
-    if not (args.run / "model.zip").exists():
-        print(f"record.py: error: {args.run} has no model.zip (is it a run folder?)", file=sys.stderr)
+    try:
+        rec = find_run(args.run)
+        model = args.run if args.run.is_file() else rec.model(best=args.best)
+        policy = load_policy(model, algo=rec.algo, env=rec.env_id)
+    except ValueError as err:
+        print(f"record.py: error: {err}", file=sys.stderr)
         return 2
-    cfg = yaml.safe_load((args.run / "config.yml").read_text())
-    policy = load_policy(args.run / "model.zip", algo=cfg["algo"])
-    _, summary = render_policy(cfg["env_id"], policy, args.seconds, args.out, seed=args.seed,
-                               env_kwargs=cfg["env_kwargs"])
+    _, summary = render_policy(rec.env_id, policy, args.seconds, args.out, seed=args.seed, env_kwargs=rec.env_kwargs)
     print(json.dumps(summary))
     return 0
 

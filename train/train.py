@@ -1,10 +1,14 @@
-"""Train a Stable-Baselines3 agent (PPO or SAC) on a magsoft_env environment.
+"""Train a magsoft_env environment with rl-zoo3 into runs/<run-id>/ (never overwriting a run), then evaluate.
 
-    python train/train.py --env MagSoftCrawl-v0 --algo ppo [--timesteps N] [--seed 0]
+    python train/train.py --env MagSoftCrawl-v0 [--algo ppo] [--timesteps N] [--run-id ID] [--set k=v] [--env-kwarg k=v]
 
-Writes runs/<run-id>/: config.yml (resolved), model.zip, vecnormalize.pkl, monitor/,
-learning_curve.png and evaluation.json (the policy against the open-loop paper gaits in the same
-environment, same field limits).
+The same as ``python -m rl_zoo3.train --algo ALGO --env ID --gym-packages magsoft_env -conf
+train/hyperparams.yml`` (printed, and kept in zoo_command.txt), plus: the run folder is refused if it
+exists, ``--set`` / ``--env-kwarg`` keys are checked against the algorithm's and the env's constructors
+(the closest name suggested) before any work, and the trained policy is evaluated against the open-loop
+paper gaits under the same limits (train/evaluate.py). Writes runs/<run-id>/: hyperparams.yml (resolved,
+rl-zoo's format), zoo_command.txt, train.json, rl-zoo's log folder <algo>/<env>_1/ (models,
+evaluations.npz, monitor, config.yml, args.yml, vecnormalize.pkl), evaluation.json, learning_curve.png.
 """
 
 from __future__ import annotations
@@ -16,61 +20,98 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
+#: The hyperparameter file of each algorithm (rl-zoo3 takes one per algorithm).
+CONF = {"ppo": HERE / "hyperparams.yml", "sac": HERE / "hyperparams_sac.yml"}
 
+
+def _key_values(items, option: str) -> dict:
+    from magsoft_env.rl import parse_override
+
+    out = {}
+    for item in items:
+        if "=" not in item:
+            raise ValueError(f"{option} expects KEY=VALUE, got {item!r}.")
+        key, value = item.split("=", 1)
+        out[key] = parse_override(value)
+    return out
 
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--env", required=True, help="environment id, e.g. MagSoftCrawl-v0")
-    p.add_argument("--algo", default="ppo", choices=["ppo", "sac"])
-    p.add_argument("--hyperparams", type=Path, default=HERE / "hyperparams.yml")
+    p.add_argument("--algo", default="ppo", choices=sorted(CONF))
+    p.add_argument("--hyperparams", type=Path, default=None,
+                   help="rl-zoo hyperparameter file (default: train/hyperparams.yml for ppo, hyperparams_sac.yml)")
     p.add_argument("--timesteps", type=int, default=None, help="override n_timesteps")
     p.add_argument("--n-envs", type=int, default=None, help="override n_envs")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--vec", default="dummy", choices=["dummy", "subproc"], help="vector env class")
     p.add_argument("--runs", type=Path, default=Path("runs"), help="folder of run folders (default runs/)")
-    p.add_argument("--run-id", default=None, help="run folder name (default <env>_<algo>_s<seed>_<time>)")
+    p.add_argument("--run-id", default=None, help="run folder name (default <env>_<algo>_s<seed>_<time>); "
+                   "refused if runs/<run-id> exists")
+    p.add_argument("--continue-from", type=Path, default=None, metavar="RUN",
+                   help="continue training the final model of RUN (a run folder or model .zip) into the new run")
     p.add_argument("--max-minutes", type=float, default=None, help="wall-time budget for learning (minutes)")
+    p.add_argument("--eval-freq", type=int, default=10000,
+                   help="rl-zoo evaluation callback every N env steps (keeps best_model.zip); <= 0: none")
+    p.add_argument("--eval-episodes", type=int, default=2, help="episodes per evaluation (callback and final)")
+    p.add_argument("--save-freq", type=int, default=-1, help="checkpoint every N env steps; <= 0: none")
+    p.add_argument("--tensorboard", action="store_true", help="TensorBoard logs in runs/<run-id>/tensorboard/")
+    p.add_argument("--progress", action="store_true", help="a progress bar (besides the log tables)")
     p.add_argument("--no-eval", action="store_true", help="skip the evaluation against the open-loop gaits")
     p.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
-                   help="override algorithm arguments, e.g. --set learning_rate=1e-3 n_steps=256")
+                   help="override hyperparameters, e.g. --set learning_rate=1e-3 n_steps=256")
     p.add_argument("--env-kwarg", nargs="*", default=[], metavar="KEY=VALUE",
                    help="override environment arguments (SI units), e.g. --env-kwarg segments=10")
     args = p.parse_args(argv)
 
-    from magsoft_env.rl import load_hyperparams, parse_override, train
+    run_id = args.run_id or f"{args.env}_{args.algo}_s{args.seed}_{time.strftime('%Y%m%d-%H%M%S')}"
+    run_dir = args.runs / run_id
+    if run_dir.exists():  # before any work
+        print(f"train.py: error: run folder {str(run_dir)!r} exists already; a run is never overwritten: "
+              "choose another --run-id (or --continue-from it into a new one).", file=sys.stderr)
+        return 2
+    from magsoft_env.rl import check_env_kwargs, check_hyperparams, find_run, load_hyperparams
 
     try:
-        cfg = load_hyperparams(args.hyperparams, args.env, args.algo)
+        for name in ("timesteps", "n_envs", "eval_episodes"):
+            value = getattr(args, name)
+            if value is not None and value < 1:
+                raise ValueError(f"--{name.replace('_', '-')} must be >= 1, got {value}.")
+        if args.max_minutes is not None and not args.max_minutes > 0:
+            raise ValueError(f"--max-minutes must be > 0, got {args.max_minutes}.")
+        block = load_hyperparams(args.hyperparams or CONF[args.algo], args.env, args.algo)
+        block.update(_key_values(args.set, "--set"))
         if args.timesteps is not None:
-            if args.timesteps < 1:
-                raise ValueError(f"--timesteps must be >= 1, got {args.timesteps}.")
-            cfg["n_timesteps"] = args.timesteps
+            block["n_timesteps"] = args.timesteps
         if args.n_envs is not None:
-            if args.n_envs < 1:
-                raise ValueError(f"--n-envs must be >= 1, got {args.n_envs}.")
-            cfg["n_envs"] = args.n_envs
-        for item in args.set:
-            if "=" not in item:
-                raise ValueError(f"--set expects KEY=VALUE, got {item!r}.")
-            k, v = item.split("=", 1)
-            cfg["algo_kwargs"][k] = parse_override(v)
-        for item in args.env_kwarg:
-            if "=" not in item:
-                raise ValueError(f"--env-kwarg expects KEY=VALUE, got {item!r}.")
-            k, v = item.split("=", 1)
-            cfg["env_kwargs"][k] = parse_override(v)
+            block["n_envs"] = args.n_envs
+        block["env_kwargs"] = {**(block.get("env_kwargs") or {}), **_key_values(args.env_kwarg, "--env-kwarg")}
+        check_hyperparams(block, args.env, args.algo)
+        check_env_kwargs(args.env, block["env_kwargs"], build=True)  # the env's own checks on the values
+        agent = None
+        if args.continue_from is not None:
+            old = find_run(args.continue_from)
+            if old.env_id != args.env:
+                raise ValueError(f"--continue-from {str(args.continue_from)!r} was trained on {old.env_id}, "
+                                 f"not {args.env}.")
+            agent = old.model() if args.continue_from.is_dir() else args.continue_from
     except ValueError as err:
         print(f"train.py: error: {err}", file=sys.stderr)
         return 2
-    run_id = args.run_id or f"{args.env}_{args.algo}_s{args.seed}_{time.strftime('%Y%m%d-%H%M%S')}"
-    if args.max_minutes is not None and not args.max_minutes > 0:
-        print(f"train.py: error: --max-minutes must be > 0, got {args.max_minutes}.", file=sys.stderr)
-        return 2
-    summary = train(cfg, args.runs / run_id, seed=args.seed, vec=args.vec, evaluate=not args.no_eval,
-                    max_seconds=None if args.max_minutes is None else 60.0 * args.max_minutes)
-    summary["run_dir"] = str(args.runs / run_id)
-    print(json.dumps(summary, indent=2))
+    from magsoft_env.rl import summarize_run, train
+
+    # checked above: errors from here on are not usage errors and keep their traceback
+    rec = train(block, args.env, run_dir, algo=args.algo, seed=args.seed, eval_freq=args.eval_freq,
+                eval_episodes=args.eval_episodes, save_freq=args.save_freq, tensorboard=args.tensorboard,
+                progress=args.progress, trained_agent=agent, vec=args.vec,
+                max_seconds=None if args.max_minutes is None else 60.0 * args.max_minutes)
+    if args.no_eval:
+        print(json.dumps({"run_dir": str(run_dir), "log_dir": str(rec.log_dir)}, indent=2))
+        return 0
+    summary = summarize_run(rec, run_dir, episodes=args.eval_episodes, seed=args.seed + 1000)
+    summary["run_dir"] = str(run_dir)
+    print(json.dumps({k: v for k, v in summary.items() if k != "curve"}, indent=2))
     return 0
 
 

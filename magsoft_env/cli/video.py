@@ -137,12 +137,9 @@ def run(args) -> int:
         if args.policy is not None:
             from magsoft_env.rl import load_policy
 
-            policy = load_policy(args.policy)
-            cfg = args.policy.parent / "config.yml"
-            if cfg.exists():  # the run's environment arguments (field limit, crawl mode, ...)
-                import yaml
-
-                env_kwargs = dict(yaml.safe_load(cfg.read_text()).get("env_kwargs") or {})
+            # refused (ValueError, exit 2) when the run recorded another env or the spaces differ
+            policy = load_policy(args.policy, env=args.env)
+            env_kwargs = dict(policy.env_kwargs or {})  # the run's environment arguments (field limit, ...)
         if robot is not None:
             env_kwargs["robot"] = robot
         _, summary = render_policy(args.env, policy, args.seconds, args.out, env_kwargs=env_kwargs, width=args.width,

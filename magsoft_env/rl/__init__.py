@@ -1,10 +1,37 @@
-"""Reinforcement learning on the environments: hyperparameter files, training runs, evaluation
-against the open-loop paper gaits, policy loading (the library behind ``train/``).
-Stable-Baselines3 and torch are imported only when used."""
+"""Reinforcement learning on the environments through rl-zoo3: its hyperparameter files read and checked,
+training runs that are never overwritten, evaluation against the open-loop paper gaits, learning curves,
+policies checked against the env they are played in (the library behind ``train/``).
+Stable-Baselines3, rl-zoo3 and torch are imported only when used."""
 
-from .evaluation import EvalResult, evaluate_open_loop, load_policy, open_loop_actor, run_episodes
-from .hyperparams import ALGOS, load_hyperparams, parse_override
-from .training import evaluate_run, train
+from .evaluation import (
+    EvalResult,
+    Policy,
+    check_policy_env,
+    evaluate_open_loop,
+    load_policy,
+    open_loop_actor,
+    policy_run_info,
+    run_episodes,
+)
+from .hyperparams import (
+    ALGOS,
+    ZOO_KEYS,
+    algo_arguments,
+    algo_class,
+    check_algo_kwargs,
+    check_env_id,
+    check_env_kwargs,
+    check_hyperparams,
+    env_arguments,
+    load_hyperparams,
+    parse_override,
+    split_hyperparams,
+)
+from .runs import RunRecord, find_run, read_zoo_yaml
+from .training import GYM_PACKAGE, evaluate_run, learning_curve, run_zoo, summarize_run, train, zoo_argv
 
-__all__ = ["ALGOS", "EvalResult", "evaluate_open_loop", "evaluate_run", "load_hyperparams", "load_policy",
-           "open_loop_actor", "parse_override", "run_episodes", "train"]
+__all__ = ["ALGOS", "GYM_PACKAGE", "ZOO_KEYS", "EvalResult", "Policy", "RunRecord", "algo_arguments", "algo_class",
+           "check_algo_kwargs", "check_env_id", "check_env_kwargs", "check_hyperparams", "check_policy_env",
+           "env_arguments", "evaluate_open_loop", "evaluate_run", "find_run", "learning_curve", "load_hyperparams",
+           "load_policy", "open_loop_actor", "parse_override", "policy_run_info", "read_zoo_yaml", "run_episodes",
+           "run_zoo", "split_hyperparams", "summarize_run", "train", "zoo_argv"]

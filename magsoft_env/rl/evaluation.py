@@ -1,5 +1,5 @@
-"""Episodes of a policy or of the open-loop paper gaits in an environment, and trained-policy loading.
-Stable-Baselines3 is imported only when a policy is loaded."""
+"""Episodes of a policy or of the open-loop paper gaits in an environment, and trained-policy loading checked
+against the env it is played in. Stable-Baselines3 is imported only when a policy is loaded."""
 
 from __future__ import annotations
 
@@ -123,47 +123,160 @@ def evaluate_open_loop(env_id: str, env_kwargs: dict | None = None, *, episodes:
 
 
 # ---------------------------------------------------------------------------- policies
-def algo_class(algo: str):
-    import stable_baselines3 as sb3
+def _space_mismatch(trained, played) -> str | None:
+    """How ``played`` differs from the space a policy was ``trained`` on (None if it does not)."""
+    if type(trained) is not type(played):
+        return f"{type(trained).__name__} vs {type(played).__name__}"
+    if getattr(trained, "shape", None) != getattr(played, "shape", None):
+        return f"shape {trained.shape} vs {played.shape}"
+    if hasattr(trained, "low") and not (np.array_equal(trained.low, played.low)
+                                        and np.array_equal(trained.high, played.high)):
+        return "bounds differ"
+    if hasattr(trained, "n") and trained.n != played.n:
+        return f"{trained.n} vs {played.n} choices"
+    return None
 
-    return {"ppo": sb3.PPO, "sac": sb3.SAC}[algo]
+
+def _describe(space) -> str:
+    """A space in a few words: ``Box((48,), float32)`` (bounds left out)."""
+    if hasattr(space, "shape") and hasattr(space, "low"):
+        return f"{type(space).__name__}({space.shape}, {space.dtype})"
+    return str(space)
 
 
-def load_policy(path, *, algo: str | None = None):
-    """``obs -> action`` (deterministic) from a saved model ``.zip``; observation
-    normalization statistics (``vecnormalize.pkl`` beside the model) are applied if present.
-    The algorithm is read from ``config.yml`` beside the model unless given."""
+def check_policy_env(trained_env_id: str | None, trained_spaces: tuple, env, *, env_kwargs: dict | None = None,
+                     source: str = "the policy") -> None:
+    """Raise ValueError when ``env`` is not the env a policy was trained in: another env id than
+    ``trained_env_id`` (when recorded), or other observation / action spaces than ``trained_spaces`` =
+    ``(observation_space, action_space)``.
+
+    ``env`` is a Gymnasium env or a registered id; an id is made with ``env_kwargs`` for the check (the
+    spaces depend on arguments such as ``segments``) and closed again.
+    """
+    import gymnasium as gym
+
+    made = isinstance(env, str)
+    if made:
+        from .hyperparams import check_env_id
+
+        check_env_id(env)
+        env_id = env
+    else:
+        env_id = env.spec.id if env.spec is not None else None
+    if trained_env_id is not None and env_id is not None and env_id != trained_env_id:
+        raise ValueError(f"{source} was trained on {trained_env_id}, not {env_id}: play it with "
+                         f"--env {trained_env_id} (or train one for {env_id}).")
+    if made:
+        env = gym.make(env_id, **(env_kwargs or {}))
+    try:
+        for what, trained, played in (("observation", trained_spaces[0], env.observation_space),
+                                      ("action", trained_spaces[1], env.action_space)):
+            diff = _space_mismatch(trained, played)
+            if diff is not None:
+                raise ValueError(f"{source} does not fit {env_id or type(env.unwrapped).__name__}: its {what} "
+                                 f"space is {_describe(trained)}, the env's {_describe(played)} ({diff}).")
+    finally:
+        if made:
+            env.close()
+
+
+def _legacy_config(path: Path) -> dict | None:
+    """``config.yml`` beside a model written by train/train.py before magsoft_env 0.5 (``env_id``, ``algo``)."""
+    import yaml
+
+    cfg = path.parent / "config.yml"
+    if not cfg.is_file():
+        return None
+    data = yaml.safe_load(cfg.read_text()) or {}
+    return data if isinstance(data, dict) and "env_id" in data else None
+
+
+def policy_run_info(path) -> dict:
+    """What a saved model's folder records about its training: ``{"env_id", "algo", "env_kwargs",
+    "vecnormalize"}`` (``None`` where nothing is recorded). Reads rl-zoo3's ``<env>/args.yml`` and
+    ``config.yml`` (:func:`magsoft_env.rl.runs.find_run`), else a ``config.yml`` with ``env_id`` beside
+    the model (train/train.py before rl-zoo3)."""
+    from .runs import find_run
+
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"policy path must be an existing model .zip, got {str(path)!r}.")
+    try:
+        rec = find_run(path)
+    except ValueError:
+        rec = None
+    if rec is not None:
+        return {"env_id": rec.env_id, "algo": rec.algo, "env_kwargs": dict(rec.env_kwargs),
+                "vecnormalize": rec.vecnormalize}
+    legacy = _legacy_config(path)
+    if legacy is not None:
+        stats = path.parent / "vecnormalize.pkl"
+        return {"env_id": legacy["env_id"], "algo": legacy.get("algo", "ppo"),
+                "env_kwargs": dict(legacy.get("env_kwargs") or {}), "vecnormalize": stats if stats.exists() else None}
+    return {"env_id": None, "algo": None, "env_kwargs": None, "vecnormalize": None}
+
+
+class Policy:
+    """A trained policy as ``obs -> action`` (deterministic), with observation normalization applied.
+
+    Attributes
+    ----------
+    model : stable_baselines3.common.base_class.BaseAlgorithm
+    env_id : str or None
+        The env id the run recorded (None for a bare model file).
+    env_kwargs : dict or None
+        The env arguments the run was trained with (None if not recorded): play it in
+        ``gym.make(env_id, **env_kwargs)``.
+    """
+
+    def __init__(self, model, norm=None, *, env_id: str | None = None, env_kwargs: dict | None = None):
+        self.model, self.norm, self.env_id, self.env_kwargs = model, norm, env_id, env_kwargs
+
+    def __call__(self, obs):
+        o = np.asarray(obs, dtype=np.float32)
+        if self.norm is not None:
+            o = self.norm.normalize_obs(o)
+        action, _ = self.model.predict(o, deterministic=True)
+        return action
+
+
+def load_policy(path, *, algo: str | None = None, env=None, env_kwargs: dict | None = None) -> Policy:
+    """A saved model ``.zip`` as a deterministic :class:`Policy`, checked against the env it is played in.
+
+    Parameters
+    ----------
+    path : str or Path
+        The model: in an rl-zoo3 log folder (``<env>.zip``, ``best_model.zip``, checkpoints), whose
+        ``<env>/vecnormalize.pkl`` observation statistics are then applied, or any SB3 model file.
+    algo : str, optional
+        rl-zoo3's algorithm name; default: the one the run recorded, else ``"ppo"``.
+    env : str or gymnasium.Env, optional
+        The env (or registered id) the policy will be played in. Refused with a ValueError when the run
+        recorded another env id, or when the model's observation or action space is not the env's
+        (:func:`check_policy_env`).
+    env_kwargs : dict, optional
+        Arguments ``env`` (an id) will be made with; default: the run's recorded ones.
+
+    Example: ``policy = load_policy(zip_path, env=env_id)``, then play it in
+    ``gym.make(env_id, **(policy.env_kwargs or {}))``.
+    """
     import pickle
 
     path = Path(path)
-    if not path.exists():
-        raise ValueError(f"policy path must be an existing model .zip, got {str(path)!r}.")
-    if algo is None:
-        cfg = path.parent / "config.yml"
-        if cfg.exists():
-            import yaml
+    info = policy_run_info(path)
+    from .hyperparams import algo_class
 
-            algo = yaml.safe_load(cfg.read_text()).get("algo", "ppo")
-        else:
-            algo = "ppo"
-    model = algo_class(algo).load(path, device="cpu")
+    model = algo_class(algo or info["algo"] or "ppo").load(path, device="cpu")
+    if env is not None:
+        kwargs = info["env_kwargs"] if env_kwargs is None else env_kwargs
+        check_policy_env(info["env_id"], (model.observation_space, model.action_space), env, env_kwargs=kwargs,
+                         source=f"policy {str(path)!r}")
     norm = None
-    stats = path.parent / "vecnormalize.pkl"
-    if stats.exists():
-        with open(stats, "rb") as fh:
+    if info["vecnormalize"] is not None:
+        with open(info["vecnormalize"], "rb") as fh:
             norm = pickle.load(fh)
-
-    def policy(obs):
-        o = np.asarray(obs, dtype=np.float32)
-        if norm is not None:
-            o = norm.normalize_obs(o)
-        action, _ = model.predict(o, deterministic=True)
-        return action
-
-    return policy
+    return Policy(model, norm, env_id=info["env_id"], env_kwargs=info["env_kwargs"])
 
 
-# ---------------------------------------------------------------------------- training
-
-
-__all__ = ["EvalResult", "evaluate_open_loop", "load_policy", "open_loop_actor", "run_episodes"]
+__all__ = ["EvalResult", "Policy", "check_policy_env", "evaluate_open_loop", "load_policy", "open_loop_actor",
+           "policy_run_info", "run_episodes"]
