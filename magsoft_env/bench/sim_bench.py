@@ -418,8 +418,10 @@ class _CrawlTimer:
 
     def __init__(self, beam, waveform, duration, holds=(1, 2, 5), **options):
         self.waveform = waveform
-        self.sims = {h: Simulator(beam, RodOptions(scene="floor", **options), torque_every=h) for h in holds}
-        rec = Simulator(beam, RodOptions(scene="floor", **options))
+        self.sims = {h: Simulator(beam, RodOptions(scene="floor", magnetics="python", **options), torque_every=h)
+                     for h in holds}
+        # the Python couples: their generalized forces are what the replay feeds mj_step
+        rec = Simulator(beam, RodOptions(scene="floor", magnetics="python", **options))
         rec.set_waveform(waveform)
         m, d = rec.model, rec.data
         spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
@@ -747,7 +749,7 @@ def batch(quick: bool) -> None:
     # torques computed in C instead (what mujoco.rollout needs: no Python between steps)
     from mujoco import rollout as mjrollout
 
-    sim = Simulator(beam, RodOptions(scene="floor"))
+    sim = Simulator(beam, RodOptions(scene="floor", magnetics="python"))
     m_act = _actuator_model(sim)
     d_act = mujoco.MjData(m_act)
     sim.set_field((0.0, 2e-3))

@@ -41,7 +41,7 @@ GAIT_CONTACT_GEOM = "capsule"
 #: contact time constant is the beam's own through-thickness time
 #: (``RodOptions(contact_timeconst="material")``, :func:`magsoft_env.sim.model.material_contact_timeconst`).
 GAIT_ROD_OPTIONS = dict(
-    integrator="discrete", gravity=9.81, contact_dampratio=1.0, contact_refsafe=False,
+    integrator="discrete", gravity=9.81, contact_dampratio=1.0, contact_refsafe=False, magnetics="native",
     base="middle", cone="elliptic", noslip_iterations=0, solver_iterations=100, solver_tolerance=1e-8,
     contact_impedance=None, grading=1.0,
 )

@@ -1,11 +1,14 @@
 """Many copies of one rod stepped together with ``mujoco.batch``, magnetic couples every step.
 
 The couples are the same as :class:`~magsoft_env.sim.Simulator`'s (``tau = (R m) x B`` from
-the orientations of the current state): each step asks ``mujoco.batch`` for the
-position stage at the new state (``stage=mjSTAGE_VEL``, which a persistent batch reuses,
-as ``mj_step1`` / ``mj_step2`` do), and each simulation's generalized magnetic force goes
-into its ``qfrc_applied`` by the same matrix-vector products as the simulator's, so the
-results are bit-identical to a loop of :class:`Simulator` objects.
+the orientations of the step's start), and the results bit-identical to a loop of
+:class:`Simulator` objects. With native magnetics (``RodOptions(magnetics="native")``, the
+default) MuJoCo applies them: each call is a few ``mujoco.batch`` rollouts, one per energy
+check, with the fields' inputs as per-step controls (or held) and every step's contact
+sensors recorded, so no Python runs between steps. With ``magnetics="python"`` each step asks
+``mujoco.batch`` for the position stage at the new state (``stage=mjSTAGE_VEL``, which a
+persistent batch reuses, as ``mj_step1`` / ``mj_step2`` do), and each simulation's generalized
+magnetic force goes into its ``qfrc_applied`` by the simulator's matrix-vector products.
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ from .health import (
     runaway,
     runaway_hint,
 )
+from .model import NATIVE_CONTROL_SPEC, field_controls
 from .simulator import Simulator
 from .waveforms import as_waveform
 
@@ -56,7 +60,9 @@ class RodBatch:
     scenes every step also checks the contact penetration of every simulation against the
     template's ``penetration_limit`` (as :class:`Simulator`; :class:`UnphysicalError` naming the
     simulations); :attr:`max_penetration` records the deepest contact of each. The
-    simulator's tunnelling and energy-balance checks are not run here.
+    simulator's tunnelling and energy-balance checks are not run here. With native magnetics a
+    failure found in a rollout chunk is reported with the step at which it happened, as a
+    per-step loop reports it; the other simulations have then run on to the next energy check.
 
     Examples
     --------
@@ -93,6 +99,12 @@ class RodBatch:
             self._floor_depth = sd[:, t._sensor_adr]
             self._scene_depth = sd[:, t._feature_adr] if t._feature else None
         self._b0, self._b1 = t._b0, t._b1
+        self._native = t._native
+        if self._native:  # the fields' inputs (every actuator's control |B|, the field frame's quaternion)
+            self._ctrl = self.batch.bind("ctrl")
+            self._mquat = self.batch.bind("mocap_quat")
+            self._nu = self.model.nu
+            self._mocap = t.rod.field_mocap
         self._fields = np.zeros((self.nsim, 2))
         self._waveforms = None
         self.check_every = int(check_every)
@@ -110,6 +122,8 @@ class RodBatch:
     def reset(self) -> None:
         """Every simulation: straight beam at rest (as :meth:`Simulator.reset`), time zero."""
         self.batch.reset()
+        if self._native:  # the reset zeroed the fields' inputs; the fields are kept
+            self._write_inputs(self._fields)
         self.batch.forward()
         self.time = 0.0
         self.nstep = 0
@@ -130,18 +144,24 @@ class RodBatch:
             np.minimum(d, self._scene_depth, out=d)
         return d
 
-    def _fail_penetration(self, dist: np.ndarray) -> None:
+    def _at(self, n0: int, j: int) -> tuple[int, float]:
+        # (step, time) after the j-th step of a native chunk that started at step n0; the batch
+        # itself has run on to the chunk's end
+        return n0 + j, self.time - (self.nstep - n0 - j) * self.timestep
+
+    def _fail_penetration(self, dist: np.ndarray, *, at: tuple | None = None) -> None:
+        step, time = (self.nstep, self.time) if at is None else at
         bad = np.nonzero(dist < self._dist_limit)[0]
         depth, h = -float(dist[bad[0]]), self.template.beam.thickness
         ids = [int(i) for i in bad]
         reason = (f"contact penetration {depth * 1e3:.3g} mm = {depth / h:.3g} h (limit "
                   f"{-float(self._dist_limit[bad[0]]) * 1e3:.3g} mm) in simulation {ids[0]}")
         raise UnphysicalError(
-            f"unphysical motion at step {self.nstep} (t = {self.time:.6g} s) in simulations {ids}: {reason}. "
+            f"unphysical motion at step {step} (t = {time:.6g} s) in simulations {ids}: {reason}. "
             "The contact is not resolved: use a smaller timestep or a gentler field.",
             cause="penetration", reason=reason,
-            figures={"step": self.nstep, "time_s": self.time, "penetration_m": depth, "penetration_h": depth / h},
-            step=self.nstep, time=self.time, quantity=f"penetration in simulations {ids}", value=depth,
+            figures={"step": step, "time_s": time, "penetration_m": depth, "penetration_h": depth / h},
+            step=step, time=time, quantity=f"penetration in simulations {ids}", value=depth,
         )
 
     def _warning_counts(self) -> np.ndarray:
@@ -167,14 +187,14 @@ class RodBatch:
             ke[s] = 0.5 * float(self._qvel[s] @ mv)
         return ke
 
-    def _check(self, *, energy: bool, text=()) -> None:
+    def _check(self, *, energy: bool, text=(), at: tuple | None = None) -> None:
         hint = STABILITY_HINT
         counts = self._warning_counts()
         bad = np.nonzero((counts > self._warn0).any(axis=1))[0]
         if bad.size:
             what = new_warning(counts[bad[0]], self._warn0[bad[0]])
             detail = f"({text[0].strip()}) " if text else ""
-            self._fail(f"MuJoCo warning: {what}", bad, math.nan, detail + hint)
+            self._fail(f"MuJoCo warning: {what}", bad, math.nan, detail + hint, at=at)
         bad = np.nonzero(~np.all(np.isfinite(self._qpos), axis=1) | ~np.all(np.isfinite(self._qvel), axis=1))[0]
         if bad.size:
             self._fail("non-finite state", bad, math.nan, hint)
@@ -185,12 +205,13 @@ class RodBatch:
                 self._fail("runaway kinetic energy (J)", bad, float(ke[bad[0]]),
                            runaway_hint(self._energy_scale[bad[0]], f" in simulation {bad[0]}"))
 
-    def _fail(self, what: str, ids, value: float, hint: str) -> None:
+    def _fail(self, what: str, ids, value: float, hint: str, *, at: tuple | None = None) -> None:
         ids = [int(i) for i in ids]
+        step, time = (self.nstep, self.time) if at is None else at
         raise SimulationError(
-            f"{what} at step {self.nstep} (t = {self.time:.6g} s) in simulations {ids}"
+            f"{what} at step {step} (t = {time:.6g} s) in simulations {ids}"
             f"{'' if math.isnan(value) else f': {value:.4g}'}. {hint}",
-            step=self.nstep, time=self.time, quantity=f"{what} in simulations {ids}", value=value,
+            step=step, time=time, quantity=f"{what} in simulations {ids}", value=value,
         )
 
     def set_fields(self, fields) -> None:
@@ -200,7 +221,23 @@ class RodBatch:
             raise ValueError(f"fields must be a finite array of shape ({self.nsim}, 2) in T, got shape {f.shape}.")
         self._fields[:] = f
         self._waveforms = None
+        if self._native:
+            self._write_inputs(f)
         self._set_energy_scales()
+
+    def _write_inputs(self, fields: np.ndarray) -> None:
+        mag, quat = field_controls(fields)
+        self._ctrl[:] = mag[:, None]
+        self._mquat[:, self._mocap] = quat
+
+    def _native_controls(self, fields: np.ndarray) -> np.ndarray:
+        # (k, nsim, 2) fields -> (nsim, k, nu + 4) rollout controls (NATIVE_CONTROL_SPEC)
+        k = fields.shape[0]
+        mag, quat = field_controls(fields.reshape(-1, 2))
+        u = np.empty((k, self.nsim, self._nu + 4))
+        u[..., :self._nu] = mag.reshape(k, self.nsim, 1)
+        u[..., self._nu:] = quat.reshape(k, self.nsim, 4)
+        return np.ascontiguousarray(u.transpose(1, 0, 2))
 
     def set_waveforms(self, waveforms) -> None:
         """Let simulation ``i`` follow ``waveforms[i](t)`` (T), ``t`` the batch time (s)."""
@@ -223,6 +260,9 @@ class RodBatch:
             raise ValueError(f"n must be a non-negative integer number of steps, got {n!r}.")
         n = int(n)
         check_steps(f"n x nsim = {n} x {self.nsim}", n * self.nsim, "Call step() repeatedly for a longer run.")
+        if self._native:
+            self._step_native(n)
+            return
         t = self.template
         nv = self.model.nv
         gzx = t._gzx
@@ -280,6 +320,69 @@ class RodBatch:
             mujoco.set_mju_user_warning(prev)
             if fields is not None and k >= 0:
                 self._fields[:] = fields[k]
+        self._check(energy=False, text=warned)
+
+    def _step_native(self, n: int) -> None:
+        # one batch rollout per energy check interval: controls per step (waveforms) or held
+        # (fields), every step's contact sensors and time recorded; a simulation that warns stops
+        # there (mujoco.batch), so each check sees the step at which it happened
+        fields = None
+        if self._waveforms is not None:
+            ts = self.time + self.timestep * np.arange(n)
+            fields = np.stack([w.sample(ts) for w in self._waveforms], axis=1)  # (n, nsim, 2)
+        T = int(mujoco.mjtState.mjSTATE_TIME)
+        record = (T, "sensordata") if self._contact else (T,)
+        prev = mujoco.get_mju_user_warning()
+        warned = []
+        mujoco.set_mju_user_warning(warned.append)
+        done = 0
+        try:
+            while done < n:
+                k = min(n - done, self.check_every - self.nstep % self.check_every)
+                control = None if fields is None else self._native_controls(fields[done:done + k])
+                try:
+                    rec = self.batch.rollout(k, control, NATIVE_CONTROL_SPEC, record=record)
+                except mjbatch.SimulationError as err:
+                    ids = list(getattr(err, "ids", []))
+                    raise SimulationError(
+                        f"batch step failed at step {self.nstep} (t = {self.time:.6g} s) in simulations {ids}: "
+                        f"{err}", step=self.nstep, time=self.time, quantity=f"simulations {ids}",
+                    ) from err
+                n0 = self.nstep
+                self.nstep += k
+                self.time += k * self.timestep
+                done += k
+                if fields is not None:
+                    self._fields[:] = fields[done - 1]
+                # steps each simulation took: one that warned stops, its records repeat from there
+                t_rec = rec[T][..., 0]
+                stalled = np.diff(t_rec, axis=1) == 0.0
+                took = np.where(stalled.any(axis=1), stalled.argmax(axis=1) + 1, k)
+                counts = self._warning_counts()
+                warn_ids = np.nonzero((counts > self._warn0).any(axis=1))[0]
+                w_step = int(took[warn_ids].min()) if warn_ids.size else k + 1  # 1-based, within the chunk
+                if self._contact:
+                    dist = rec["sensordata"][:, :, self.template._sensor_adr]
+                    if self._scene_depth is not None:
+                        dist = np.minimum(dist, rec["sensordata"][:, :, self.template._feature_adr])
+                    # only the steps each took before a warning stopped the batch (a per-step loop stops there)
+                    valid = np.arange(k)[None, :] < np.minimum(took, w_step - 1)[:, None]
+                    broke = (dist < self._dist_limit[:, None]) & valid
+                    p_step = int(broke.any(axis=0).argmax()) + 1 if broke.any() else k + 1
+                    upto = min(p_step, w_step - 1, k)
+                    if upto > 0:
+                        seen = np.where(valid[:, :upto], dist[:, :upto], np.inf).min(axis=1)
+                        np.minimum(self._min_dist, seen, out=self._min_dist)
+                    if p_step < w_step:
+                        self._fail_penetration(dist[:, p_step - 1], at=self._at(n0, p_step))
+                if warn_ids.size:
+                    self._check(energy=False, text=warned, at=self._at(n0, w_step))
+                if self.nstep % self.check_every == 0:
+                    self.batch.forward(stage=mujoco.mjtStage.mjSTAGE_POS)  # the mass matrices of the state now
+                    self._check(energy=True)
+        finally:
+            mujoco.set_mju_user_warning(prev)
+        self.batch.forward(stage=mujoco.mjtStage.mjSTAGE_VEL)  # readouts of the state now, as mj_step1 leaves them
         self._check(energy=False, text=warned)
 
     @property

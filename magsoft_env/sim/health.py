@@ -1,7 +1,8 @@
 """Health checks of a MuJoCo rod simulation, shared by :class:`~magsoft_env.sim.Simulator` and
 :class:`~magsoft_env.sim.RodBatch`: the error types, the MuJoCo warnings that stop a run, the
 runaway-energy bound, the physical bounds of the contact scenes (penetration, tunnelling,
-launch) and the work bound of one call.
+launch), the work bound of one call, and the reader of MuJoCo's sensor history buffers that lets
+blocks of steps run inside MuJoCo keep the per-step penetration check.
 """
 
 from __future__ import annotations
@@ -115,11 +116,49 @@ def runaway(kinetic_energy, energy_scale):
     return ~(np.asarray(kinetic_energy) <= RUNAWAY_FACTOR * np.asarray(energy_scale))
 
 
+class SensorHistory:
+    """The last samples of a scalar MuJoCo sensor from its history buffer (``nsample > 0``), oldest first.
+
+    MuJoCo appends every step's value (the sensor of the state the step started from, as
+    ``sensordata`` after the step) to a ring buffer in ``mjData.history``: per sensor a user slot, the
+    index of the newest sample, ``nsample`` timestamps, then the values. This reads the values of
+    the last ``k`` steps, so that a block of steps run inside MuJoCo (``mj_step(m, d, k)``,
+    ``mujoco.batch``) is checked step by step afterwards.
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+    sensor : int
+        Sensor id (a dimension-1 sensor with ``nsample > 0``).
+    history : ndarray, shape (nhistory,) or (nsim, nhistory)
+        ``mjData.history``, or a ``mujoco.batch`` binding of it (one row per simulation).
+    """
+
+    def __init__(self, model, sensor: int, history: np.ndarray):
+        adr, ns = int(model.sensor_historyadr[sensor]), int(model.sensor_history[sensor, 0])
+        if adr < 0 or ns < 1 or int(model.sensor_dim[sensor]) != 1:
+            raise ValueError(f"sensor {sensor} must be a scalar sensor with a history buffer (nsample > 0).")
+        self.nsample = ns
+        self._history = history
+        self._cursor = adr + 1
+        #: the buffer's values in ring order (a view): the last nsample steps, in no particular order
+        self.values = history[..., adr + 2 + ns: adr + 2 + 2 * ns]
+        self._offsets = np.arange(1 - ns, 1)
+
+    def last(self, k: int) -> np.ndarray:
+        """The values of the last ``k`` (<= nsample) steps, oldest first: shape ``(k,)``, or ``(nsim, k)``."""
+        if not 1 <= k <= self.nsample:
+            raise ValueError(f"k must lie in [1, {self.nsample}], got {k!r}.")
+        cursor = self._history[..., self._cursor].astype(int)
+        idx = (np.asarray(cursor)[..., None] + self._offsets[self.nsample - k:]) % self.nsample
+        return np.take_along_axis(self.values, idx, axis=-1)
+
+
 def runaway_hint(energy_scale: float, where: str = "") -> str:
     """The message tail of a runaway-energy failure."""
     return f"It exceeds {RUNAWAY_FACTOR:g} x the energy scale {energy_scale:.3g} J{where}. {STABILITY_HINT}"
 
 
 __all__ = ["ENERGY_DRIFT_LIMIT", "MAX_STEPS", "PENETRATION_LIMIT", "RUNAWAY_FACTOR", "STABILITY_HINT", "WARNINGS",
-           "WARNING_IDS", "SimulationError", "UnphysicalError", "check_steps", "new_warning", "runaway",
-           "runaway_hint"]
+           "WARNING_IDS", "SensorHistory", "SimulationError", "UnphysicalError", "check_steps", "new_warning",
+           "runaway", "runaway_hint"]

@@ -55,6 +55,19 @@ MAX_SOLVER_ITERATIONS = 10_000
 #: anything in the scene; negative when penetrating, 0 without contact.
 CONTACT_SENSOR = "rod_floor_depth"
 FEATURE_SENSOR = "rod_scene_depth"
+#: How the magnetic couples reach MuJoCo (``RodOptions.magnetics``).
+MAGNETICS = ("native", "python")
+#: Native magnetics: the world-fixed frame of the field (a mocap body and its site), whose x axis the
+#: simulator turns along the field each step; every pole actuator pushes along it.
+FIELD_FRAME = "field_frame"
+#: Native magnetics: the inputs a step reads, as a ``mujoco.mjtState`` spec: the actuator controls (every one
+#: ``|B|``, T) and the mocap quaternion of :data:`FIELD_FRAME` (the field's direction). The control vectors of
+#: ``mujoco.rollout`` and ``mujoco.batch`` rollouts with this spec come from :func:`native_controls`.
+NATIVE_CONTROL_SPEC = int(mujoco.mjtState.mjSTATE_CTRL) | int(mujoco.mjtState.mjSTATE_MOCAP_QUAT)
+#: Native magnetics, contact scenes: samples of each contact sensor kept in MuJoCo's history buffer (steps).
+#: The simulator steps a held field in blocks of at most this many steps inside MuJoCo and reads the block's
+#: deepest contact from the buffer afterwards, so the penetration check still sees every step.
+CONTACT_HISTORY = 25
 #: Default contact ``solref`` time constant of the contact scenes (s): twice the default
 #: timestep, the stiffest contact a 1 ms step resolves (MuJoCo's ``refsafe`` rule), fixed so
 #: that smaller timesteps converge to the same contact model (docs/sim.md).
@@ -144,6 +157,18 @@ class RodOptions:
         the same contacts, found in less than half the time (docs/sim.md). ``False``: the
         ``contype`` / ``conaffinity`` filter (rod 1/2, scene 2/1), for a spec extended with
         more geoms (:func:`build_spec`) that should touch the rod.
+    magnetics : {"native", "python"}
+        How the magnetic couples ``(R m) x B`` reach MuJoCo. ``native`` (default): as MuJoCo's own
+        forces, exact at every state (docs/sim.md, "Native magnetic forces"): each couple is the
+        couple of point forces ``c_k B`` at body-fixed poles (:func:`~magsoft_env.sim.magnetics.magnetic_poles`),
+        one site actuator per pole pushing along a world frame that the simulator turns along the
+        field (``ctrl = |B|``, mocap quaternion = the field's direction). A held field then runs
+        whole blocks of steps in C (``mj_step(m, d, n)``), and ``mujoco.rollout`` / ``mujoco.batch``
+        run the rod with no Python between steps (:data:`NATIVE_CONTROL_SPEC`, :func:`native_controls`).
+        ``python``: the simulator computes the couples each step from the piece orientations and
+        writes them into ``qfrc_applied`` (the model has no actuators).
+
+        .. versionadded:: 0.4
     """
 
     segments: int = 20
@@ -168,6 +193,7 @@ class RodOptions:
     solver_tolerance: float = 1e-8
     contact_impedance: tuple | None = None
     contact_pairs: bool = True
+    magnetics: str = "native"
 
     def __post_init__(self):
         # every field checked for its type and documented range, nothing built yet
@@ -207,6 +233,7 @@ class RodOptions:
         choice("RodOptions.base", self.base, BASES)
         choice("RodOptions.contact_geom", self.contact_geom, CONTACT_GEOMS)
         choice("RodOptions.cone", self.cone, CONES)
+        choice("RodOptions.magnetics", self.magnetics, MAGNETICS)
         # bounded: with tolerance 0 MuJoCo runs every iteration of every step
         _integer("RodOptions.noslip_iterations", self.noslip_iterations, 0, MAX_SOLVER_ITERATIONS)
         _integer("RodOptions.solver_iterations", self.solver_iterations, 1, MAX_SOLVER_ITERATIONS)
@@ -259,6 +286,12 @@ class RodModel:
     feature_sensor : int
         Channel and obstacle scenes: the same for the deepest rod contact with anything
         (:data:`FEATURE_SENSOR`); -1 otherwise.
+    pole_piece, pole_pos, pole_charge : ndarray, shapes (P,), (P, 2), (P,)
+        Native magnetics: the piece of each pole, its position (x, z) in that piece's frame (m)
+        and its charge (A m); pole ``k`` is actuator ``k`` (force ``pole_charge[k] * B``). Empty
+        for ``magnetics="python"``.
+    field_mocap : int
+        Native magnetics: the mocap index of :data:`FIELD_FRAME`; -1 for ``magnetics="python"``.
     """
 
     model: mujoco.MjModel
@@ -271,6 +304,15 @@ class RodModel:
     base_qpos: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
     contact_sensor: int = -1
     feature_sensor: int = -1
+    pole_piece: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+    pole_pos: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    pole_charge: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    field_mocap: int = -1
+
+    @property
+    def native(self) -> bool:
+        """Whether MuJoCo applies the magnetic couples itself (``RodOptions.magnetics == "native"``)."""
+        return self.field_mocap >= 0
 
 
 def _integer(name: str, value, lo: int, hi: int) -> int:
@@ -434,6 +476,9 @@ def build_spec(beam: Beam, options: RodOptions) -> tuple[mujoco.MjSpec, RodDiscr
         add_hinge(body, i - 1, [0.0, 0.0, 0.0], list(_HINGE_AXIS))
         parent = body
 
+    if o.magnetics == "native":
+        _add_poles(spec, disc, o)
+
     if o.has_contact and o.contact_pairs:
         # explicit pairs: no broad phase (it cost more than the narrow phase of these pairs)
         for sg in scene_geoms:
@@ -457,6 +502,10 @@ def build_spec(beam: Beam, options: RodOptions) -> tuple[mujoco.MjSpec, RodDiscr
             if ref is not None:
                 sensor.reftype, sensor.refname = mujoco.mjtObj.mjOBJ_GEOM, ref
             sensor.intprm = [1 << int(mujoco.mjtConDataField.mjCONDATA_DIST), 1, 1]  # dist; mindist; 1 contact
+            if o.magnetics == "native":
+                # a history buffer (read only by the simulator, no delay): a block of steps run inside
+                # MuJoCo leaves every step's deepest contact there
+                sensor.nsample = CONTACT_HISTORY
 
     if o.render:
         world.add_light(name="light", pos=[0.5 * beam.length, -0.1, 0.1], dir=[0, 1, -1])
@@ -464,6 +513,122 @@ def build_spec(beam: Beam, options: RodOptions) -> tuple[mujoco.MjSpec, RodDiscr
             name="side", pos=[0.5 * beam.length, -4.0 * beam.length, 0.0], xyaxes=[1, 0, 0, 0, 0, 1],
         )
     return spec, disc
+
+
+def rod_tree(disc: RodDiscretization, options: RodOptions) -> dict:
+    """The rod's kinematic tree as :func:`~magsoft_env.sim.magnetics.magnetic_poles` takes it.
+
+    Piece ``i`` spans ``x in [0, l_i]`` of its frame. The pieces right of the base piece ``b`` hang
+    from their left end (their parent's right end), those left of it from their right end; the
+    root's reference point is its base hinge (the piece's middle). Returns ``parent``,
+    ``joint_in_self``, ``joint_in_parent``, ``centres`` (m, 3D body-frame points) and ``levers``
+    (the piece lengths, m).
+    """
+    n = options.segments
+    length = np.asarray(disc.piece_length, dtype=float)
+    b = options.base_piece
+    parent = np.empty(n + 1, dtype=int)
+    own, in_parent = np.zeros((n + 1, 3)), np.zeros((n + 1, 3))
+    for i in range(n + 1):
+        if i > b:  # frame at its left end, the parent's right end
+            parent[i] = i - 1
+            in_parent[i, 0] = length[i - 1]
+        elif i < b:  # frame at its left end, hinge at its right end = the parent's left end
+            parent[i] = i + 1
+            own[i, 0] = length[i]
+        else:
+            parent[i] = -1
+            own[i, 0] = 0.5 * length[i] if options.has_contact else 0.0
+    centres = np.zeros((n + 1, 3))
+    centres[:, 0] = 0.5 * length
+    return {"parent": parent, "joint_in_self": own, "joint_in_parent": in_parent, "centres": centres,
+            "levers": length}
+
+
+def rod_poles(disc: RodDiscretization, options: RodOptions) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The rod's magnetic poles (:func:`~magsoft_env.sim.magnetics.magnetic_poles`): piece ``(P,)``, position
+    (x, z) in the piece's frame ``(P, 2)`` (m), charge ``(P,)`` (A m)."""
+    from .magnetics import body_moments_3d, magnetic_poles
+
+    piece, pos, charge = magnetic_poles(body_moments_3d(disc.moment), free_root=options.has_contact,
+                                        **rod_tree(disc, options))
+    return piece, pos[:, [0, 2]], charge
+
+
+def _add_poles(spec, disc: RodDiscretization, o: RodOptions) -> None:
+    # the field's frame: a mocap body at the origin whose x axis the simulator turns along B
+    frame = spec.worldbody.add_body(name=FIELD_FRAME, mocap=True)
+    frame.add_site(name=FIELD_FRAME, group=5)
+    piece, pos, charge = rod_poles(disc, o)
+    for k, (i, (x, z), c) in enumerate(zip(piece, pos, charge, strict=True)):
+        spec.body(f"piece{int(i)}").add_site(name=f"pole{k}", pos=[float(x), 0.0, float(z)], group=5)
+        # force gain * ctrl = c |B| along the field frame's x axis, at the pole (refsite: the force
+        # stays in the world frame whatever the piece does)
+        a = spec.add_actuator(name=f"pole{k}", target=f"pole{k}", trntype=mujoco.mjtTrn.mjTRN_SITE,
+                              refsite=FIELD_FRAME)
+        a.gear = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+        a.gainprm[0] = float(c)
+        a.group = 5
+
+
+def field_controls(fields) -> tuple[np.ndarray, np.ndarray]:
+    """Native magnetics: the inputs that apply the fields ``(B_x, B_z)`` (T), shape ``(n, 2)``.
+
+    Returns ``(magnitude, quat)``: ``|B|`` (T, shape ``(n,)``), the value of every actuator's
+    control, and the mocap quaternion of :data:`FIELD_FRAME` (shape ``(n, 4)``), the rotation about
+    -y by ``alpha = atan2(B_z, B_x)`` that turns its x axis along the field (the identity for
+    ``B = 0``). Only +, -, *, / and square roots, each correctly rounded, so :func:`field_control`
+    (one field, plain floats) gives the same bits: the simulator, the batch and rollouts apply
+    identical inputs.
+    """
+    f = np.asarray(fields, dtype=float).reshape(-1, 2)
+    bx, bz = f[:, 0], f[:, 1]
+    mag = np.sqrt(bx * bx + bz * bz)
+    # (cos, sin)(alpha / 2) is along (|B| + B_x, B_z), or along (B_z, |B| - B_x) where B_x < 0 (no cancellation)
+    neg = bx < 0.0
+    w = np.where(neg, bz, mag + bx)
+    y = np.where(neg, mag - bx, bz)
+    norm = np.sqrt(w * w + y * y)
+    zero = norm == 0.0
+    norm[zero] = 1.0
+    quat = np.zeros((f.shape[0], 4))
+    quat[:, 0] = np.where(zero, 1.0, w / norm)
+    quat[:, 2] = -(y / norm)
+    return mag, quat
+
+
+def field_control(bx: float, bz: float) -> tuple[float, float, float]:
+    """:func:`field_controls` of one field as plain floats: ``(|B|, quat[0], quat[2])`` (the other
+    quaternion entries are 0), bit-identical to it."""
+    mag = math.sqrt(bx * bx + bz * bz)
+    w, y = (bz, mag - bx) if bx < 0.0 else (mag + bx, bz)
+    norm = math.sqrt(w * w + y * y)
+    if norm == 0.0:
+        return mag, 1.0, -0.0
+    return mag, w / norm, -(y / norm)
+
+
+def native_controls(rod: RodModel, fields) -> np.ndarray:
+    """Native magnetics: control vectors for :data:`NATIVE_CONTROL_SPEC` (``mujoco.rollout``'s
+    ``control`` with ``control_spec=NATIVE_CONTROL_SPEC``), shape ``(n, nu + 4)``, from the fields
+    ``(B_x, B_z)`` (T), shape ``(n, 2)``: every control ``|B|``, then the field frame's quaternion.
+
+    Examples
+    --------
+    >>> from magsoft_env import Beam
+    >>> rod = build_model(Beam(length=25e-3, width=5e-3, thickness=1.13e-3), RodOptions(scene="floor"))
+    >>> u = native_controls(rod, [(0.0, 2e-3), (1e-3, 0.0)])
+    >>> u.shape == (2, rod.model.nu + 4) and u.shape[1] == mujoco.mj_stateSize(rod.model, NATIVE_CONTROL_SPEC)
+    True
+    """
+    if not rod.native:
+        raise ValueError("native_controls needs a rod built with RodOptions(magnetics='native').")
+    mag, quat = field_controls(fields)
+    nu = rod.model.nu
+    out = np.empty((mag.shape[0], nu + 4))
+    out[:, :nu] = mag[:, None]
+    out[:, nu:] = quat
+    return out
 
 
 def _add_scene(spec, beam: Beam, o: RodOptions, tc: float) -> list:
@@ -536,4 +701,11 @@ def build_model(beam: Beam, options: RodOptions | None = None) -> RodModel:
         sensor = int(model.sensor_adr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, CONTACT_SENSOR)])
         if options.scene != "floor":
             feature = int(model.sensor_adr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, FEATURE_SENSOR)])
-    return RodModel(model, beam, options, disc, body_ids, hinge_qpos, hinge_dof, base_qpos, sensor, feature)
+    poles = {}
+    if options.magnetics == "native":
+        piece, pos, charge = rod_poles(disc, options)
+        if model.nu != piece.size:
+            raise RuntimeError("one actuator per magnetic pole")  # guaranteed by build_spec
+        frame = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, FIELD_FRAME)
+        poles = dict(pole_piece=piece, pole_pos=pos, pole_charge=charge, field_mocap=int(model.body_mocapid[frame]))
+    return RodModel(model, beam, options, disc, body_ids, hinge_qpos, hinge_dof, base_qpos, sensor, feature, **poles)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import mujoco
 import numpy as np
@@ -14,9 +14,11 @@ from ..validate import finite_number, positive
 from . import magnetics
 from .health import (
     ENERGY_DRIFT_LIMIT,
+    MAX_STEPS,
     PENETRATION_LIMIT,
     STABILITY_HINT,
     WARNING_IDS,
+    SensorHistory,
     SimulationError,
     UnphysicalError,
     check_steps,
@@ -24,7 +26,17 @@ from .health import (
     runaway,
     runaway_hint,
 )
-from .model import RodModel, RodOptions, build_model, contact_timeconst
+from .model import (
+    CONTACT_HISTORY,
+    CONTACT_SENSOR,
+    FEATURE_SENSOR,
+    RodModel,
+    RodOptions,
+    build_model,
+    contact_timeconst,
+    field_control,
+    field_controls,
+)
 from .waveforms import Waveform, as_waveform
 
 #: field magnitude (T) below which the energy scale uses this floor instead
@@ -110,10 +122,17 @@ class Trajectory:
 class Simulator:
     """A magnetic rod in MuJoCo under a uniform applied field.
 
-    Each step the couple ``tau_i = (R_i m_i) x B`` (N m) on every rigid piece goes into
-    ``data.qfrc_applied`` as its generalized force (the planar rod's angular Jacobian about y
-    is a constant 0 / +-1 map), computed from the piece orientations of the current state (via
-    ``mj_step1`` / ``mj_step2``; RK4 uses ``mj_step`` and the previous step's orientations).
+    Every step each rigid piece feels the couple ``tau_i = (R_i m_i) x B`` (N m) of the state the
+    step starts from. With ``RodOptions(magnetics="native")`` (the default) MuJoCo applies it
+    itself, as forces along the field at the pieces' magnetic poles (site actuators; the simulator
+    only sets ``ctrl = |B|`` and the field frame's mocap quaternion when the field changes): a
+    held field then runs in blocks of steps inside MuJoCo (``mj_step(m, d, k)``), RK4 sees the
+    couples of each of its stages, and ``mujoco.rollout`` / ``mujoco.batch`` can run the same
+    model (docs/sim.md, "Native magnetic forces"). With ``magnetics="python"`` the simulator
+    writes the couples into ``data.qfrc_applied`` each step as their generalized forces (the
+    planar rod's angular Jacobian about y is a constant 0 / +-1 map), computed from the piece
+    orientations of the step's start (``mj_step1`` / ``mj_step2``; RK4 uses ``mj_step`` and the
+    previous step's orientations).
     After every call to :meth:`step` the state is checked: non-finite or huge values
     (MuJoCo's warnings; auto-reset is disabled), and kinetic energy above
     ``100 x`` the system's energy scale, raise :class:`SimulationError`.
@@ -126,6 +145,12 @@ class Simulator:
     work, more than :data:`~magsoft_env.sim.health.ENERGY_DRIFT_LIMIT` of the energy scale).
     The records :attr:`max_penetration`, :attr:`energy_drift` and :attr:`max_kinetic_ratio`
     say of every run whether it stayed resolved.
+
+    Native blocks keep these checks: a block ends at every energy check and after at most
+    :data:`~magsoft_env.sim.model.CONTACT_HISTORY` steps, whose deepest contacts MuJoCo keeps in
+    the contact sensors' history buffer; a bound broken (or a MuJoCo warning) inside a block is
+    reported with the step at which it happened, as a per-step loop would report it, while the
+    state has run on to the end of the block (at most ``CONTACT_HISTORY - 1`` steps more).
 
     Parameters
     ----------
@@ -140,7 +165,8 @@ class Simulator:
         :meth:`step`).
     torque_every : int
         Recompute the magnetic couples every this many steps and hold them in between (1:
-        every step). A speed shortcut whose error docs/sim.md measures.
+        every step). A speed shortcut of the Python couples whose error docs/sim.md measures:
+        above 1 the rod is built with ``magnetics="python"`` (native couples are always current).
     penetration_limit : float
         Contact scenes: the deepest contact allowed, in beam thicknesses (> 0; default
         :data:`~magsoft_env.sim.health.PENETRATION_LIMIT` = 1 h; ``math.inf`` records the depth
@@ -169,9 +195,17 @@ class Simulator:
             positive("penetration_limit", penetration_limit, unit="beam thicknesses")
         as_field(field, "field")  # checked before the model is built
         self.torque_every = int(torque_every)
+        if self.torque_every > 1:  # held couples are a shortcut of the Python path only
+            options = RodOptions() if options is None else options
+            if options.magnetics == "native":
+                options = replace(options, magnetics="python")
         self.rod: RodModel = build_model(beam, options)
         self.model = self.rod.model
         self.data = mujoco.MjData(self.model)
+        self._native = self.rod.native
+        if self._native:  # the field's inputs: every actuator's control |B|, the field frame's orientation
+            self._ctrl = self.data.ctrl
+            self._mquat = self.data.mocap_quat[self.rod.field_mocap]
         self.check_every = int(check_every)
         disc = self.rod.disc
         self._bodies = self.rod.body_ids
@@ -195,6 +229,8 @@ class Simulator:
         self._B3 = np.zeros(3)
         self._has_external = False
         self._warning_text: list[str] = []
+        self._warning_times: list[float] = []
+        self._call_ref = (0, 0.0)  # (nstep, time) at the start of the present step() call
         self._stale = False
         self._waveform: Waveform | None = None
         self._wf_t0 = 0.0
@@ -214,6 +250,17 @@ class Simulator:
         self._sensor_adr = max(self.rod.contact_sensor, 0)
         self._feature = self.rod.feature_sensor >= 0  # channel, obstacle: contacts with anything
         self._feature_adr = max(self.rod.feature_sensor, 0)
+        # native blocks: the contact sensors' history buffers (every step of a block), and the
+        # longest block they cover; without contact a block ends only at the energy checks
+        self._hist = self._hist_feature = None
+        self._block = MAX_STEPS
+        if self._contact and self._native:
+            sid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SENSOR, CONTACT_SENSOR)
+            self._hist = SensorHistory(self.model, sid, self.data.history)
+            if self._feature:
+                sid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SENSOR, FEATURE_SENSOR)
+                self._hist_feature = SensorHistory(self.model, sid, self.data.history)
+            self._block = min(self._hist.nsample, CONTACT_HISTORY)
         # energy balance (contact scenes, two-stage integrators, couples every step): the net
         # magnetic moment (sum of R_i m_i, world x and z) is -v[nv + dof], -v[dof] of the
         # generalized-couple products the waveform loop computes anyway (the base hinge turns
@@ -283,7 +330,10 @@ class Simulator:
         """Straight beam at rest (floor scenes: lying on the floor), time zero; the records
         (:attr:`max_penetration`, :attr:`energy_drift`, :attr:`max_kinetic_ratio`) start again."""
         mujoco.mj_resetData(self.model, self.data)
+        if self._native:  # mj_resetData zeroed the field's inputs; the field itself is kept
+            self._write_controls()
         self._warning_text.clear()
+        self._warning_times.clear()
         self.nstep = 0
         self._wf_t0 = 0.0
         mujoco.mj_forward(self.model, self.data)
@@ -455,16 +505,33 @@ class Simulator:
             self._G = np.zeros((gx.shape[0], nv))
             self._gtmp = np.zeros_like(self._G)
             self._gz, self._gx = np.ascontiguousarray(gz), np.ascontiguousarray(gx)
+        if self._native:  # MuJoCo needs only the inputs; G follows in _apply_torques, if ever asked for
+            self._write_controls()
+            self._g_field = None
+            return
+        self._python_coefficients()
+
+    def _python_coefficients(self) -> None:
         bx, bz = self._B3[0], self._B3[2]
         np.multiply(self._gz, bx, out=self._G)
         np.multiply(self._gx, bz, out=self._gtmp)
         self._G -= self._gtmp
+        self._g_field = (bx, bz)
+
+    def _write_controls(self) -> None:
+        # native magnetics: the field's inputs (model.field_control, as the batch and rollouts use)
+        mag, w, y = field_control(float(self._B3[0]), float(self._B3[2]))
+        self._ctrl.fill(mag)
+        mq = self._mquat
+        mq[0], mq[1], mq[2], mq[3] = w, 0.0, y, 0.0
 
     def _apply_torques(self, field=None) -> None:
         d = self.data
         if field is not None:
             self._B3[0], self._B3[2] = field
             self._set_coefficients()
+        if self._native and self._g_field != (self._B3[0], self._B3[2]):
+            self._python_coefficients()
         b0, b1 = self._b0, self._b1
         np.dot(d.xmat[b0:b1].reshape(-1), self._G, out=d.qfrc_applied)
         if self._has_external:
@@ -507,13 +574,15 @@ class Simulator:
             t = d.time - self._wf_t0 + self.timestep * np.arange(n)
             fields = self._waveform.sample(t)
         self._begin_balance(fields)
-        # MuJoCo's own warning text is captured (not printed or logged to MUJOCO_LOG.TXT);
-        # _check turns the warning counters into a SimulationError
+        # MuJoCo's own warning text is captured (not printed or logged to MUJOCO_LOG.TXT), with
+        # the time of the step that raised it; _check turns the warning counters into a SimulationError
         prev = mujoco.get_mju_user_warning()
-        warned = self._warning_text
-        mujoco.set_mju_user_warning(warned.append)
+        mujoco.set_mju_user_warning(self._on_warning)
+        self._call_ref = (self.nstep, float(d.time))
         try:
-            if self._has_external or not two:
+            if self._native:
+                self._step_native(n, fields)
+            elif self._has_external or not two:
                 self._step_general(n, fields, two)
             else:
                 self._step_fast(n, fields)
@@ -522,6 +591,18 @@ class Simulator:
             if self._contact:
                 self._state_key = d.qpos.tobytes() + d.qvel.tobytes()
         self._check(energy=False)
+
+    def _on_warning(self, text: str) -> None:
+        self._warning_text.append(text)
+        self._warning_times.append(float(self.data.time))  # the start of the step that warned
+
+    def _warned_step(self) -> int:
+        """Steps done when the first MuJoCo warning of this call was raised (counting the step that
+        raised it, as a per-step loop stops); the present count if none was timed in this call."""
+        n0, t0 = self._call_ref
+        if not self._warning_times or self._warning_times[0] < t0 - 0.5 * self.timestep:
+            return self.nstep
+        return n0 + int(round((self._warning_times[0] - t0) / self.timestep)) + 1
 
     def _begin_balance(self, fields) -> None:
         """Before a call: restart the energy balance after an outside write to the state (or a
@@ -579,17 +660,18 @@ class Simulator:
             self._min_dist = min(self._min_dist, low)
             self._min_feature = min(self._min_feature, low2)
 
-    def _record_penetration(self, dist: float, nstep: int) -> float:
-        # a new deepest floor contact: ``dist`` (m, < 0) of the state the step started from
+    def _record_penetration(self, dist: float, nstep: int, time: float | None = None) -> float:
+        # a new deepest floor contact: ``dist`` (m, < 0) of the state step ``nstep`` started from
+        # (at ``time``; by default the step just taken)
         self._min_dist = dist
-        self._pen_at = (nstep - 1, float(self.data.time) - self.timestep)
+        self._pen_at = (nstep - 1, float(self.data.time) - self.timestep if time is None else time)
         if dist < self._floor_limit:
             self._pen_hit = "floor"
         return dist
 
-    def _record_feature(self, dist: float, nstep: int) -> float:
+    def _record_feature(self, dist: float, nstep: int, time: float | None = None) -> float:
         self._min_feature = dist
-        self._feature_at = (nstep - 1, float(self.data.time) - self.timestep)
+        self._feature_at = (nstep - 1, float(self.data.time) - self.timestep if time is None else time)
         if dist < self._feature_limit:
             self._pen_hit = "scene"
         return dist
@@ -666,6 +748,164 @@ class Simulator:
                 self._b_applied = fields[min(k, n - 1)].copy()
                 self._set_coefficients()
 
+    # ------------------------------------------------------------------ native stepping
+    def _step_native(self, n: int, fields) -> None:
+        # MuJoCo applies the couples (the pole actuators): Python only sets the field's inputs when
+        # the field changes and reads the checks. Runs of one field go to MuJoCo as blocks of steps
+        # (_native_run); a field that changes every step (a sine) takes the per-step loop
+        d = self.data
+        b0, b1 = self._b0, self._b1
+        d.qfrc_applied[:] = 0.0  # Python couples never add to MuJoCo's (static_residual leaves them)
+        d.xfrc_applied[b0:b1] = self.external_wrench[self._order] if self._has_external else 0.0
+        if fields is None:
+            self._native_run(n)
+            return
+        new = np.empty(n, dtype=bool)
+        new[:1] = True
+        np.any(fields[1:] != fields[:-1], axis=1, out=new[1:])
+        starts = np.flatnonzero(new)
+        mag, quat = field_controls(fields[starts])
+        self._field_k = 0  # index of the field applied last
+        try:
+            if starts.size == n:
+                self._native_per_step(fields, mag, quat)
+                return
+            ends = [*starts[1:].tolist(), n]
+            track = self._energy_valid
+            for r, (s, e) in enumerate(zip(starts.tolist(), ends, strict=True)):
+                self._field_k = s
+                f = fields[s]
+                self._ctrl.fill(mag[r])
+                self._mquat[:] = quat[r]
+                self._B3[0], self._B3[2] = f
+                db = f - self._b_applied
+                if not self._native_run(e - s, dfield=db if track and (db[0] or db[1]) else None):
+                    break
+                self._b_applied = f.copy()
+        finally:
+            self._B3[0], self._B3[2] = fields[self._field_k]
+            self._b_applied = fields[self._field_k].copy()
+            self._set_coefficients()
+
+    def _native_run(self, count: int, *, dfield=None) -> bool:
+        """``count`` steps at the present inputs, in blocks that end at every energy check and after at
+        most ``self._block`` steps (the contact history), each checked step by step from the history.
+        ``dfield``: the field change (T) at the first step, whose work ``-M . dB`` is booked with the
+        net moment of that step's start (the first block is then that step alone). Returns False
+        when a bound broke or MuJoCo warned (the caller stops; :meth:`_check` reports it)."""
+        m, d = self.model, self.data
+        ce, block, warned = self.check_every, self._block, self._warning_text
+        done = 0
+        while done < count:
+            k = 1 if dfield is not None else min(count - done, ce - self.nstep % ce, block)
+            n0, t0 = self.nstep, float(d.time)
+            mujoco.mj_step(m, d, k)
+            self.nstep += k
+            self._stale = True
+            done += k
+            if dfield is not None:  # xmat holds the orientations of the step's start
+                mom = self._net_moment()
+                self._work -= float(mom[0] * dfield[0] + mom[1] * dfield[1])
+                dfield = None
+            stop = k
+            if warned:  # the steps before the one that warned count, as in a per-step loop
+                stop = max(0, self._warned_step() - 1 - n0)
+            if self._contact and self._scan_contacts(k, stop, n0, t0):
+                return False
+            if warned:
+                return False
+            if self.nstep % ce == 0:
+                self._check(energy=True)
+        return True
+
+    def _scan_contacts(self, k: int, stop: int, n0: int, t0: float) -> bool:
+        """Record the deepest contacts of the first ``stop`` of the ``k`` steps just taken (from step
+        ``n0`` at time ``t0``); True when one broke a bound (recorded there: a per-step loop stops
+        at that step)."""
+        if stop <= 0:
+            return False
+        sd = self._sensordata
+        if k == 1:
+            floor = np.array([sd[self._sensor_adr]])
+            scene = np.array([sd[self._feature_adr]]) if self._feature else None
+        elif stop == k and self._hist.values.min() >= self._min_dist and (
+                not self._feature or self._hist_feature.values.min() >= self._min_feature):
+            return False  # the buffer (this block's steps and older ones) holds no new deepest contact
+        else:
+            floor = self._hist.last(k)[:stop]
+            scene = self._hist_feature.last(k)[:stop] if self._feature else None
+        dt = self.timestep
+        first = np.flatnonzero(floor < self._floor_limit)
+        if scene is not None:
+            s_first = np.flatnonzero(scene < self._feature_limit)
+            # the scene's bound counts at a step whose floor contact did not already stop the loop
+            if s_first.size and (not first.size or s_first[0] < first[0]):
+                floor = floor[:s_first[0] + 1]
+                scene = scene[:s_first[0] + 1]
+                first = np.zeros(0, dtype=int)
+            elif first.size:
+                scene = scene[:first[0]]
+        if first.size:
+            floor = floor[:first[0] + 1]
+        j = int(np.argmin(floor))
+        if floor[j] < self._min_dist:
+            self._record_penetration(float(floor[j]), n0 + j + 1, t0 + j * dt)
+        if scene is not None and scene.size:
+            j = int(np.argmin(scene))
+            if scene[j] < self._min_feature:
+                self._record_feature(float(scene[j]), n0 + j + 1, t0 + j * dt)
+        return bool(self._pen_hit)
+
+    def _native_per_step(self, fields, mag, quat) -> None:
+        """A new field every step: set its inputs, one ``mj_step``, the per-step checks (the
+        Python path's loop with MuJoCo's couples); ``self._field_k`` ends at the last step's field."""
+        m, d = self.model, self.data
+        ctrl, mq, step = self._ctrl, self._mquat, mujoco.mj_step
+        mags, qw, qy = mag.tolist(), quat[:, 0].tolist(), quat[:, 2].tolist()
+        track = self._energy_valid
+        if track:  # the work -M . dB of step k, M of its start state (xmat after the step)
+            dfield = np.diff(fields, axis=0, prepend=self._b_applied[None, :])
+            dbx, dbz = dfield[:, 0].tolist(), dfield[:, 1].tolist()
+            x, C, dot = d.xmat[self._b0:self._b1].reshape(-1), self._C, np.dot
+            mom = np.empty(2)
+        warned, check_every, nstep = self._warning_text, self.check_every, self.nstep
+        sd, adr, pen, low = self._sensordata, self._sensor_adr, self._contact, self._min_dist
+        adr2, feat, low2 = self._feature_adr, self._feature, self._min_feature
+        work = 0.0
+        k = 0
+        try:
+            for k in range(fields.shape[0]):
+                ctrl.fill(mags[k])
+                mq[0], mq[2] = qw[k], qy[k]
+                step(m, d)
+                nstep += 1
+                if warned:  # MuJoCo reported a bad state in this step: stop here
+                    break
+                if track:
+                    dot(x, C, out=mom)
+                    work -= mom.item(0) * dbx[k] + mom.item(1) * dbz[k]
+                if pen and sd[adr] < low:  # the deepest contact so far (of the step's start state)
+                    low = self._record_penetration(float(sd[adr]), nstep)
+                    if self._pen_hit:
+                        break
+                if feat and sd[adr2] < low2:
+                    low2 = self._record_feature(float(sd[adr2]), nstep)
+                    if self._pen_hit:
+                        break
+                if nstep % check_every == 0:
+                    self.nstep = nstep
+                    self._stale = True
+                    self._B3[0], self._B3[2] = fields[k]
+                    self._check(energy=True, work=work)
+        finally:
+            self.nstep = nstep
+            self._stale = True
+            self._min_dist = min(self._min_dist, low)
+            self._min_feature = min(self._min_feature, low2)
+            if track:
+                self._work += work
+            self._field_k = k
+
     def _sync(self) -> None:
         # after mj_step the position-dependent quantities (xpos, xmat, qM, contacts) belong to
         # the state before the step; readouts recompute them for the current qpos
@@ -676,30 +916,34 @@ class Simulator:
     def _warning_counts(self) -> np.ndarray:
         return self.data.warning.number[WARNING_IDS]
 
-    def _fail(self, quantity: str, value: float, hint: str) -> None:
+    def _fail(self, quantity: str, value: float, hint: str, *, step: int | None = None) -> None:
         o = self.options
+        step = self.nstep if step is None else step
+        t = self.time if step == self.nstep else self._call_ref[1] + (step - self._call_ref[0]) * self.timestep
         raise SimulationError(
-            f"simulation unstable at step {self.nstep} (t = {self.time:.6g} s): {quantity}"
+            f"simulation unstable at step {step} (t = {t:.6g} s): {quantity}"
             f"{'' if math.isnan(value) else f' = {value:.4g}'}. {hint} "
             f"(integrator={o.integrator!r}, timestep={o.timestep:g} s, segments={o.segments}, "
             f"field=({self._B3[0] * 1e3:.4g}, {self._B3[2] * 1e3:.4g}) mT).",
-            step=self.nstep, time=self.time, quantity=quantity, value=value,
+            step=step, time=t, quantity=quantity, value=value,
         )
 
     def _check(self, *, energy: bool, work: float = 0.0, field=None) -> None:
         d = self.data
         hint = STABILITY_HINT
         what = new_warning(self._warning_counts(), self._warn0)
-        if what is not None:
+        # the first cause first: a native block may run on past a broken contact bound into a
+        # warning or a non-finite state (a per-step loop stops at the bound)
+        if what is not None and not (self._pen_hit and self._pen_step() < self._warned_step()):
             text = f" ({self._warning_text[0].strip()})" if self._warning_text else ""
-            self._fail(f"MuJoCo warning: {what}{text}", math.nan, hint)
+            self._fail(f"MuJoCo warning: {what}{text}", math.nan, hint, step=self._warned_step())
+        if self._pen_hit:
+            where, self._pen_hit = self._pen_hit, ""  # reported once; a deeper contact reports again
+            self._fail_penetration(where)
         for name in ("qpos", "qvel"):
             arr = getattr(d, name)
             if not math.isfinite(arr.sum()):  # a NaN or an infinity anywhere makes the sum non-finite
                 self._fail(f"non-finite {name}", math.nan, hint)
-        if self._pen_hit:
-            where, self._pen_hit = self._pen_hit, ""  # reported once; a deeper contact reports again
-            self._fail_penetration(where)
         if energy:
             # the mass matrix of the step's start (mj_step leaves it in qM) is enough for a
             # factor-100 runaway test and saves recomputing the position stage every check
@@ -724,15 +968,22 @@ class Simulator:
         return {"step": int(self.nstep), "time_s": self.time, "max_penetration_m": self.max_penetration,
                 "max_penetration_h": self.max_penetration / h, "energy_drift": self.energy_drift}
 
-    def _unphysical(self, cause: str, reason: str, hint: str, figures: dict, value: float) -> None:
+    def _unphysical(self, cause: str, reason: str, hint: str, figures: dict, value: float, *,
+                    at: tuple | None = None) -> None:
         o = self.options
+        step, t = (self.nstep, self.time) if at is None else at
         raise UnphysicalError(
-            f"unphysical motion at step {self.nstep} (t = {self.time:.6g} s): {reason}. {hint} "
+            f"unphysical motion at step {step} (t = {t:.6g} s): {reason}. {hint} "
             f"(integrator={o.integrator!r}, timestep={o.timestep:g} s, contact time constant {self._tc * 1e3:.3g} ms, "
             f"segments={o.segments}, field=({self._B3[0] * 1e3:.4g}, {self._B3[2] * 1e3:.4g}) mT).",
-            cause=cause, reason=reason, figures={**self._figures(), **figures}, step=self.nstep, time=self.time,
-            quantity=cause, value=value,
+            cause=cause, reason=reason, figures={**self._figures(), **figures, "step": step, "time_s": t}, step=step,
+            time=t, quantity=cause, value=value,
         )
+
+    def _pen_step(self) -> int:
+        # steps done after the step whose start state broke the contact bound (a per-step loop stops there)
+        at = self._pen_at if self._pen_hit == "floor" else self._feature_at
+        return at[0] + 1
 
     def _fail_penetration(self, where: str) -> None:
         h = self.beam.thickness
@@ -750,6 +1001,7 @@ class Simulator:
             "The contact is not resolved: use a smaller timestep or a gentler field "
             "(Simulator(penetration_limit=...) moves the bound)",
             {"penetration_m": depth, "penetration_h": depth / h}, depth,
+            at=None if step + 1 == self.nstep else (step + 1, t + self.timestep),
         )
 
     def _check_tunnelling(self) -> None:
@@ -820,7 +1072,12 @@ class Simulator:
         self._has_external = bool(np.any(self.external_wrench))
         d.qvel[:] = 0.0
         mujoco.mj_kinematics(m, d)
-        self._apply_torques()
+        if self._native:  # the actuators' forces are part of qfrc_smooth
+            d.qfrc_applied[:] = 0.0
+            b0, b1 = self._b0, self._b1
+            d.xfrc_applied[b0:b1] = self.external_wrench[self._order] if self._has_external else 0.0
+        else:
+            self._apply_torques()
         mujoco.mj_forward(m, d)
         self._stale = False
         q = d.qfrc_smooth[self._hinge_dof] + d.qfrc_constraint[self._hinge_dof]
