@@ -7,6 +7,7 @@ import sys
 import warnings
 
 import gymnasium as gym
+import mujoco
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
@@ -250,3 +251,16 @@ def test_feature_envs_reach_success_past_the_feature(env_id, past):
     assert info["reward_success"] == u.success_reward == 100.0
     assert reward == pytest.approx(info["reward_forward"] + info["reward_field"] + info["reward_crawl"]
                                    + info["reward_success"])
+
+
+def test_a_jump_is_not_a_crawl():
+    env = make("MagSoftCrawl-v0").unwrapped
+    env.reset(seed=0)
+    assert env._crawl_violation() == ""  # resting on the floor
+    env.sim.data.qpos[1] += 3e-3  # the whole beam 3 mm up (base_z): more than the 2 mm clearance limit
+    mujoco.mj_forward(env.sim.model, env.sim.data)
+    assert env._crawl_violation().startswith("airborne: the lowest point is 2.99 mm above the floor > 2.00 mm")
+    assert make("MagSoftCrawl-v0", max_clearance=None).unwrapped.max_clearance is None
+    assert make("MagSoftObstacle-v0").unwrapped.max_clearance is None  # on the block the beam is above the floor
+    with pytest.raises(ValueError, match="max_clearance must be > 0"):
+        make("MagSoftCrawl-v0", max_clearance=0.0)

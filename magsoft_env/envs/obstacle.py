@@ -70,6 +70,8 @@ class MagSoftObstacleEnv(MagSoftCrawlEnv):
         self.success_reward = nonnegative("success_reward", success_reward)
         self.obstacle_x = length + gap
         self.clear_x = self.obstacle_x + OBSTACLE_SIZE[0]
+        # on top of the block the whole beam is above the floor: no clearance limit here
+        kwargs.setdefault("max_clearance", None)
         super().__init__(robot, feature_x=self.obstacle_x, **kwargs)
 
     def _is_success(self) -> bool:
