@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 import subprocess
 import sys
 
@@ -363,7 +364,9 @@ def test_import_is_light():
         "bad = [m for m in ('torch', 'stable_baselines3', 'OpenGL', 'mujoco.egl', 'mujoco.osmesa') "
         "if m in sys.modules]; print(bad); sys.exit(1 if bad else 0)"
     )
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    # without MUJOCO_GL: a render test earlier in the session may have set it (mujoco then loads its GL module)
+    env = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "PYOPENGL_PLATFORM")}
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
     assert r.returncode == 0, r.stdout + r.stderr
 
 
