@@ -260,3 +260,15 @@ def test_beam_5b_faces():
     np.testing.assert_allclose(np.degrees(beam_5b().beta(centres)), [5.0, 10.0, 20.0], atol=1e-9)
     np.testing.assert_allclose(np.degrees(beam_5b(face_down=True).beta(centres)), [-5.0, -10.0, -20.0], atol=1e-9)
     assert gait_preset("paper-5b").beam == beam_5b()
+
+
+def test_fidelity_levels_set_the_numerics():
+    from magsoft_env.cases.gaits import FIDELITY
+
+    assert FIDELITY["fast"] == (20, 2e-4) and FIDELITY["converged"][1] < FIDELITY["fine"][1]
+    r = run_gait(gait_preset("paper-5c"), 0.05, fidelity="fast")
+    assert r.success and len(r.time) > 1
+    with pytest.raises(ValueError, match="fidelity must be one of"):
+        run_gait(gait_preset("paper-5c"), 0.05, fidelity="exact")
+    with pytest.raises(ValueError, match="not both"):
+        run_gait(gait_preset("paper-5c"), 0.05, fidelity="fast", segments=10)

@@ -32,7 +32,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                      help="robot file (.yml, .yaml, .json; Robot.save, magsoft design) with a drive block")
     p.add_argument("--reverse", action="store_true", help="invert B_x (paper Fig. 5c: reverses the direction)")
     p.add_argument("--seconds", type=float, default=4.0, help="simulated time in s (default 4)")
-    p.add_argument("--timestep-ms", type=float, default=0.1, help="simulation step in ms (default 0.1, converged)")
+    p.add_argument("--timestep-ms", type=float, default=None, help="simulation step in ms (default 0.1)")
+    p.add_argument("--fidelity", choices=["fast", "fine", "converged"], default=None,
+                   help="named numerics instead of --segments/--timestep-ms: fast (20 segments, 0.2 ms), fine (80, "
+                        "0.1 ms), converged (80, 0.025 ms); errors in docs/convergence.md")
     p.add_argument("--segments", type=int, default=None,
                    help="rod segments (default: the preset's, 40 for paper-5b and 20 for the others)")
     p.add_argument("--waveform", choices=["sine", "square"], default=None,
@@ -65,6 +68,15 @@ def run(args) -> int:
 
     if not (args.seconds > 0 and math.isfinite(args.seconds)):
         raise ValueError(f"--seconds must be > 0 (s) and finite, got {args.seconds}.")
+    if args.fidelity is not None and (args.timestep_ms is not None or args.segments is not None):
+        raise ValueError("give --fidelity or --segments/--timestep-ms, not both.")
+    if args.fidelity is not None:
+        from magsoft_env.cases.gaits import FIDELITY
+
+        args.segments, dt = FIDELITY[args.fidelity]
+        args.timestep_ms = dt * 1e3
+    if args.timestep_ms is None:
+        args.timestep_ms = 0.1
     if not 0 < args.timestep_ms <= 10:
         raise ValueError(f"--timestep-ms must lie in (0, 10] ms, got {args.timestep_ms}.")
     if args.segments is not None and not 2 <= args.segments <= 1000:

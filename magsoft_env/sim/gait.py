@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..cases.gaits import GAIT_CONTACT_GEOM, GAIT_ROD_OPTIONS, GAIT_TIMESTEP, gait_preset
+from ..cases.gaits import FIDELITY, GAIT_CONTACT_GEOM, GAIT_ROD_OPTIONS, GAIT_TIMESTEP, gait_preset
 from ..cases.robots import Robot
 from ..units import MM
 from ..validate import nonnegative, positive
@@ -155,8 +155,8 @@ def direction_of(speed: float, *, threshold: float = 1e-5) -> str:
 
 
 def run_gait(
-    preset, seconds: float = 4.0, *, segments: int | None = None, timestep: float = GAIT_TIMESTEP,
-    warmup_cycles: float = 1.0, sample_dt: float = 0.01,
+    preset, seconds: float = 4.0, *, segments: int | None = None, timestep: float | None = None,
+    warmup_cycles: float = 1.0, sample_dt: float = 0.01, fidelity: str | None = None,
 ) -> GaitResult:
     """Run a gait on the floor and measure the centre-of-mass speed.
 
@@ -173,8 +173,11 @@ def run_gait(
         Simulated time (s), > 0, at most :data:`~magsoft_env.sim.health.MAX_STEPS` steps.
     segments : int or None
         Rod segments; ``None``: the preset's own (``preset.segments``).
-    timestep : float
-        Simulation step (s); 0.1 ms converges the floor contact (docs/sim.md).
+    timestep : float or None
+        Simulation step (s); None: 0.1 ms (:data:`~magsoft_env.cases.gaits.GAIT_TIMESTEP`).
+    fidelity : {"fast", "fine", "converged"} or None
+        Named numerics (segments and timestep, :data:`~magsoft_env.cases.gaits.FIDELITY`, with the crawl error
+        each gives against the converged reference); not with ``segments`` or ``timestep``.
     warmup_cycles : float
         Field periods excluded from the speed (start-up transient); the displacement covers
         the whole run.
@@ -187,6 +190,14 @@ def run_gait(
         ``success`` False (and the partial record) when the rod became unstable.
     """
     preset = gait_preset(preset)  # a name or a path loads; a robot without a drive is refused
+    if fidelity is not None:
+        if fidelity not in FIDELITY:
+            raise ValueError(f"fidelity must be one of {list(FIDELITY)} or None, got {fidelity!r}.")
+        if segments is not None or timestep is not None:
+            raise ValueError(f"give fidelity or segments/timestep, not both: got fidelity={fidelity!r}, "
+                             f"segments={segments!r}, timestep={timestep!r}.")
+        segments, timestep = FIDELITY[fidelity]
+    timestep = GAIT_TIMESTEP if timestep is None else timestep
     seconds = positive("seconds", seconds, unit="s")
     warmup_cycles = nonnegative("warmup_cycles", warmup_cycles)
     sample_dt = positive("sample_dt", sample_dt, unit="s")
