@@ -7,6 +7,11 @@ Ids (see each class docstring for the spec sheet):
 - ``MagSoftChannel-v0``: crawl through the paper's 42 x 8.5 x 7.6 mm hollow box.
 - ``MagSoftObstacle-v0``: crawl over the paper's 7 x 5.5 x 2 mm block.
 - ``MagSoftShape-v0``: a clamped beam reaches a target tip pose by choosing the field.
+
+The floor ids (crawl, waveform, channel, obstacle) also have a ``vector_entry_point``:
+``gym.make_vec(id, num_envs=n)`` returns a :class:`~magsoft_env.envs.vector.MagSoftCrawlVecEnv`, which
+steps all robots per call on a thread pool (``vectorization_mode="sync"`` / ``"async"`` still give
+Gymnasium's own vector envs).
 """
 
 from __future__ import annotations
@@ -21,22 +26,38 @@ ENV_SPECS = {
     "MagSoftObstacle-v0": ("magsoft_env.envs.obstacle:MagSoftObstacleEnv", 1500, {}),
     "MagSoftShape-v0": ("magsoft_env.envs.shape:MagSoftShapeEnv", 100, {}),
 }
+#: id -> vector entry point (``gym.make_vec``): the floor envs, batched on threads (envs/vector.py)
+VECTOR_ENTRY_POINTS = {
+    "MagSoftCrawl-v0": "magsoft_env.envs.vector:MagSoftCrawlVecEnv",
+    "MagSoftCrawlWaveform-v0": "magsoft_env.envs.vector:MagSoftCrawlVecEnv",
+    "MagSoftChannel-v0": "magsoft_env.envs.vector:MagSoftChannelVecEnv",
+    "MagSoftObstacle-v0": "magsoft_env.envs.vector:MagSoftObstacleVecEnv",
+}
 
 
-def refuse_unknown_kwargs(env, unknown: dict) -> None:
-    """Raise ValueError for constructor arguments ``env`` does not take, with the closest names
-    (gymnasium would raise a bare TypeError from deep inside ``gym.make``)."""
-    if not unknown:
-        return
-    import difflib
+def constructor_arguments(*classes) -> set[str]:
+    """Names of the keyword arguments the constructors of ``classes`` (and of their bases) take."""
     import inspect
 
     allowed = set()
-    for cls in type(env).__mro__:
-        init = cls.__dict__.get("__init__")
-        if init is not None:
-            allowed |= {n for n, p in inspect.signature(init).parameters.items()
-                        if n != "self" and p.kind not in (p.VAR_KEYWORD, p.VAR_POSITIONAL)}
+    for top in classes:
+        for cls in top.__mro__:
+            init = cls.__dict__.get("__init__")
+            if init is not None:
+                allowed |= {n for n, p in inspect.signature(init).parameters.items()
+                            if n != "self" and p.kind not in (p.VAR_KEYWORD, p.VAR_POSITIONAL)}
+    return allowed
+
+
+def refuse_unknown_kwargs(env, unknown: dict, *, classes: tuple = ()) -> None:
+    """Raise ValueError for constructor arguments ``env`` does not take, with the closest names
+    (gymnasium would raise a bare TypeError from deep inside ``gym.make``). ``classes``: further
+    classes whose arguments ``env`` passes on (a vector env's sub-environments)."""
+    if not unknown:
+        return
+    import difflib
+
+    allowed = constructor_arguments(type(env), *classes)
     name = next(iter(unknown))
     hint = difflib.get_close_matches(name, sorted(allowed), n=1)
     extra = f" Did you mean {hint[0]!r}?" if hint else ""
@@ -50,7 +71,8 @@ def register_all() -> None:
     for env_id, (entry_point, steps, kwargs) in ENV_SPECS.items():
         if env_id in registry:
             continue
-        register(id=env_id, entry_point=entry_point, max_episode_steps=steps, kwargs=dict(kwargs))
+        register(id=env_id, entry_point=entry_point, max_episode_steps=steps, kwargs=dict(kwargs),
+                 vector_entry_point=VECTOR_ENTRY_POINTS.get(env_id))
 
 
-__all__ = ["ENV_SPECS", "refuse_unknown_kwargs", "register_all"]
+__all__ = ["ENV_SPECS", "VECTOR_ENTRY_POINTS", "constructor_arguments", "refuse_unknown_kwargs", "register_all"]

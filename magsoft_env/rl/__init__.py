@@ -1,7 +1,8 @@
 """Reinforcement learning on the environments through rl-zoo3: its hyperparameter files read and checked,
 training runs that are never overwritten, evaluation against the open-loop paper gaits, learning curves,
-policies checked against the env they are played in (the library behind ``train/``).
-Stable-Baselines3, rl-zoo3 and torch are imported only when used."""
+policies checked against the env they are played in (the library behind ``train/``), and
+:class:`~magsoft_env.rl.vec.SB3VecAdapter`, the batched floor envs as an SB3 ``VecEnv``.
+Stable-Baselines3, rl-zoo3 and torch are imported only when used (``SB3VecAdapter``: on first access)."""
 
 from .evaluation import (
     EvalResult,
@@ -30,8 +31,21 @@ from .hyperparams import (
 from .runs import RunRecord, find_run, read_zoo_yaml
 from .training import GYM_PACKAGE, evaluate_run, learning_curve, run_zoo, summarize_run, train, zoo_argv
 
-__all__ = ["ALGOS", "GYM_PACKAGE", "ZOO_KEYS", "EvalResult", "Policy", "RunRecord", "algo_arguments", "algo_class",
-           "check_algo_kwargs", "check_env_id", "check_env_kwargs", "check_hyperparams", "check_policy_env",
-           "env_arguments", "evaluate_open_loop", "evaluate_run", "find_run", "learning_curve", "load_hyperparams",
-           "load_policy", "open_loop_actor", "parse_override", "policy_run_info", "read_zoo_yaml", "run_episodes",
-           "run_zoo", "split_hyperparams", "summarize_run", "train", "zoo_argv"]
+#: names of .vec, which imports stable_baselines3: loaded on first access
+_VEC_NAMES = ("SB3VecAdapter", "make_sb3_vec_env", "unbatch_infos")
+
+
+def __getattr__(name: str):
+    if name in _VEC_NAMES:
+        from . import vec
+
+        return getattr(vec, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+__all__ = ["ALGOS", "GYM_PACKAGE", "ZOO_KEYS", "EvalResult", "Policy", "RunRecord", "SB3VecAdapter", "algo_arguments",
+           "algo_class", "check_algo_kwargs", "check_env_id", "check_env_kwargs", "check_hyperparams",
+           "check_policy_env", "env_arguments", "evaluate_open_loop", "evaluate_run", "find_run", "learning_curve",
+           "load_hyperparams", "load_policy", "make_sb3_vec_env", "open_loop_actor", "parse_override",
+           "policy_run_info", "read_zoo_yaml", "run_episodes", "run_zoo", "split_hyperparams", "summarize_run",
+           "train", "unbatch_infos", "zoo_argv"]

@@ -1,0 +1,256 @@
+"""Vector-env throughput: the batched floor env against the single env, Gymnasium and SB3 vector envs, the C bound.
+
+    python -m magsoft_env.bench.vec_bench [--env-id MagSoftCrawl-v0] [--seconds 3] [--sizes 1 2 8 32]
+                                          [--only single,batched,sync,async,subproc,bound]
+
+Every row steps its robots with random actions, uniform in [-1, 1]^2 (the default +-2 mT field
+limit), episodes ending and restarting as in training (autoreset; the single env resets itself), and
+gives aggregate env steps per second. For each number of envs, the vector envs and the single env
+loop take turns, ``--seconds / 3`` of wall time each (after one warm-up step), 3 rounds, so that all
+see the same load: the median rate, and the median of the per-round ratios to the single env:
+
+* ``single``: one ``gym.make`` env in a loop, in this process: the baseline.
+* ``batched``: :class:`~magsoft_env.envs.vector.MagSoftCrawlVecEnv` (``gym.make_vec``, its default
+  threads: ``min(n, CPUs)``).
+* ``sync`` / ``async``: Gymnasium's ``SyncVectorEnv`` / ``AsyncVectorEnv`` (one process per env) of
+  ``gym.make`` envs.
+* ``subproc``: SB3's ``SubprocVecEnv`` (one process per env, ``fork``).
+* ``bound``: the C step alone. The single env's own trajectory (random actions, ``--bound-steps``
+  control steps) is replayed from its recorded states with its fields held, by
+  ``mujoco.rollout.Rollout`` (no Python between substeps, no checks, no observations; bit for bit
+  the env's trajectory) on 1 and 2 threads, in turn with the single env stepping the same actions:
+  microseconds per robot substep and the env steps per second that alone allows.
+
+Timings are wall clock on a shared machine: compare numbers from one run only, and read ``uptime``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import os
+import time
+
+import numpy as np
+
+MODES = ("single", "batched", "sync", "async", "subproc", "bound")
+
+
+def _actions(rng, shape) -> np.ndarray:
+    return rng.uniform(-1.0, 1.0, shape).astype(np.float32)
+
+
+def _timed(step, seconds: float) -> float:
+    """Env steps/s of ``step()`` (which returns how many env steps it took) over ``seconds`` of wall time."""
+    step()
+    t0 = time.perf_counter()
+    done = 0
+    while True:
+        done += step()
+        dt = time.perf_counter() - t0
+        if dt >= seconds:
+            return done / dt
+
+
+class _Single:
+    """One ``gym.make`` env stepped in a loop (reset when an episode ends)."""
+
+    def __init__(self, env_id: str, seed: int = 0, **kwargs):
+        import gymnasium as gym
+
+        self.env = gym.make(env_id, **kwargs)
+        self.env.reset(seed=seed)
+        self.rng = np.random.default_rng(seed)
+
+    def step(self) -> int:
+        _, _, term, trunc, _ = self.env.step(_actions(self.rng, (2,)))
+        if term or trunc:
+            self.env.reset()
+        return 1
+
+    def close(self) -> None:
+        self.env.close()
+
+
+class _Vector:
+    """``n`` envs in vector env ``mode`` (batched, sync, async, subproc), autoresetting."""
+
+    def __init__(self, mode: str, env_id: str, n: int, seed: int = 1, **kwargs):
+        import gymnasium as gym
+
+        self.n = n
+        self.rng = np.random.default_rng(seed)
+        if mode == "subproc":
+            from stable_baselines3.common.vec_env import SubprocVecEnv
+
+            def make_one():
+                import magsoft_env  # noqa: F401  (registers the ids)
+
+                return gym.make(env_id, **kwargs)
+
+            self.venv = SubprocVecEnv([make_one] * n, start_method="fork")
+            self.venv.seed(seed)
+            self.venv.reset()
+        else:
+            vmode = {"batched": "vector_entry_point", "sync": "sync", "async": "async"}[mode]
+            self.venv = gym.make_vec(env_id, num_envs=n, vectorization_mode=vmode, **kwargs)
+            self.venv.reset(seed=seed)
+
+    def step(self) -> int:
+        self.venv.step(_actions(self.rng, (self.n, 2)))
+        return self.n
+
+    def close(self) -> None:
+        self.venv.close()
+
+
+def throughput(env_id: str, n: int, modes, *, seconds: float = 3.0, rounds: int = 3, **kwargs) -> dict:
+    """Aggregate env steps/s of ``n`` envs in each vector env of ``modes`` and of the single env loop,
+    measured in turn (``seconds / rounds`` each, ``rounds`` times) so that all see the same load:
+    ``{mode: (median rate, median of the per-round ratios to the single env)}``; ``"single"``: (rate, 1)."""
+    steppers = {"single": _Single(env_id, **kwargs)}
+    try:
+        for mode in modes:
+            steppers[mode] = _Vector(mode, env_id, n, **kwargs)
+        rates: dict = {k: [] for k in steppers}
+        for _ in range(rounds):
+            for k, st in steppers.items():
+                rates[k].append(_timed(st.step, seconds / rounds))
+    finally:
+        for st in steppers.values():
+            st.close()
+    single = np.array(rates["single"])
+    return {k: (float(np.median(v)), float(np.median(np.array(v) / single))) for k, v in rates.items()}
+
+
+def c_bound(env_id: str, steps: int, *, seed: int = 0, rounds: int = 3, **kwargs) -> dict:
+    """The C step alone on the single env's own trajectory. Records the state (and solver warm start)
+    before each of ``steps`` random-action control steps, then, ``rounds`` times in turn: the single env
+    stepping the same actions from the same seed (the same trajectory, every check and readout), and
+    every control step replayed from its state with its field held by ``mujoco.rollout`` (native
+    controls, no checks, no Python between substeps) on 1 and on 2 threads. Medians over the rounds."""
+    import gymnasium as gym
+    import mujoco
+    from mujoco import rollout
+
+    from ..sim.model import NATIVE_CONTROL_SPEC, native_controls
+
+    env = gym.make(env_id, **kwargs)
+    base = env.unwrapped
+    m, d = base.sim.model, base.sim.data
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    nstate = mujoco.mj_stateSize(m, spec)
+    states, warm = np.empty((steps, nstate)), np.empty((steps, m.nv))
+    rng = np.random.default_rng(seed)
+    actions = _actions(rng, (steps, 2))
+    fields = np.array([base.field_of_action(a) for a in actions])
+
+    def run_env(record: bool) -> None:
+        env.reset(seed=seed)
+        for k, a in enumerate(actions):
+            if record:
+                mujoco.mj_getState(m, d, states[k], spec)
+                warm[k] = d.qacc_warmstart
+            _, _, term, trunc, _ = env.step(a)
+            if term or trunc:
+                env.reset()
+
+    run_env(True)
+    sub = base.n_substeps
+    control = native_controls(base.sim.rod, fields)[:, None, :]  # held over the control step
+    state = np.empty((steps, sub, nstate))
+    sens = np.empty((steps, sub, m.nsensordata))
+    pools = {1: (rollout.Rollout(nthread=0), mujoco.MjData(m)), 2: (rollout.Rollout(nthread=2),
+                                                                   [mujoco.MjData(m) for _ in range(2)])}
+    times: dict = {"env": [], 1: [], 2: []}
+    try:
+        for _ in range(rounds):
+            t0 = time.perf_counter()
+            run_env(False)
+            times["env"].append(time.perf_counter() - t0)
+            for nthread, (r, datas) in pools.items():
+                t0 = time.perf_counter()
+                r.rollout(m, datas, states, control, control_spec=NATIVE_CONTROL_SPEC, nstep=sub,
+                          initial_warmstart=warm, state=state, sensordata=sens)
+                times[nthread].append(time.perf_counter() - t0)
+    finally:
+        for r, _ in pools.values():
+            r.close()
+        env.close()
+    med = {k: float(np.median(v)) for k, v in times.items()}
+    return {"substeps": sub, "segments": base.segments, "sim_dt": base.sim_dt, "steps": steps, "rounds": rounds,
+            "env_steps_per_s": steps / med["env"],
+            "us_per_substep_1": med[1] / (steps * sub) * 1e6, "env_steps_per_s_1": steps / med[1],
+            "us_per_substep_2": 2 * med[2] / (steps * sub) * 1e6, "env_steps_per_s_2": steps / med[2]}
+
+
+def _closing(stepper):
+    return contextlib.closing(stepper)
+
+
+def _load() -> str:
+    try:
+        return " ".join(f"{x:.2f}" for x in os.getloadavg())
+    except OSError:
+        return "n/a"
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--env-id", default="MagSoftCrawl-v0")
+    p.add_argument("--seconds", type=float, default=3.0, help="wall time per table cell, in 3 rounds (s, default 3)")
+    p.add_argument("--sizes", type=int, nargs="+", default=[1, 2, 8, 32], help="numbers of envs")
+    p.add_argument("--only", default=",".join(MODES), help=f"comma-separated subset of {','.join(MODES)}")
+    p.add_argument("--bound-steps", type=int, default=200, help="control steps replayed for the C bound")
+    args = p.parse_args(argv)
+    only = [m.strip() for m in args.only.split(",") if m.strip()]
+    bad = sorted(set(only) - set(MODES))
+    if bad:
+        raise SystemExit(f"--only: unknown mode(s) {bad}; choose from {', '.join(MODES)}")
+    if not args.seconds > 0 or min(args.sizes) < 1 or args.bound_steps < 1:
+        raise SystemExit("--seconds must be > 0, --sizes >= 1 and --bound-steps >= 1")
+    import magsoft_env  # noqa: F401  (registers the ids)
+    from magsoft_env.envs.vector import usable_cpus
+
+    env_id = args.env_id
+    print(f"# {env_id}, random actions, {args.seconds:g} s per cell; {usable_cpus()} CPUs, load average "
+          f"{_load()} (1, 5, 15 min)")
+    rows = [m for m in ("batched", "sync", "async", "subproc") if m in only]
+    base = None
+    if rows:
+        print("\nAggregate env steps/s, median of the rounds (in brackets: median ratio to the single env loop "
+              "measured in the same rounds)\n")
+        print(f"| vector env | {' | '.join(f'{n} envs' for n in args.sizes)} |")
+        print(f"|---|{'---|' * len(args.sizes)}")
+        table = {n: throughput(env_id, n, rows, seconds=args.seconds) for n in args.sizes}
+        cells = [f"{table[n]['single'][0]:.0f}" for n in args.sizes]
+        print(f"| single env loop (baseline) | {' | '.join(cells)} |")
+        for mode in rows:
+            cells = [f"{table[n][mode][0]:.0f} ({table[n][mode][1]:.2f}x)" for n in args.sizes]
+            print(f"| {mode} | {' | '.join(cells)} |")
+        base = float(np.median([table[n]["single"][0] for n in args.sizes]))
+        print(f"\nload average after the table: {_load()}")
+    elif "single" in only:
+        with _closing(_Single(env_id)) as st:
+            base = _timed(st.step, args.seconds)
+        print(f"\nsingle env loop: {base:8.1f} env steps/s")
+    if "bound" in only:
+        b = c_bound(env_id, args.bound_steps)
+        s1, s2 = b["env_steps_per_s_1"], b["env_steps_per_s_2"]
+        se = b["env_steps_per_s"]
+        print(f"\nC bound: the single env's trajectory ({b['steps']} control steps x {b['substeps']} substeps, "
+              f"{b['segments']} segments) replayed by mujoco.rollout, fields held, no checks; medians of "
+              f"{b['rounds']} rounds, in turn with the single env on the same trajectory:")
+        print(f"  single env, same trajectory: {se:.0f} env steps/s")
+        print(f"  C alone, 1 thread : {b['us_per_substep_1']:.1f} us per robot substep -> {s1:.0f} env steps/s "
+              f"(the single env runs at {se / s1:.2f} of it: the rest is Python, checks, observation, reward)")
+        print(f"  C alone, 2 threads: {b['us_per_substep_2']:.1f} us CPU per robot substep -> {s2:.0f} env steps/s "
+              f"(x{s2 / s1:.2f} one thread; x{s2 / se:.2f} the single env: no batch on 2 cores passes this)")
+        need = 2.0 / (1000.0 * b["substeps"]) * 1e6
+        print(f"  1000 env steps/s on 2 cores needs <= {need:.0f} us per robot substep at perfect scaling "
+              f"({b['substeps']} substeps per env step)")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
