@@ -299,11 +299,7 @@ class RodBatch:
                 try:
                     self.batch.step(stage=stage)
                 except mjbatch.SimulationError as err:
-                    ids = list(getattr(err, "ids", []))
-                    raise SimulationError(
-                        f"batch step failed at step {self.nstep} (t = {self.time:.6g} s) in simulations {ids}: "
-                        f"{err}", step=self.nstep, time=self.time, quantity=f"simulations {ids}",
-                    ) from err
+                    raise self._batch_failure(err) from err
                 self.time += self.timestep
                 self.nstep += 1
                 if warned:
@@ -321,6 +317,14 @@ class RodBatch:
             if fields is not None and k >= 0:
                 self._fields[:] = fields[k]
         self._check(energy=False, text=warned)
+
+    def _batch_failure(self, err) -> SimulationError:
+        """mujoco.batch's failure as this batch's SimulationError, naming the step, time and simulations."""
+        ids = list(getattr(err, "ids", []))
+        return SimulationError(
+            f"batch step failed at step {self.nstep} (t = {self.time:.6g} s) in simulations {ids}: {err}",
+            step=self.nstep, time=self.time, quantity=f"simulations {ids}",
+        )
 
     def _step_native(self, n: int) -> None:
         # one batch rollout per energy check interval: controls per step (waveforms) or held
@@ -343,11 +347,7 @@ class RodBatch:
                 try:
                     rec = self.batch.rollout(k, control, NATIVE_CONTROL_SPEC, record=record)
                 except mjbatch.SimulationError as err:
-                    ids = list(getattr(err, "ids", []))
-                    raise SimulationError(
-                        f"batch step failed at step {self.nstep} (t = {self.time:.6g} s) in simulations {ids}: "
-                        f"{err}", step=self.nstep, time=self.time, quantity=f"simulations {ids}",
-                    ) from err
+                    raise self._batch_failure(err) from err
                 n0 = self.nstep
                 self.nstep += k
                 self.time += k * self.timestep
