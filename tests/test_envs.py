@@ -16,8 +16,8 @@ import magsoft_env  # noqa: F401  (registers the ids)
 from magsoft_env.envs import ENV_SPECS, register_all
 
 IDS = list(ENV_SPECS)
-# small rods keep the contract tests fast; the physics does not change the contract
-FAST = {"segments": 6}
+# small rods at a coarse step keep the contract tests fast; the physics does not change the contract
+FAST = {"segments": 6, "sim_dt": 2e-4}
 
 
 def make(env_id, **kw):
@@ -251,6 +251,30 @@ def test_feature_envs_reach_success_past_the_feature(env_id, past):
     assert info["reward_success"] == u.success_reward == 100.0
     assert reward == pytest.approx(info["reward_forward"] + info["reward_field"] + info["reward_crawl"]
                                    + info["reward_success"])
+
+
+def test_floor_envs_run_each_robots_own_numerics_unless_told():
+    # one physics with the gaits: the robot's own (segments, timestep), a named level, or explicit values
+    from magsoft_env.cases.gaits import FIDELITY
+    from magsoft_env.sim.gait import gait_rod_options
+
+    for env_id, own in (("MagSoftCrawl-v0", (20, 2e-4)), ("MagSoftChannel-v0", (80, 1e-4)),
+                        ("MagSoftObstacle-v0", (80, 2.5e-5))):
+        u = gym.make(env_id).unwrapped
+        assert (u.segments, u.sim_dt) == own and u.fidelity is None
+        assert u.observation_space.shape == (2 * own[0] + 8,)
+        # the rod is the gaits' rod at those numerics
+        o = gait_rod_options(u.gait, scene=u._scene, feature_x=u.sim.options.feature_x)
+        assert u.sim.options == o
+    for level, (n, dt) in FIDELITY.items():
+        u = gym.make("MagSoftObstacle-v0", fidelity=level).unwrapped
+        assert (u.segments, u.sim_dt, u.sim.options.timestep, u.fidelity) == (n, dt, dt, level)
+    u = gym.make("MagSoftChannel-v0", segments=10, sim_dt=5e-4).unwrapped
+    assert (u.segments, u.sim_dt) == (10, 5e-4)
+    with pytest.raises(ValueError, match="not both"):
+        gym.make("MagSoftCrawl-v0", fidelity="fast", sim_dt=1e-4)
+    with pytest.raises(ValueError, match="fidelity must be one of"):
+        gym.make("MagSoftCrawl-v0", fidelity="quick")
 
 
 def test_a_jump_is_not_a_crawl():

@@ -99,7 +99,25 @@ def test_built_in_robot_files_are_the_paper_robots():
     assert load_robot("paper-5b").beam == beam_5b()
     c = load_robot("paper-5c")
     assert c.beam.length == pytest.approx(23.889e-3, abs=1e-6) and c.drive.phase == pytest.approx(math.pi / 2)
-    assert load_robot("paper-5b").segments == 40
+    # each robot's own numerics: the cheapest measured within 5 % of the converged crawl (docs/convergence.md)
+    numerics = {name: (load_robot(name).segments, load_robot(name).timestep) for name in ms.list_robots()}
+    assert numerics == {"paper-5a": (80, 1e-4), "paper-5b": (80, 2.5e-5), "paper-5c": (20, 2e-4)}
+
+
+def test_robot_numerics_round_trip_and_default(tmp_path):
+    text = "name: x\nbeam: {width_mm: 5, thickness_mm: 1, length_mm: 20}\n"
+    (tmp_path / "plain.yml").write_text(text)
+    plain = load_robot(tmp_path / "plain.yml")
+    assert (plain.segments, plain.timestep) == (ms.cases.robots.DEFAULT_SEGMENTS, 2e-4)
+    fine = plain.replace(segments=80, timestep=2.5e-5)
+    assert load_robot(fine.save(tmp_path / "fine.yml")).timestep == 2.5e-5
+    assert load_robot(fine.save(tmp_path / "fine.json")) == fine
+    for bad in (0.0, -1e-4, 0.5, float("nan")):
+        with pytest.raises(ValueError, match="timestep"):
+            plain.replace(timestep=bad)
+    (tmp_path / "bad.yml").write_text(text + "simulation: {timestep_ms: 0}\n")
+    with pytest.raises(ValueError, match="timestep"):
+        load_robot(tmp_path / "bad.yml")
 
 
 @pytest.mark.parametrize("content,message", [

@@ -22,27 +22,30 @@ import math
 import numpy as np
 
 from ..spec import Beam, PiecewiseConstant, jig_from_polyline
-from .robots import DEFAULT_FRICTION, DEFAULT_SEGMENTS, Robot, list_robots, load_robot
+from .robots import DEFAULT_FRICTION, DEFAULT_SEGMENTS, DEFAULT_TIMESTEP, Robot, list_robots, load_robot
 
 #: Beam cross-section shared by the presets (m): the paper's 5 x 1.13 mm strips.
 WIDTH = 5e-3
 THICKNESS = 1.13e-3
-#: Default gait timestep (s): the floor contact needs <= 0.1 ms to converge (docs/sim.md).
-GAIT_TIMESTEP = 1e-4
+#: Timestep (s) of a robot whose file states none (:data:`~magsoft_env.cases.robots.DEFAULT_TIMESTEP`, 0.2 ms). A
+#: robot's own numerics are ``Robot.segments`` and ``Robot.timestep``; the paper robots' files state theirs.
+GAIT_TIMESTEP = DEFAULT_TIMESTEP
 #: Default sliding friction coefficient between silicone and the substrate (dimensionless).
 GAIT_FRICTION = DEFAULT_FRICTION
-#: Default number of rod segments.
+#: Segments of a robot whose file states none.
 GAIT_SEGMENTS = DEFAULT_SEGMENTS
 #: Named numerics of the floor scenes, (segments, timestep in s), with the crawl error each gave against the
-#: converged reference at the material contact (3 s runs, speed over whole periods; docs/convergence.md):
+#: converged reference at the material contact (3 s runs, the larger of the displacement and speed errors;
+#: docs/convergence.md) and the wall time per simulated second on one core of the 2-vCPU development machine:
 #:
-#: - ``"fast"``: 20 segments, 0.2 ms, the floor environments' setting: 5a 4.3 %, 5b 31 %, 5c 2.7 %; 0.37 s of wall
-#:   time per simulated second.
-#: - ``"fine"``: 80 segments, 0.1 ms: 5a 1.9 %, 5b 9.6 %, 5c 2.0 %; 3.7 s per simulated second.
-#: - ``"converged"``: 80 segments, 0.025 ms: 5a 0.0 %, 5b 0.5 %, 5c 1.0 %; 11.6 s per simulated second.
+#: - ``"fast"``: 20 segments, 0.2 ms: 5a 4.3 % (a lucky point: 4-17 % at 20 segments), 5b 31 %, 5c 2.7 %; 0.3-0.4 s/s.
+#: - ``"fine"``: 80 segments, 0.1 ms: 5a 1.9 %, 5b 9.6 %, 5c 2.0 %; 3-4.6 s/s.
+#: - ``"converged"``: 80 segments, 0.025 ms: 5a 0.0 %, 5b 0.5 %, 5c 1.0 %; 10-15 s/s.
 #:
-#: The gaits' own default (20 segments, 40 for paper-5b, 0.1 ms) reads 5a 9.2 %, 5b 10.6 %, 5c 3.7 %. paper-5b's
-#: crawl is decided by its contact events and settles only once the step resolves the contact (<= 0.025 ms).
+#: Without a level (``fidelity=None``) the gaits and the floor environments use the robot's own numerics
+#: (:func:`numerics`): the paper robots' files choose the cheapest level within 5 % of both acceptance checks
+#: (docs/convergence.md): 5a ``fine``, 5b ``converged``, 5c ``fast``. paper-5b's crawl is decided by its contact
+#: events and settles only once the step resolves the contact (<= 0.025 ms).
 FIDELITY = {"fast": (20, 2e-4), "fine": (80, 1e-4), "converged": (80, 2.5e-5)}
 #: Rod collision shape. Capsules, not the sim's default spheres: with spheres a mirror-symmetric
 #: robot (cosine jig, pure B_z) drifts at +0.55 mm/s where symmetry demands 0 (capsules: 0.01 mm/s).
@@ -109,6 +112,32 @@ def beam_5b(*, face_down: bool = False) -> Beam:
 #: "5a with multiple polylines").
 PAPER_5A_VEES = 2
 
+def numerics(robot: Robot, *, fidelity: str | None = None, segments: int | None = None,
+             timestep: float | None = None) -> tuple[int, float]:
+    """The ``(segments, timestep)`` a floor simulation of ``robot`` runs at: the named level ``fidelity``
+    (:data:`FIDELITY`), or the robot's own numerics (``robot.segments``, ``robot.timestep``) with ``segments`` and
+    ``timestep`` (s) replacing them where given. The gaits and the floor environments both resolve here.
+
+    Raises
+    ------
+    ValueError
+        For an unknown level, or a level given together with ``segments`` or ``timestep``.
+
+    >>> from magsoft_env.cases.gaits import gait_preset, numerics
+    >>> numerics(gait_preset("paper-5b")), numerics(gait_preset("paper-5b"), fidelity="fast")
+    ((80, 2.5e-05), (20, 0.0002))
+    """
+    if fidelity is not None:
+        if not isinstance(fidelity, str) or fidelity not in FIDELITY:
+            raise ValueError(f"fidelity must be one of {list(FIDELITY)} or None (the robot's own numerics), "
+                             f"got {fidelity!r}.")
+        if segments is not None or timestep is not None:
+            raise ValueError(f"give fidelity or segments/timestep, not both: got fidelity={fidelity!r}, "
+                             f"segments={segments!r}, timestep={timestep!r}.")
+        return FIDELITY[fidelity]
+    return (robot.segments if segments is None else segments, robot.timestep if timestep is None else timestep)
+
+
 def list_gaits() -> tuple[str, ...]:
     """Names of the built-in gaits: the built-in robots (``assets/robots/*.yml``), which all carry a drive."""
     return list_robots()
@@ -129,4 +158,5 @@ def gait_preset(name, *, reverse: bool = False) -> Robot:
 
 
 __all__ = ["FIDELITY", "GAIT_CONTACT_GEOM", "GAIT_FRICTION", "GAIT_ROD_OPTIONS", "GAIT_SEGMENTS", "GAIT_TIMESTEP",
-           "PAPER_5A_VEES", "THICKNESS", "WIDTH", "GaitPreset", "beam_5a", "beam_5b", "gait_preset", "list_gaits"]
+           "PAPER_5A_VEES", "THICKNESS", "WIDTH", "GaitPreset", "beam_5a", "beam_5b", "gait_preset", "list_gaits",
+           "numerics"]

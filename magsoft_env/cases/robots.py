@@ -15,7 +15,7 @@ File format (YAML or JSON by the extension; units in the key names; every key ch
            magnetization: {kind: jig_polyline, x_mm: [0, 12.5, 25], z_mm: [0, -3, 0]}}
     contact: {friction: 0.5, retardation_time_ms: 5}
     drive: {shape: sine, amplitude_x_mT: 0, amplitude_z_mT: 2, frequency_Hz: 2, phase_deg: 0}
-    simulation: {segments: 20}
+    simulation: {segments: 20, timestep_ms: 0.2}   # optional: the robot's own numerics (default 20, 0.2 ms)
     paper: {speed_mm_per_s: -0.85, direction: left}    # optional: what a reference reports
 
 The beam block and its profile kinds are those of :mod:`magsoft_env.cases.beamfile`.
@@ -57,6 +57,13 @@ DEFAULT_FRICTION = 0.5
 DEFAULT_RETARDATION_TIME = 5e-3
 #: Default number of rod segments in MuJoCo.
 DEFAULT_SEGMENTS = 20
+#: Default MuJoCo timestep (s) of a robot whose file states none: with :data:`DEFAULT_SEGMENTS`, the ``"fast"``
+#: fidelity (:data:`magsoft_env.cases.gaits.FIDELITY`). A robot whose crawl needs finer numerics says so in its
+#: file (``simulation: {segments: ..., timestep_ms: ...}``), as the paper's 5a and 5b do (docs/convergence.md).
+DEFAULT_TIMESTEP = 2e-4
+#: Largest timestep accepted (s): a step beyond 10 ms cannot resolve the floor contact of any beam here (a value in
+#: ms given as s).
+MAX_ROBOT_TIMESTEP = 1e-2
 #: Ranges accepted: a friction coefficient beyond 10 or a retardation time beyond 1 s is a unit mistake.
 MAX_FRICTION = 10.0
 MAX_RETARDATION_TIME = 1.0
@@ -93,6 +100,11 @@ class Robot:
         The default periodic field (open-loop gait), or None.
     segments : int
         Rod segments the simulator uses by default, in [2, 1000].
+    timestep : float
+        MuJoCo timestep (s) the simulator uses by default, in (0, 0.01]. With ``segments``, the robot's own
+        numerics: what its crawl needs to converge (the paper robots' files state the error they give;
+        docs/convergence.md). The gaits and the floor environments both use them unless told otherwise
+        (``fidelity=``, ``segments=``, ``timestep=`` / ``sim_dt=``).
     paper_speed : float or None
         Speed a reference reports (m/s, signed along +x), for comparison only.
     paper_direction : str
@@ -110,6 +122,7 @@ class Robot:
     retardation_time: float = DEFAULT_RETARDATION_TIME
     drive: Waveparams | None = None
     segments: int = DEFAULT_SEGMENTS
+    timestep: float = DEFAULT_TIMESTEP
     paper_speed: float | None = None
     paper_direction: str = ""
     reverse: bool = False
@@ -132,6 +145,11 @@ class Robot:
         if self.drive is not None and not isinstance(self.drive, Waveparams):
             raise ValueError(f"Robot.drive must be a Waveparams or None, got {type(self.drive).__name__}.")
         object.__setattr__(self, "segments", integer("Robot.segments", self.segments, *SEGMENTS_RANGE))
+        dt = finite_number("Robot.timestep", self.timestep, unit="s")
+        if not 0.0 < dt <= MAX_ROBOT_TIMESTEP:
+            raise ValueError(f"Robot.timestep must lie in (0, {MAX_ROBOT_TIMESTEP:g}] s, got {self.timestep!r} "
+                             "(seconds: 0.1 ms is 0.0001).")
+        object.__setattr__(self, "timestep", dt)
         if self.paper_speed is not None:
             object.__setattr__(self, "paper_speed", finite_number("Robot.paper_speed", self.paper_speed, unit="m/s"))
         choice("Robot.paper_direction", self.paper_direction, DIRECTIONS)
@@ -172,7 +190,7 @@ class Robot:
                             "phase_deg": to_degrees(d.phase)}
             if d.coil_time:
                 out["drive"]["coil_time_ms"] = to_milli(d.coil_time)
-        out["simulation"] = {"segments": self.segments}
+        out["simulation"] = {"segments": self.segments, "timestep_ms": to_milli(self.timestep)}
         if self.paper_speed is not None or self.paper_direction:
             paper = {}
             if self.paper_speed is not None:
@@ -209,7 +227,7 @@ class Robot:
         contact = data.get("contact", {})
         check_keys(f"{where} contact", contact, _CONTACT_KEYS)
         sim = data.get("simulation", {})
-        check_keys(f"{where} simulation", sim, ("segments",))
+        check_keys(f"{where} simulation", sim, ("segments", "timestep_ms"))
         paper = data.get("paper", {})
         check_keys(f"{where} paper", paper, _PAPER_KEYS)
         drive = None
@@ -223,6 +241,7 @@ class Robot:
             retardation_time=_milli(f"{where} contact retardation_time_ms",
                                     contact.get("retardation_time_ms", DEFAULT_RETARDATION_TIME * 1e3), "ms"),
             drive=drive, segments=sim.get("segments", DEFAULT_SEGMENTS),
+            timestep=_milli(f"{where} simulation timestep_ms", sim.get("timestep_ms", DEFAULT_TIMESTEP * 1e3), "ms"),
             paper_speed=None if speed is None else _milli(f"{where} paper speed_mm_per_s", speed, "mm/s"),
             paper_direction=paper.get("direction", ""), reverse=data.get("reverse", False),
         )
@@ -232,7 +251,8 @@ class Robot:
         b = self.beam
         out = {"name": self.name, "length_mm": b.length / MM, "width_mm": b.width / MM,
                "thickness_mm": b.thickness / MM, "friction": self.friction,
-               "retardation_time_ms": self.retardation_time * 1e3, "segments": self.segments}
+               "retardation_time_ms": self.retardation_time * 1e3, "segments": self.segments,
+               "timestep_ms": self.timestep * 1e3}
         if self.drive is not None:
             out["drive"] = self.drive.describe()
         return out
@@ -330,5 +350,6 @@ def resolve_robot(value, *, name: str = "robot") -> Robot:
         raise ValueError(msg if msg.startswith(name) or name == "robot" else f"{name}: {msg}") from None
 
 
-__all__ = ["DEFAULT_FRICTION", "DEFAULT_RETARDATION_TIME", "DEFAULT_SEGMENTS", "FORMAT_VERSION", "ROBOT_SUFFIXES",
+__all__ = ["DEFAULT_FRICTION", "DEFAULT_RETARDATION_TIME", "DEFAULT_SEGMENTS", "DEFAULT_TIMESTEP", "FORMAT_VERSION",
+           "ROBOT_SUFFIXES",
            "Robot", "list_robots", "load_robot", "resolve_robot", "robots_dir"]

@@ -32,12 +32,15 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                      help="robot file (.yml, .yaml, .json; Robot.save, magsoft design) with a drive block")
     p.add_argument("--reverse", action="store_true", help="invert B_x (paper Fig. 5c: reverses the direction)")
     p.add_argument("--seconds", type=float, default=4.0, help="simulated time in s (default 4)")
-    p.add_argument("--timestep-ms", type=float, default=None, help="simulation step in ms (default 0.1)")
+    p.add_argument("--timestep-ms", type=float, default=None,
+                   help="simulation step in ms (default: the robot's own, 0.1 / 0.025 / 0.2 ms for paper-5a / 5b / 5c, "
+                        "0.2 ms for a robot file that states none)")
     p.add_argument("--fidelity", choices=["fast", "fine", "converged"], default=None,
                    help="named numerics instead of --segments/--timestep-ms: fast (20 segments, 0.2 ms), fine (80, "
                         "0.1 ms), converged (80, 0.025 ms); errors in docs/convergence.md")
     p.add_argument("--segments", type=int, default=None,
-                   help="rod segments (default: the preset's, 40 for paper-5b and 20 for the others)")
+                   help="rod segments (default: the robot's own, 80 / 80 / 20 for paper-5a / 5b / 5c, 20 for a robot "
+                        "file that states none)")
     p.add_argument("--waveform", choices=["sine", "square"], default=None,
                    help="drive shape (default: the preset's, a sine); square = switched at the sine's zero "
                         "crossings (docs/envs.md, 'The drive waveform')")
@@ -70,14 +73,7 @@ def run(args) -> int:
         raise ValueError(f"--seconds must be > 0 (s) and finite, got {args.seconds}.")
     if args.fidelity is not None and (args.timestep_ms is not None or args.segments is not None):
         raise ValueError("give --fidelity or --segments/--timestep-ms, not both.")
-    if args.fidelity is not None:
-        from magsoft_env.cases.gaits import FIDELITY
-
-        args.segments, dt = FIDELITY[args.fidelity]
-        args.timestep_ms = dt * 1e3
-    if args.timestep_ms is None:
-        args.timestep_ms = 0.1
-    if not 0 < args.timestep_ms <= 10:
+    if args.timestep_ms is not None and not 0 < args.timestep_ms <= 10:
         raise ValueError(f"--timestep-ms must lie in (0, 10] ms, got {args.timestep_ms}.")
     if args.segments is not None and not 2 <= args.segments <= 1000:
         raise ValueError(f"--segments must be an integer in [2, 1000], got {args.segments}.")
@@ -108,7 +104,8 @@ def run(args) -> int:
         preset = dataclasses.replace(preset, friction=args.friction)
     if args.face_down:
         preset = dataclasses.replace(preset, beam=_turned_over(args.preset))
-    res = run_gait(preset, args.seconds, segments=args.segments, timestep=args.timestep_ms * 1e-3)
+    res = run_gait(preset, args.seconds, segments=args.segments, fidelity=args.fidelity,
+                   timestep=None if args.timestep_ms is None else args.timestep_ms * 1e-3)
     out = res.to_dict()
     out["paper_speed_mm_s"] = None if preset.paper_speed is None else preset.paper_speed * 1e3
     out["paper_direction"] = preset.paper_direction
@@ -119,8 +116,7 @@ def run(args) -> int:
     }
     out["friction"] = preset.friction
     out["face_down"] = bool(args.face_down)
-    out["segments"] = preset.segments if args.segments is None else args.segments
-    out["timestep_ms"] = args.timestep_ms
+    out["fidelity"] = args.fidelity
     short = _short_run_warning(res, preset.wave.frequency)
     out["short_run"] = short is not None  # speed over less than one whole field period after the warm-up
     out["speed_window_periods"] = res.window * preset.wave.frequency
@@ -143,6 +139,9 @@ def run(args) -> int:
               f"direction {out['direction']}")
         print(f"paper: {_paper_values(preset)}; max height {out['max_height_mm']:.2f} mm, "
               f"max link rotation {out['max_link_rotation_deg']:.0f} deg; {out['wall_time_s']:.1f} s wall")
+        given = (f"fidelity {args.fidelity}" if args.fidelity else "the robot's own"
+                 if args.segments is None and args.timestep_ms is None else "as given")
+        print(f"numerics: {res.segments} segments, {res.timestep * 1e3:g} ms ({given}; docs/convergence.md)")
         if short is not None:
             print(f"warning: {short}")
         if not res.success:

@@ -42,7 +42,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--height", type=int, default=540, help="pixels (default 540)")
     p.add_argument("--panel", action="store_true",
                    help="add a panel of x(t) and B(t) to the right (the frame grows by 0.9 x --height)")
-    p.add_argument("--timestep-ms", type=float, default=0.1, help="simulation step for --preset, ms (default 0.1)")
+    p.add_argument("--timestep-ms", type=float, default=None,
+                   help="simulation step for --preset, ms (default: the robot's own, as magsoft gait)")
     p.add_argument("--out", type=Path, required=True, help="output file, .mp4 or .gif")
     p.set_defaults(run=run)
     return p
@@ -92,17 +93,8 @@ def run(args) -> int:
         v = getattr(args, name)
         if not 16 <= v <= 4096:
             raise ValueError(f"--{name} must be an integer in [16, 4096] pixels, got {v}.")
-    if not 0 < args.timestep_ms <= 10:
+    if args.timestep_ms is not None and not 0 < args.timestep_ms <= 10:
         raise ValueError(f"--timestep-ms must lie in (0, 10] ms, got {args.timestep_ms}.")
-    if gait and args.seconds / (args.timestep_ms * 1e-3) > _MAX_STEPS:
-        raise ValueError(f"--seconds / --timestep-ms = {args.seconds:g} s / {args.timestep_ms:g} ms is more than "
-                         f"{_MAX_STEPS:.0e} simulation steps; use fewer seconds or a larger timestep.")
-    frames = (args.seconds * (args.fps if gait else _ENV_FPS) + 1)
-    width = args.width + (_panel_width(args.height) if args.panel else 0)
-    if frames * width * args.height * 3 > _MAX_FRAME_BYTES:
-        raise ValueError(f"the video would hold about {frames:.3g} frames of {width} x {args.height} pixels "
-                         f"({frames * width * args.height * 3 / 2**30:.3g} GiB) in memory, more than "
-                         f"{_MAX_FRAME_BYTES / 2**30:g} GiB; use fewer --seconds, a lower --fps or a smaller frame.")
     if args.policy is not None and args.env is None:
         raise ValueError("--policy needs --env (the environment the policy was trained on).")
     robot = None
@@ -115,10 +107,20 @@ def run(args) -> int:
 
         # an unknown name: the closest one suggested; a robot without a drive: refused
         preset = gait_preset(robot if robot is not None else args.preset, reverse=args.reverse)
+        step_ms = args.timestep_ms if args.timestep_ms is not None else preset.timestep * 1e3
+        if args.seconds / (step_ms * 1e-3) > _MAX_STEPS:
+            raise ValueError(f"--seconds / --timestep-ms = {args.seconds:g} s / {step_ms:g} ms is more than "
+                             f"{_MAX_STEPS:.0e} simulation steps; use fewer seconds or a larger timestep.")
     else:
         _check_env_id(args.env)
         if args.policy is not None and not args.policy.is_file():
             raise ValueError(f"--policy must be an existing model .zip, got {str(args.policy)!r}.")
+    frames = (args.seconds * (args.fps if gait else _ENV_FPS) + 1)
+    width = args.width + (_panel_width(args.height) if args.panel else 0)
+    if frames * width * args.height * 3 > _MAX_FRAME_BYTES:
+        raise ValueError(f"the video would hold about {frames:.3g} frames of {width} x {args.height} pixels "
+                         f"({frames * width * args.height * 3 / 2**30:.3g} GiB) in memory, more than "
+                         f"{_MAX_FRAME_BYTES / 2**30:g} GiB; use fewer --seconds, a lower --fps or a smaller frame.")
     # choose the GL backend before anything imports mujoco
     from magsoft_env.gl import RenderBackendError, select_gl_backend
 
@@ -131,7 +133,8 @@ def run(args) -> int:
 
     if gait:
         _, summary = render_gait(preset, args.seconds, args.out, fps=args.fps, width=args.width, height=args.height,
-                                 timestep=args.timestep_ms * 1e-3, scene=args.scene, panel=args.panel)
+                                 timestep=None if args.timestep_ms is None else args.timestep_ms * 1e-3,
+                                 scene=args.scene, panel=args.panel)
     else:
         policy, env_kwargs = None, {}
         if args.policy is not None:

@@ -9,6 +9,7 @@ import mujoco
 import numpy as np
 from gymnasium import spaces
 
+from ..cases.gaits import numerics
 from ..cases.robots import resolve_robot
 from ..sim import PhaseShifted, Ramp, SimulationError, Simulator
 from ..sim.gait import gait_rod_options
@@ -24,7 +25,8 @@ from . import refuse_unknown_kwargs
 DEFAULT_FIELD_LIMIT = 2e-3
 #: Default control interval in "field" mode (s).
 DEFAULT_CTRL_DT = 0.02
-#: Default simulation step (s): crawl speeds within ~20 % of dt -> 0 at 0.2 ms, not at 0.5 ms (docs/envs.md).
+#: Simulation step (s) of a robot whose file states none (``sim_dt=None`` takes the robot's own numerics,
+#: :func:`magsoft_env.cases.gaits.numerics`; docs/convergence.md).
 DEFAULT_SIM_DT = 2e-4
 #: Largest clearance (m) of the rod's lowest point above the floor at the end of a step (``max_clearance``): a
 #: crawl keeps part of the beam on the floor; a jump clears it. Random actions at the 2 mT default lift the lowest
@@ -140,8 +142,10 @@ class MagSoftCrawlEnv(gym.Env):
     | ``field_limit`` | 0.002 | coil limit per axis (T); the crawl window ends near 2.5-3 mT |
     | ``slew_rate`` | None | largest field change rate per axis (T/s); None: unlimited |
     | ``ctrl_dt`` | 0.02 | control interval in field mode (s), >= ``sim_dt`` |
-    | ``sim_dt`` | 2e-4 | simulation step (s), in (0, 0.1]; at most 1e7 steps per env step |
-    | ``segments`` | 20 | rod cells |
+    | ``sim_dt`` | None | simulation step (s), in (0, 0.1]; at most 1e7 steps per env step; None: the robot's own |
+    | ``segments`` | None | rod cells; None: the robot's own |
+    | ``fidelity`` | None | named numerics instead of ``sim_dt`` and ``segments``: ``"fast"`` (20, 0.2 ms), ``"fine"`` |
+    | | | (80, 0.1 ms), ``"converged"`` (80, 0.025 ms); None: the robot's own (see "Numerics") |
     | ``friction`` | None | rod-floor sliding friction; None: the robot's (0.5 for the paper robots) |
     | ``target_direction`` | 1 | +1: reward motion along +x; -1: along -x |
     | ``forward_reward_weight`` | 1000 | (s/m) |
@@ -160,7 +164,24 @@ class MagSoftCrawlEnv(gym.Env):
     | ``width``, ``height`` | 960, 540 | frame size (pixels) |
 
     The robot brings its beam (geometry, material, profiles), friction, hinge damping
-    (``Robot.retardation_time``) and drive (the open-loop gait of :meth:`open_loop_action`).
+    (``Robot.retardation_time``), drive (the open-loop gait of :meth:`open_loop_action`) and numerics.
+
+    ## Numerics
+
+    The env and :func:`~magsoft_env.sim.gait.run_gait` build the same rod
+    (:func:`~magsoft_env.sim.gait.gait_rod_options`) at the same numerics: the robot's own (``Robot.segments``,
+    ``Robot.timestep``) unless ``fidelity`` or ``segments``/``sim_dt`` say otherwise. The paper robots' own are
+    the cheapest measured to be within 5 % of the converged crawl (3 s displacement against a 4x finer step at
+    80 segments / speed against the converged reference; docs/convergence.md):
+
+    | robot | segments, sim_dt | error | wall time per simulated s (one core) | observation size |
+    |---|---|---|---|---|
+    | paper-5c (this env's default) | 20, 0.2 ms (``"fast"``) | 2.1 / 2.2 % | 0.3 s | 48 |
+    | paper-5a (the channel's) | 80, 0.1 ms (``"fine"``) | 1.9 / 1.9 % | 4.6 s | 168 |
+    | paper-5b (the obstacle's) | 80, 0.025 ms (``"converged"``) | 1.3 / 0.4 % | 10 s | 168 |
+
+    ``fidelity="fast"`` trains on any robot at 0.3-0.4 s per simulated second, with the error stated there
+    (5a 4-17 %, 5b 31 %). A robot file that states no numerics runs at ``"fast"``'s.
 
     ## Version History
 
@@ -178,8 +199,9 @@ class MagSoftCrawlEnv(gym.Env):
         field_limit: float = DEFAULT_FIELD_LIMIT,
         slew_rate: float | None = None,
         ctrl_dt: float = DEFAULT_CTRL_DT,
-        sim_dt: float = DEFAULT_SIM_DT,
-        segments: int = 20,
+        sim_dt: float | None = None,
+        segments: int | None = None,
+        fidelity: str | None = None,
         friction: float | None = None,
         target_direction: int = 1,
         forward_reward_weight: float = 1000.0,
@@ -206,7 +228,11 @@ class MagSoftCrawlEnv(gym.Env):
         if self.field_limit > 0.1:
             raise ValueError(f"field_limit must be <= 0.1 T (fields are in tesla: 20 mT is 0.02), got {field_limit!r}.")
         self.slew_rate = None if slew_rate is None else positive("slew_rate", slew_rate, unit="T/s")
-        self.sim_dt = positive("sim_dt", sim_dt, unit="s")
+        if sim_dt is not None:
+            positive("sim_dt", sim_dt, unit="s")
+        # one physics with the gaits: the robot's own numerics unless a level or explicit ones are given
+        segments, self.sim_dt = numerics(self.gait, fidelity=fidelity, segments=segments, timestep=sim_dt)
+        self.fidelity = fidelity
         if self.sim_dt > MAX_TIMESTEP:
             raise ValueError(f"sim_dt must lie in (0, {MAX_TIMESTEP:g}] s, got {sim_dt!r}.")
         self.ctrl_dt = positive("ctrl_dt", ctrl_dt, unit="s")

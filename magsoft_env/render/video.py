@@ -48,7 +48,8 @@ def _check_size(width, height) -> tuple[int, int]:
 
 def render_gait(
     preset, seconds: float, path=None, *, fps: float = 25.0, width: int = 960, height: int = 540,
-    timestep: float = 1e-4, segments: int = 20, scene: str = "floor", panel: bool = False, overlay=None,
+    timestep: float | None = None, segments: int | None = None, scene: str = "floor", panel: bool = False,
+    overlay=None,
 ) -> tuple[list[np.ndarray], dict]:
     """Frames of an open-loop gait (a :class:`~magsoft_env.cases.robots.Robot` with a drive), optionally written.
 
@@ -68,10 +69,10 @@ def render_gait(
         Frames per simulated second (the video plays in real time).
     width, height : int
         Frame size (pixels) of the side view; ``panel`` adds its width to the right.
-    timestep : float
-        Simulation step (s).
-    segments : int
-        Rod segments.
+    timestep : float or None
+        Simulation step (s); None: the robot's own (as :func:`~magsoft_env.sim.gait.run_gait`).
+    segments : int or None
+        Rod segments; None: the robot's own.
     scene : str
         ``floor``, ``channel`` or ``obstacle``.
     panel : bool

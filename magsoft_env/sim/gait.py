@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..cases.gaits import FIDELITY, GAIT_CONTACT_GEOM, GAIT_ROD_OPTIONS, GAIT_TIMESTEP, gait_preset
+from ..cases.gaits import GAIT_CONTACT_GEOM, GAIT_ROD_OPTIONS, gait_preset, numerics
 from ..cases.robots import Robot
 from ..units import MM
 from ..validate import nonnegative, positive
@@ -27,18 +27,19 @@ from .waveforms import as_waveform
 
 
 def gait_rod_options(robot: Robot, *, scene: str = "floor", segments: int | None = None,
-                     timestep: float = GAIT_TIMESTEP, render: bool = False, feature_x: float | None = None,
-                     friction: float | None = None) -> RodOptions:
+                     timestep: float | None = None, render: bool = False, feature_x: float | None = None,
+                     friction: float | None = None, fidelity: str | None = None) -> RodOptions:
     """The :class:`~magsoft_env.sim.RodOptions` of a robot on the floor: its friction and hinge damping
     (retardation time), capsule colliders, the beam's own contact time constant and the pinned
     :data:`~magsoft_env.cases.gaits.GAIT_ROD_OPTIONS`.
 
-    ``segments`` ``None``: the robot's own; ``friction`` ``None``: the robot's own. The gaits
-    and the floor environments build their rods here, so both describe the same physics.
+    ``segments``, ``timestep`` ``None``: the robot's own numerics (``Robot.segments``, ``Robot.timestep``), or
+    the named level ``fidelity`` (:func:`~magsoft_env.cases.gaits.numerics`); ``friction`` ``None``: the robot's
+    own. The gaits and the floor environments build their rods here, so both describe the same physics.
     """
     if not isinstance(robot, Robot):
         raise ValueError(f"robot must be a magsoft_env.Robot (see load_robot), got {type(robot).__name__}.")
-    segments = robot.segments if segments is None else segments
+    segments, timestep = numerics(robot, fidelity=fidelity, segments=segments, timestep=timestep)
     friction = robot.friction if friction is None else friction
     return RodOptions(scene=scene, segments=segments, timestep=timestep, friction=friction,
                       render=render, feature_x=feature_x, contact_geom=GAIT_CONTACT_GEOM,
@@ -96,6 +97,8 @@ class GaitResult:
         (:attr:`Simulator.energy_drift`, dimensionless): about 0 in a resolved run.
     unphysical : str
         ``""``, or the reason an unphysical motion (penetration, tunnelling, launch) stopped the run.
+    segments, timestep : int, float
+        The numerics the run used: rod segments and MuJoCo timestep (s).
     """
 
     name: str
@@ -118,6 +121,8 @@ class GaitResult:
     energy_drift: float = math.nan
     unphysical: str = ""
     window: float = math.nan
+    segments: int = 0
+    timestep: float = math.nan
     whole_periods: bool = True
 
     def to_dict(self) -> dict:
@@ -135,6 +140,8 @@ class GaitResult:
             "max_link_rotation_deg": math.degrees(self.max_link_rotation),
             "max_lift_left_mm": self.max_lift_left / MM,
             "max_lift_right_mm": self.max_lift_right / MM,
+            "segments": self.segments,
+            "timestep_ms": self.timestep * 1e3,
             "wall_time_s": self.wall_time,
             "success": self.success,
             "message": self.message,
@@ -172,12 +179,14 @@ def run_gait(
     seconds : float
         Simulated time (s), > 0, at most :data:`~magsoft_env.sim.health.MAX_STEPS` steps.
     segments : int or None
-        Rod segments; ``None``: the preset's own (``preset.segments``).
+        Rod segments; ``None``: the robot's own (``preset.segments``).
     timestep : float or None
-        Simulation step (s); None: 0.1 ms (:data:`~magsoft_env.cases.gaits.GAIT_TIMESTEP`).
+        Simulation step (s); ``None``: the robot's own (``preset.timestep``). The paper robots' own numerics are
+        within 5 % of the converged crawl (5a 1.9 %, 5b 0.5 %, 5c 2.7 %; docs/convergence.md).
     fidelity : {"fast", "fine", "converged"} or None
         Named numerics (segments and timestep, :data:`~magsoft_env.cases.gaits.FIDELITY`, with the crawl error
-        each gives against the converged reference); not with ``segments`` or ``timestep``.
+        each gives against the converged reference); not with ``segments`` or ``timestep``. ``None``: the
+        robot's own.
     warmup_cycles : float
         Field periods excluded from the speed (start-up transient); the displacement covers
         the whole run.
@@ -190,14 +199,7 @@ def run_gait(
         ``success`` False (and the partial record) when the rod became unstable.
     """
     preset = gait_preset(preset)  # a name or a path loads; a robot without a drive is refused
-    if fidelity is not None:
-        if fidelity not in FIDELITY:
-            raise ValueError(f"fidelity must be one of {list(FIDELITY)} or None, got {fidelity!r}.")
-        if segments is not None or timestep is not None:
-            raise ValueError(f"give fidelity or segments/timestep, not both: got fidelity={fidelity!r}, "
-                             f"segments={segments!r}, timestep={timestep!r}.")
-        segments, timestep = FIDELITY[fidelity]
-    timestep = GAIT_TIMESTEP if timestep is None else timestep
+    segments, timestep = numerics(preset, fidelity=fidelity, segments=segments, timestep=timestep)
     seconds = positive("seconds", seconds, unit="s")
     warmup_cycles = nonnegative("warmup_cycles", warmup_cycles)
     sample_dt = positive("sample_dt", sample_dt, unit="s")
@@ -242,6 +244,7 @@ def run_gait(
         success=ok, message=msg, max_lift_left=lift_l, max_lift_right=lift_r,
         max_penetration=sim.max_penetration, max_penetration_h=sim.max_penetration / preset.beam.thickness,
         energy_drift=sim.energy_drift, unphysical=unphysical, window=float(t[i1] - t[i0]), whole_periods=whole,
+        segments=options.segments, timestep=options.timestep,
     )
 
 
