@@ -13,8 +13,9 @@ the pinned :data:`~magsoft_env.cases.gaits.GAIT_ROD_OPTIONS`), with some rod opt
   Per N, Richardson extrapolation in dt where the sequence is monotone and regular (observed order p from
   the last three levels, 0.5 <= p <= 4); the reference is the finest N, extrapolated where regular; its
   uncertainty is the larger of the dt error and the N error (:func:`reference` says how each is taken).
-* ``colliders``: cheaper contact and collider settings (spheres, pyramidal cone, fewer solver iterations,
-  a looser tolerance, noslip) at the candidate defaults, each against the reference.
+* ``colliders``: other contact, collider and integrator settings (spheres, pyramidal cone, fewer solver
+  iterations, a looser tolerance, noslip, the implicitfast and Euler integrators, MuJoCo's broad phase instead of
+  the explicit rod-floor pairs) at the candidate defaults, each against the reference.
 * ``sensitivity``: the physical parameters around their values at numerics within 2.5 % of the reference
   (:data:`SENSITIVITY_NUMERICS`): the contact time constant (0.5x, 1x, 2x the material's), friction (0.3,
   0.5, 0.7), the hinge retardation time (2.5, 5, 10 ms), and creep suppressed (``noslip_iterations`` 10;
@@ -65,6 +66,9 @@ COLLIDER_VARIANTS = {
     "solver 20 iterations": {"solver_iterations": 20},
     "solver tolerance 1e-6": {"solver_tolerance": 1e-6},
     "noslip 10": {"noslip_iterations": 10},
+    "integrator implicitfast": {"integrator": "implicitfast"},
+    "integrator euler": {"integrator": "euler"},
+    "broad phase (no explicit pairs)": {"contact_pairs": False},
 }
 #: Physical parameters of the ``sensitivity`` section: (label, overrides); ``tc_factor`` scales the
 #: material contact time constant.
@@ -81,6 +85,26 @@ SENSITIVITY = (
 #: Numerics (N, dt in ms) of the ``sensitivity`` section, per gait: within 2.5 % of each reference
 #: (docs/convergence.md); a contact stiffer than the material's runs at a proportionally smaller step.
 SENSITIVITY_NUMERICS = {"paper-5a": (80, 0.05), "paper-5b": (80, 0.025), "paper-5c": (80, 0.05)}
+
+
+#: Where the ``--scene`` runs put each scene's feature (its left edge, m), so that the scene's own robot meets it
+#: from the start: the channel (``MagSoftChannel-v0``'s robot, paper-5a) with the whole beam inside, 8.5 mm from the
+#: entrance; the block (``MagSoftObstacle-v0``'s robot, paper-5b, which crawls left) 1 mm left of the beam's end.
+SCENES = {"channel": -8.5e-3, "obstacle": -8e-3}
+
+
+def parse_scene(text: str) -> dict:
+    """``"channel"`` or ``"obstacle:-8"`` (feature x in mm) as RodOptions replacements; ValueError otherwise."""
+    name, _, x = text.partition(":")
+    if name not in SCENES:
+        raise ValueError(f"--scene must be one of {sorted(SCENES)} (optionally NAME:FEATURE_X_MM), got {text!r}.")
+    try:
+        fx = float(x) * MM if x else SCENES[name]
+    except ValueError:
+        raise ValueError(f"--scene {text!r}: the feature x after ':' must be a number of mm.") from None
+    if not math.isfinite(fx):
+        raise ValueError(f"--scene {text!r}: the feature x must be finite.")
+    return {"scene": name, "feature_x": fx}
 
 
 def crawl_run(gait: str, *, seconds: float = SECONDS, segments: int = 20, timestep: float = 1e-4,
@@ -149,14 +173,17 @@ def _key(gait, seconds, segments, timestep_ms, extra) -> str:
 class Runner:
     """Runs :func:`crawl_run` with a JSON cache (rewritten after every run: nothing is lost)."""
 
-    def __init__(self, cache: str | None, *, seconds: float, verbose: bool = True, cached_only: bool = False):
+    def __init__(self, cache: str | None, *, seconds: float, verbose: bool = True, cached_only: bool = False,
+                 common: dict | None = None):
         self.cache, self.seconds, self.verbose, self.cached_only = cache, seconds, verbose, cached_only
+        self.common = dict(common or {})  # RodOptions replacements of every run (the scene)
         self.rows: dict[str, dict] = {}
         if cache and os.path.exists(cache):
             with open(cache) as f:
                 self.rows = json.load(f)
 
     def __call__(self, gait: str, segments: int, timestep_ms: float, **extra) -> dict | None:
+        extra = {**self.common, **extra}
         key = _key(gait, self.seconds, segments, timestep_ms, extra)
         if key not in self.rows and self.cached_only:
             return None
@@ -367,6 +394,9 @@ def main(argv=None) -> int:
     p.add_argument("--json", default=None, help="write the results here")
     p.add_argument("--cache", default=None, help="JSON file of finished runs, reused and extended")
     p.add_argument("--cached-only", action="store_true", help="run nothing: tabulate the cached runs")
+    p.add_argument("--scene", default=None, metavar="NAME[:FEATURE_X_MM]",
+                   help="run every gait in this scene instead of the open floor: channel or obstacle, with the "
+                        "feature's left edge at FEATURE_X_MM (default: SCENES, where the gait meets the feature)")
     a = p.parse_args(argv)
     gaits = tuple(a.gaits.split(","))
     if a.quick:
@@ -380,8 +410,9 @@ def main(argv=None) -> int:
     if a.timesteps_ms:
         dts = tuple(float(s) for s in a.timesteps_ms.split(","))
     sections = set(a.sections.split(","))
-    run = Runner(a.cache, seconds=seconds, cached_only=a.cached_only)
-    out: dict = {"seconds": seconds, "gaits": gaits}
+    scene = parse_scene(a.scene) if a.scene else {}
+    run = Runner(a.cache, seconds=seconds, cached_only=a.cached_only, common=scene)
+    out: dict = {"seconds": seconds, "gaits": gaits, "scene": scene or {"scene": "floor"}}
     print(f"grid: {gaits} x N {segs} x dt {dts} ms, {seconds:g} s each", flush=True)
     grid = run_grid(run, gaits, segs, dts)
     refs = {g: {q: reference(grid, g, q) for q in ("displacement_mm", "speed_mm_s")} for g in gaits}

@@ -78,6 +78,10 @@ class _Vector:
     def __init__(self, mode: str, env_id: str, n: int, seed: int = 1, **kwargs):
         import gymnasium as gym
 
+        mode, _, threads = mode.partition(":")  # "batched:4": the batched env on 4 threads
+        if threads:
+            kwargs = {**kwargs, "num_threads": int(threads)}
+
         self.n = n
         self.rng = np.random.default_rng(seed)
         if mode == "subproc":
@@ -202,6 +206,10 @@ def main(argv=None) -> int:
     p.add_argument("--sizes", type=int, nargs="+", default=[1, 2, 8, 32], help="numbers of envs")
     p.add_argument("--only", default=",".join(MODES), help=f"comma-separated subset of {','.join(MODES)}")
     p.add_argument("--bound-steps", type=int, default=200, help="control steps replayed for the C bound")
+    p.add_argument("--batched-threads", default="",
+                   help="comma list of thread counts: extra rows of the batched env on that many threads (its default "
+                        "is min(num_envs, CPUs); more threads than CPUs let one robot's C step run while another "
+                        "thread waits for the GIL)")
     args = p.parse_args(argv)
     only = [m.strip() for m in args.only.split(",") if m.strip()]
     bad = sorted(set(only) - set(MODES))
@@ -216,6 +224,13 @@ def main(argv=None) -> int:
     print(f"# {env_id}, random actions, {args.seconds:g} s per cell; {usable_cpus()} CPUs, load average "
           f"{_load()} (1, 5, 15 min)")
     rows = [m for m in ("batched", "sync", "async", "subproc") if m in only]
+    try:
+        extra_threads = [int(t) for t in args.batched_threads.split(",") if t.strip()]
+    except ValueError:
+        raise SystemExit(f"--batched-threads must be a comma list of integers, got {args.batched_threads!r}") from None
+    if any(t < 1 for t in extra_threads):
+        raise SystemExit(f"--batched-threads must be >= 1, got {args.batched_threads!r}")
+    rows[1:1] = [f"batched:{t}" for t in extra_threads]
     base = None
     if rows:
         print("\nAggregate env steps/s, median of the rounds (in brackets: median ratio to the single env loop "
@@ -227,7 +242,8 @@ def main(argv=None) -> int:
         print(f"| single env loop (baseline) | {' | '.join(cells)} |")
         for mode in rows:
             cells = [f"{table[n][mode][0]:.0f} ({table[n][mode][1]:.2f}x)" for n in args.sizes]
-            print(f"| {mode} | {' | '.join(cells)} |")
+            label = f"batched, {mode.partition(':')[2]} threads" if mode.startswith("batched:") else mode
+            print(f"| {label} | {' | '.join(cells)} |")
         base = float(np.median([table[n]["single"][0] for n in args.sizes]))
         print(f"\nload average after the table: {_load()}")
     elif "single" in only:

@@ -323,3 +323,42 @@ def crosscheck_figure(name: str, theory_results: Sequence, sims: dict, path) -> 
     ax.set_title(f"{name}: theory vs MuJoCo rod")
     ax.legend(fontsize=7)
     return save_figure(fig, path)
+
+
+#: Colours of the paper robots in the time-against-error figure.
+ROBOT_COLORS = {"paper-5a": PALETTE["theory"], "paper-5b": PALETTE["field"], "paper-5c": PALETTE["target"]}
+
+
+@styled
+def frontier_figure(results: dict, path, *, tolerance: float = 0.05) -> Path:
+    """Time against error, one panel per scene (:mod:`magsoft_env.bench.frontier`): every run's error (%, the
+    larger of its displacement and speed errors) against its wall time per simulated second, log-log; the
+    frontier joined per robot, the robot's own numerics ringed, ``tolerance`` dashed; the reference's own run
+    (``"reference"`` True) is left out.
+
+    ``results``: ``{scene: {robot: {"rows": [...], "own_numerics": (N, dt_ms)}}}`` as ``frontier`` builds it."""
+    floor_pct = 0.05  # errors below this (%) are drawn at it: a log axis has no zero
+    fig, axes = _figure(1, len(results), size=(3.6 * len(results), 3.4))
+    for ax, (scene, per_robot) in zip(axes[0], results.items(), strict=True):
+        for robot, res in per_robot.items():
+            c = ROBOT_COLORS.get(robot, PALETTE["robot"])
+            rows = [r for r in res["rows"] if not r.get("reference")]
+            ax.scatter([r["wall_per_sim_s"] for r in rows], [max(100.0 * r["error"], floor_pct) for r in rows],
+                       s=12, color=c, alpha=0.4, lw=0)
+            fr = [r for r in rows if r["frontier"]]
+            ax.step([r["wall_per_sim_s"] for r in fr], [max(100.0 * r["error"], floor_pct) for r in fr],
+                    where="post", color=c, label=robot)
+            own = tuple(res["own_numerics"])
+            for r in rows:
+                if (r["segments"], r["timestep_ms"]) == own:
+                    ax.scatter([r["wall_per_sim_s"]], [max(100.0 * r["error"], floor_pct)], s=70,
+                               facecolors="none", edgecolors=c, lw=1.6)
+        ax.axhline(100.0 * tolerance, color=PALETTE["muted"], ls="--", lw=0.9)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_title(scene)
+        ax.set_xlabel("wall time per simulated second (s)")
+        ax.legend(loc="upper right")
+    axes[0][0].set_ylabel("crawl error against the reference (%)")
+    fig.suptitle(f"Time against error (3 s crawls; ring: the robot's own numerics; dashed: {100 * tolerance:g} %)")
+    return save_figure(fig, path)
