@@ -55,9 +55,9 @@ GAITS = ("paper-5a", "paper-5b", "paper-5c")
 SEGMENTS = (10, 20, 40, 80)
 TIMESTEPS_MS = (0.4, 0.2, 0.1, 0.05, 0.025)
 SECONDS = 3.0
-#: Where the issue's tolerances put the fidelity levels (relative error against the reference, on every
-#: gait, of both the 3 s displacement and the speed).
-FIDELITY_TOLERANCE = {"fast": 0.20, "default": 0.05, "converged": 0.02}
+#: The tolerances the knee is searched at (relative error against the reference, on every gait, of both the 3 s
+#: displacement and the speed); the levels chosen from them are :data:`magsoft_env.cases.gaits.FIDELITY`.
+FIDELITY_TOLERANCE = {"fast": 0.20, "fine": 0.05, "converged": 0.02}
 #: Option overrides of the ``colliders`` section (name -> RodOptions replacements).
 COLLIDER_VARIANTS = {
     "as pinned (capsule, elliptic, 100 it, tol 1e-8)": {},
@@ -328,22 +328,6 @@ def knee(table: list[dict], gaits=GAITS, tolerance: float = 0.05, *, robust: boo
                     "errors": {g: {"displacement": rows[g]["error_displacement"], "speed": rows[g]["error_speed"]}
                                for g in gaits}}
     return best
-
-
-#: Proposed fidelity levels (measured, docs/convergence.md; not applied: the lead applies them in envs/ and
-#: cases/): ``segments`` and ``timestep`` (s) for :func:`~magsoft_env.sim.gait.gait_rod_options`, everything else
-#: as the gaits pin it (material contact, capsules, elliptic cone, noslip 0). Errors of the 3 s displacement /
-#: the speed against the reference, 3 s runs, wall time per simulated second on this 2-vCPU machine:
-#:
-#: * ``fast`` (today's environment default): 5a 4.3 %, 5c 2.7 %, 5b 31 %; 0.37 s per simulated s. 5a's 4.3 % is
-#:   a lucky point of an irregular sequence: at N = 20 it is 4-17 % for dt <= 0.2 ms.
-#: * ``default``: 5a 1.9 %, 5c 2.0 %, 5b 9.6 % (8.3 % speed); 3.7 s/s. Robust: at 0.05 ms 2.4 / 0.6 / 14.6 %.
-#: * ``converged``: every gait within 1.0 % (5b 0.5 %), the only grid point with 5b within 5 %; 11.6 s/s.
-FIDELITY = {
-    "fast": {"segments": 20, "timestep": 2e-4},
-    "default": {"segments": 80, "timestep": 1e-4},
-    "converged": {"segments": 80, "timestep": 2.5e-5},
-}
 
 
 def _fmt(x, spec="+.4f"):
