@@ -80,3 +80,16 @@ def test_frontier_quick_runs_every_scene_and_draws(tmp_path):
     runs = json.loads(cache.read_text())
     assert frontier.main(["--quick", "--cache", str(cache), "--cached-only"]) == 0  # tabulates without running
     assert json.loads(cache.read_text()) == runs
+
+
+def test_feature_cost_variants_that_skip_work_leave_the_crawl_unchanged():
+    # bench/feature_cost.py: the features the model skips or could skip (broad phase vs explicit pairs, islands,
+    # the penetration sensor, the Jacobian's storage) must not change the trajectory; the cone and noslip do
+    from magsoft_env.bench.feature_cost import feature_costs
+
+    rows = {r["variant"]: r for r in feature_costs("paper-5c", seconds=0.1, rounds=1, fidelity="fast")}
+    assert all(r["finite"] and r["us_per_step"] > 0 for r in rows.values())
+    for name in ("broad phase instead of explicit pairs", "islands on", "contact sensor off", "dense Jacobian",
+                 "solver 20 iterations"):
+        assert abs(rows[name]["displacement_change_mm"]) < 1e-9, name
+    assert abs(rows["noslip 10"]["displacement_change_mm"]) > 1e-9  # it changes the friction solve

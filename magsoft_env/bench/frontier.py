@@ -155,6 +155,22 @@ def main(argv=None) -> int:
                   + (f"): N {k['segments']}, {k['timestep_ms']:g} ms, {100 * k['error']:.1f} %, "
                      f"{k['wall_per_sim_s']:.2f} s/s{', robust (the next finer step too)' if k['robust'] else ''}"
                      if k else "): none in the grid"))
+    if results:
+        print("\n### Summary\n")
+        print("| scene | robot | reference speed (mm/s) | robot's own numerics | error | wall / sim s | knee (within "
+              f"{100 * TOLERANCE:g} %) | error | wall / sim s |")
+        print("|---|---|---|---|---|---|---|---|---|")
+        for scene, per_robot in results.items():
+            for robot, res in per_robot.items():
+                rv = res["reference"]["speed_mm_s"]
+                own = next((r for r in res["rows"] if (r["segments"], r["timestep_ms"]) == tuple(res["own_numerics"])),
+                           None)
+                k = res["knee"]
+                own_txt = (f"N {own['segments']}, {own['timestep_ms']:g} ms | {100 * own['error']:.1f} % | "
+                           f"{own['wall_per_sim_s']:.2f}") if own else "not in the grid | | "
+                k_txt = (f"N {k['segments']}, {k['timestep_ms']:g} ms{'' if k['robust'] else ' (not robust)'} | "
+                         f"{100 * k['error']:.1f} % | {k['wall_per_sim_s']:.2f}") if k else "none in the grid | | "
+                print(f"| {scene} | {robot} | {rv['value']:+.3f} +- {rv['uncertainty']:.3f} | {own_txt} | {k_txt} |")
     if a.plot and results:
         from magsoft_env.render.figures import frontier_figure
 
