@@ -7,7 +7,9 @@ Every row is one :func:`magsoft_env.gaits.run_gait` of a preset with some of its
 replaced (field, friction, segments, timestep); the speed is the centre-of-mass speed along +x
 after the first field period. Groups:
 
-* ``presets``: the three presets as shipped (``--reverse`` for 5c), defaults of ``magsoft gait``.
+* ``presets``: the three presets as shipped (``--reverse`` for 5c), defaults of ``magsoft gait`` (each robot's
+  own numerics). The other groups run the study numerics the docs tables were measured at
+  (:data:`STUDY_SEGMENTS`, :data:`STUDY_TIMESTEP`) unless a row says otherwise.
 
 The groups ``5a-field``, ``5a-robot``, ``5a-frequency``, ``5a-friction`` and ``5a-numerics``
 run the single-V 5a robot (``beam_5a(vees=1)``), so that they reproduce the docs table measured
@@ -43,10 +45,16 @@ import json
 import math
 import sys
 
-from magsoft_env.cases.gaits import GAIT_TIMESTEP, PAPER_5A_VEES, beam_5a, beam_5b, gait_preset
+from magsoft_env.cases.gaits import PAPER_5A_VEES, beam_5a, beam_5b, gait_preset
 from magsoft_env.sim.gait import run_gait
 from magsoft_env.spec.drive import Waveparams
 from magsoft_env.units import MT
+
+#: The numerics the study tables of docs/envs.md were measured at (before 0.4.0 gave each robot its own): 20
+#: segments (40 for paper-5b) at 0.1 ms. Every group but ``presets`` runs them unless its row says otherwise, so
+#: that the tables reproduce; ``presets`` runs each robot at its own numerics, as ``magsoft gait`` does.
+STUDY_SEGMENTS = {"paper-5a": 20, "paper-5b": 40, "paper-5c": 20}
+STUDY_TIMESTEP = 1e-4
 
 
 @dataclasses.dataclass(frozen=True)
@@ -58,8 +66,8 @@ class Case:
     reverse: bool = False
     wave: Waveparams | None = None
     friction: float | None = None
-    segments: int | None = None  # None: the preset's own
-    timestep: float = GAIT_TIMESTEP
+    segments: int | None = None  # None: STUDY_SEGMENTS (group "presets": the robot's own)
+    timestep: float | None = STUDY_TIMESTEP  # None: the robot's own
     label: str = ""
     jig_angle_deg: float | None = None  # paper-5a only: V-jig angle (preset 15 deg)
     face_down: bool = False  # paper-5a and paper-5b: the other face on the floor
@@ -72,8 +80,9 @@ def _w(bx_mT: float, bz_mT: float, f: float = 2.0, phase_deg: float = 0.0) -> Wa
 
 def cases(groups=None) -> list[Case]:
     """The sweep's rows, optionally only the named groups."""
-    out = [Case("presets", "paper-5a"), Case("presets", "paper-5b"), Case("presets", "paper-5c"),
-           Case("presets", "paper-5c", reverse=True)]
+    own = {"timestep": None}  # the robots' own numerics (segments None too)
+    out = [Case("presets", "paper-5a", **own), Case("presets", "paper-5b", **own), Case("presets", "paper-5c", **own),
+           Case("presets", "paper-5c", reverse=True, **own)]
     for bz in (1.0, 1.25, 1.5, 2.0, 2.5):
         out.append(Case("5a-field", "paper-5a", wave=_w(0.0, bz), label="oscillating B_z"))
     for bx in (2.0, 5.0, 6.0, 7.0):
@@ -199,12 +208,14 @@ def run_case(case: Case, seconds: float) -> dict:
         angle = math.radians(15.0 if case.jig_angle_deg is None else case.jig_angle_deg)
         p = dataclasses.replace(p, beam=beam_5a(angle, face_down=case.face_down,
                                                    vees=PAPER_5A_VEES if case.vees is None else case.vees))
-    r = run_gait(p, seconds, segments=case.segments, timestep=case.timestep)
+    segments = case.segments
+    if segments is None and case.timestep is not None:
+        segments = STUDY_SEGMENTS.get(case.preset)
+    r = run_gait(p, seconds, segments=segments, timestep=case.timestep)
     w = p.wave
     d = r.to_dict()
     d.update(preset=case.preset, group=case.group, label=case.label, reverse=case.reverse,
-             segments=p.segments if case.segments is None else case.segments,
-             timestep_ms=case.timestep * 1e3, friction=p.friction, bx_mT=w.amplitude_x / MT,
+             segments=r.segments, timestep_ms=r.timestep * 1e3, friction=p.friction, bx_mT=w.amplitude_x / MT,
              bz_mT=w.amplitude_z / MT, frequency_Hz=w.frequency, phase_deg=math.degrees(w.phase),
              shape=w.shape, coil_ms=w.coil_time * 1e3,
              paper_direction=p.paper_direction,
