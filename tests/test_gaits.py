@@ -282,3 +282,11 @@ def test_fidelity_levels_set_the_numerics():
         run_gait(gait_preset("paper-5c"), 0.05, fidelity="exact")
     with pytest.raises(ValueError, match="not both"):
         run_gait(gait_preset("paper-5c"), 0.05, fidelity="fast", segments=10)
+
+
+def test_run_gait_shows_progress_on_request(capsys):
+    quiet = run_gait(gait_preset("paper-5c"), 0.2, segments=6, timestep=5e-4)
+    assert capsys.readouterr().err == ""
+    shown = run_gait(gait_preset("paper-5c"), 0.2, segments=6, timestep=5e-4, progress=True)
+    assert "of 0.2 s simulated" in capsys.readouterr().err
+    assert shown.displacement == quiet.displacement  # the bar changes nothing
