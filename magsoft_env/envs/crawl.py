@@ -186,6 +186,8 @@ class MagSoftCrawlEnv(gym.Env):
     ## Version History
 
     - v0: initial version (magsoft_env 0.1).
+    - v0, magsoft_env 0.4: ``sim_dt`` and ``segments`` default to the robot's own numerics (paper-5c: 20 and
+      0.2 ms, as before); ``fidelity`` added.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 50}

@@ -46,6 +46,8 @@ class MagSoftObstacleEnv(MagSoftCrawlEnv):
     ## Version History
 
     - v0: initial version (magsoft_env 0.1).
+    - v0, magsoft_env 0.4: the robot's own numerics by default: paper-5b runs 80 segments at 0.025 ms (was 20 at
+      0.2 ms, 31 % off), so the observation has 168 entries (was 48); ``fidelity="fast"`` restores the old numerics.
     """
 
     _scene = "obstacle"
