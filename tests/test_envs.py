@@ -269,6 +269,11 @@ def test_floor_envs_run_each_robots_own_numerics_unless_told():
     for level, (n, dt) in FIDELITY.items():
         u = gym.make("MagSoftObstacle-v0", fidelity=level).unwrapped
         assert (u.segments, u.sim_dt, u.sim.options.timestep, u.fidelity) == (n, dt, dt, level)
+    # a robot's numerics for the scene: paper-5c under the channel's ceiling
+    u = gym.make("MagSoftChannel-v0", robot="paper-5c").unwrapped
+    assert (u.segments, u.sim_dt) == (40, 1e-4)
+    assert (gym.make("MagSoftCrawl-v0").unwrapped.segments, gym.make("MagSoftObstacle-v0", robot="paper-5c")
+            .unwrapped.segments) == (20, 20)
     u = gym.make("MagSoftChannel-v0", segments=10, sim_dt=5e-4).unwrapped
     assert (u.segments, u.sim_dt) == (10, 5e-4)
     with pytest.raises(ValueError, match="not both"):

@@ -119,6 +119,27 @@ def test_robot_numerics_round_trip_and_default(tmp_path):
     with pytest.raises(ValueError, match="timestep"):
         load_robot(tmp_path / "bad.yml")
 
+    # a scene's own numerics (the channel's ceiling needs finer ones for paper-5c: docs/convergence.md)
+    from magsoft_env.cases.gaits import numerics
+
+    c = load_robot("paper-5c")
+    assert c.scene_numerics == (("channel", 40, 1e-4),)
+    assert numerics(c) == numerics(c, scene="obstacle") == (20, 2e-4)
+    assert numerics(c, scene="channel") == (40, 1e-4) and numerics(c, scene="channel", segments=10) == (10, 1e-4)
+    assert numerics(c, scene="channel", fidelity="fast") == (20, 2e-4)
+    assert load_robot(c.save(tmp_path / "c.yml")) == c
+    for bad, message in ((("tunnel", 40, 1e-4),), "scene must be one of"), \
+                        ((("channel", 40, 1e-4), ("channel", 20, 1e-4)), "twice"), \
+                        ((("channel", 40, 0.5),), "timestep must lie in"), ((("channel", 1, 1e-4),), "segments"):
+        with pytest.raises(ValueError, match=message):
+            plain.replace(scene_numerics=bad)
+    (tmp_path / "bad2.yml").write_text(text + "simulation: {scenes: {chanel: {segments: 40, timestep_ms: 0.1}}}\n")
+    with pytest.raises(ValueError, match="Did you mean 'channel'"):
+        load_robot(tmp_path / "bad2.yml")
+    (tmp_path / "bad3.yml").write_text(text + "simulation: {scenes: {channel: {segments: 40}}}\n")
+    with pytest.raises(ValueError, match="needs key 'timestep_ms'"):
+        load_robot(tmp_path / "bad3.yml")
+
 
 @pytest.mark.parametrize("content,message", [
     ("name: x\nbeam: {width_mm: 5, thickness_mm: 1, length_mm: 20}\ncontakt: {}\n", "Did you mean 'contact'"),

@@ -103,11 +103,13 @@ def knee(rows: list[dict], tolerance: float = TOLERANCE) -> dict | None:
     return {**ok[0], "robust": False} if ok else None
 
 
-def own_numerics(robot: str) -> tuple[int, float]:
+def own_numerics(robot: str, scene: str = "floor") -> tuple[int, float]:
+    """The robot's own (segments, timestep in ms) in ``scene`` (its file's numerics for that scene)."""
+    from magsoft_env.cases.gaits import numerics
     from magsoft_env.cases.robots import load_robot
 
-    r = load_robot(robot)
-    return r.segments, r.timestep * 1e3
+    n, dt = numerics(load_robot(robot), scene=scene)
+    return n, dt * 1e3
 
 
 def main(argv=None) -> int:
@@ -135,7 +137,7 @@ def main(argv=None) -> int:
             k = knee(rows)
             results.setdefault(scene, {})[robot] = {"rows": rows, "reference": {
                 q: {kk: r[kk] for kk in ("value", "uncertainty", "relative_uncertainty")} for q, r in refs.items()},
-                "knee": k, "own_numerics": own_numerics(robot)}
+                "knee": k, "own_numerics": own_numerics(robot, scene)}
     for scene, per_robot in results.items():
         for robot, res in per_robot.items():
             rd, rv = res["reference"]["displacement_mm"], res["reference"]["speed_mm_s"]

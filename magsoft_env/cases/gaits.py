@@ -113,10 +113,11 @@ def beam_5b(*, face_down: bool = False) -> Beam:
 PAPER_5A_VEES = 2
 
 def numerics(robot: Robot, *, fidelity: str | None = None, segments: int | None = None,
-             timestep: float | None = None) -> tuple[int, float]:
-    """The ``(segments, timestep)`` a floor simulation of ``robot`` runs at: the named level ``fidelity``
-    (:data:`FIDELITY`), or the robot's own numerics (``robot.segments``, ``robot.timestep``) with ``segments`` and
-    ``timestep`` (s) replacing them where given. The gaits and the floor environments both resolve here.
+             timestep: float | None = None, scene: str = "floor") -> tuple[int, float]:
+    """The ``(segments, timestep)`` a simulation of ``robot`` in ``scene`` runs at: the named level ``fidelity``
+    (:data:`FIDELITY`), or the robot's own numerics for that scene (``robot.scene_numerics`` where it names the
+    scene, else ``robot.segments`` and ``robot.timestep``) with ``segments`` and ``timestep`` (s) replacing them
+    where given. The gaits, the videos and the floor environments all resolve here.
 
     Raises
     ------
@@ -135,7 +136,8 @@ def numerics(robot: Robot, *, fidelity: str | None = None, segments: int | None 
             raise ValueError(f"give fidelity or segments/timestep, not both: got fidelity={fidelity!r}, "
                              f"segments={segments!r}, timestep={timestep!r}.")
         return FIDELITY[fidelity]
-    return (robot.segments if segments is None else segments, robot.timestep if timestep is None else timestep)
+    own = next(((n, dt) for sc, n, dt in robot.scene_numerics if sc == scene), (robot.segments, robot.timestep))
+    return (own[0] if segments is None else segments, own[1] if timestep is None else timestep)
 
 
 def list_gaits() -> tuple[str, ...]:

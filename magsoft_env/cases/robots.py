@@ -15,7 +15,8 @@ File format (YAML or JSON by the extension; units in the key names; every key ch
            magnetization: {kind: jig_polyline, x_mm: [0, 12.5, 25], z_mm: [0, -3, 0]}}
     contact: {friction: 0.5, retardation_time_ms: 5}
     drive: {shape: sine, amplitude_x_mT: 0, amplitude_z_mT: 2, frequency_Hz: 2, phase_deg: 0}
-    simulation: {segments: 20, timestep_ms: 0.2}   # optional: the robot's own numerics (default 20, 0.2 ms)
+    simulation: {segments: 20, timestep_ms: 0.2,   # optional: the robot's own numerics (default 20, 0.2 ms),
+                 scenes: {channel: {segments: 40, timestep_ms: 0.1}}}   # and a scene's, where they differ
     paper: {speed_mm_per_s: -0.85, direction: left}    # optional: what a reference reports
 
 The beam block and its profile kinds are those of :mod:`magsoft_env.cases.beamfile`.
@@ -64,6 +65,9 @@ DEFAULT_TIMESTEP = 2e-4
 #: Largest timestep accepted (s): a step beyond 10 ms cannot resolve the floor contact of any beam here (a value in
 #: ms given as s).
 MAX_ROBOT_TIMESTEP = 1e-2
+#: Scenes a robot may state its own numerics for (``simulation: {scenes: {channel: {...}}}``): the floor scenes of
+#: :mod:`magsoft_env.sim.model`.
+NUMERICS_SCENES = ("floor", "channel", "obstacle")
 #: Ranges accepted: a friction coefficient beyond 10 or a retardation time beyond 1 s is a unit mistake.
 MAX_FRICTION = 10.0
 MAX_RETARDATION_TIME = 1.0
@@ -105,6 +109,10 @@ class Robot:
         numerics: what its crawl needs to converge (the paper robots' files state the error they give;
         docs/convergence.md). The gaits and the floor environments both use them unless told otherwise
         (``fidelity=``, ``segments=``, ``timestep=`` / ``sim_dt=``).
+    scene_numerics : tuple of (scene, segments, timestep)
+        Numerics for a scene whose contacts need others than the floor's (``"channel"``, ``"obstacle"``):
+        the floor environments and videos of that scene use them instead of ``segments`` and ``timestep``. At
+        most one entry per scene.
     paper_speed : float or None
         Speed a reference reports (m/s, signed along +x), for comparison only.
     paper_direction : str
@@ -123,6 +131,7 @@ class Robot:
     drive: Waveparams | None = None
     segments: int = DEFAULT_SEGMENTS
     timestep: float = DEFAULT_TIMESTEP
+    scene_numerics: tuple = ()
     paper_speed: float | None = None
     paper_direction: str = ""
     reverse: bool = False
@@ -145,11 +154,8 @@ class Robot:
         if self.drive is not None and not isinstance(self.drive, Waveparams):
             raise ValueError(f"Robot.drive must be a Waveparams or None, got {type(self.drive).__name__}.")
         object.__setattr__(self, "segments", integer("Robot.segments", self.segments, *SEGMENTS_RANGE))
-        dt = finite_number("Robot.timestep", self.timestep, unit="s")
-        if not 0.0 < dt <= MAX_ROBOT_TIMESTEP:
-            raise ValueError(f"Robot.timestep must lie in (0, {MAX_ROBOT_TIMESTEP:g}] s, got {self.timestep!r} "
-                             "(seconds: 0.1 ms is 0.0001).")
-        object.__setattr__(self, "timestep", dt)
+        object.__setattr__(self, "timestep", _timestep("Robot.timestep", self.timestep))
+        object.__setattr__(self, "scene_numerics", _scene_numerics(self.scene_numerics))
         if self.paper_speed is not None:
             object.__setattr__(self, "paper_speed", finite_number("Robot.paper_speed", self.paper_speed, unit="m/s"))
         choice("Robot.paper_direction", self.paper_direction, DIRECTIONS)
@@ -191,6 +197,9 @@ class Robot:
             if d.coil_time:
                 out["drive"]["coil_time_ms"] = to_milli(d.coil_time)
         out["simulation"] = {"segments": self.segments, "timestep_ms": to_milli(self.timestep)}
+        if self.scene_numerics:
+            out["simulation"]["scenes"] = {sc: {"segments": n, "timestep_ms": to_milli(dt)}
+                                           for sc, n, dt in self.scene_numerics}
         if self.paper_speed is not None or self.paper_direction:
             paper = {}
             if self.paper_speed is not None:
@@ -227,7 +236,14 @@ class Robot:
         contact = data.get("contact", {})
         check_keys(f"{where} contact", contact, _CONTACT_KEYS)
         sim = data.get("simulation", {})
-        check_keys(f"{where} simulation", sim, ("segments", "timestep_ms"))
+        check_keys(f"{where} simulation", sim, ("segments", "timestep_ms", "scenes"))
+        scenes = sim.get("scenes", {})
+        check_keys(f"{where} simulation scenes", scenes, NUMERICS_SCENES)
+        scene_numerics = []
+        for sc, block in scenes.items():
+            w = f"{where} simulation scenes {sc}"
+            check_keys(w, block, ("segments", "timestep_ms"), required=("segments", "timestep_ms"))
+            scene_numerics.append((sc, block["segments"], _milli(f"{w} timestep_ms", block["timestep_ms"], "ms")))
         paper = data.get("paper", {})
         check_keys(f"{where} paper", paper, _PAPER_KEYS)
         drive = None
@@ -242,6 +258,7 @@ class Robot:
                                     contact.get("retardation_time_ms", DEFAULT_RETARDATION_TIME * 1e3), "ms"),
             drive=drive, segments=sim.get("segments", DEFAULT_SEGMENTS),
             timestep=_milli(f"{where} simulation timestep_ms", sim.get("timestep_ms", DEFAULT_TIMESTEP * 1e3), "ms"),
+            scene_numerics=tuple(scene_numerics),
             paper_speed=None if speed is None else _milli(f"{where} paper speed_mm_per_s", speed, "mm/s"),
             paper_direction=paper.get("direction", ""), reverse=data.get("reverse", False),
         )
@@ -256,6 +273,32 @@ class Robot:
         if self.drive is not None:
             out["drive"] = self.drive.describe()
         return out
+
+
+def _timestep(name: str, value) -> float:
+    dt = finite_number(name, value, unit="s")
+    if not 0.0 < dt <= MAX_ROBOT_TIMESTEP:
+        raise ValueError(f"{name} must lie in (0, {MAX_ROBOT_TIMESTEP:g}] s, got {value!r} "
+                         "(seconds: 0.1 ms is 0.0001).")
+    return dt
+
+
+def _scene_numerics(entries) -> tuple:
+    """``Robot.scene_numerics`` checked: (scene, segments, timestep) triples, one per scene, scenes in
+    :data:`NUMERICS_SCENES`."""
+    if isinstance(entries, (str, bytes)) or not hasattr(entries, "__iter__"):
+        raise ValueError(f"Robot.scene_numerics must be a tuple of (scene, segments, timestep), got {entries!r}.")
+    out, seen = [], set()
+    for e in entries:
+        if not isinstance(e, (tuple, list)) or len(e) != 3:
+            raise ValueError(f"Robot.scene_numerics entries must be (scene, segments, timestep), got {e!r}.")
+        scene = choice("Robot.scene_numerics scene", e[0], NUMERICS_SCENES)
+        if scene in seen:
+            raise ValueError(f"Robot.scene_numerics names scene {scene!r} twice.")
+        seen.add(scene)
+        out.append((scene, integer(f"Robot.scene_numerics[{scene!r}] segments", e[1], *SEGMENTS_RANGE),
+                    _timestep(f"Robot.scene_numerics[{scene!r}] timestep", e[2])))
+    return tuple(out)
 
 
 def _milli(name: str, raw, unit: str) -> float:

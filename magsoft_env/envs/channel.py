@@ -47,11 +47,12 @@ class MagSoftChannelEnv(MagSoftCrawlEnv):
 
     ## Numerics
 
-    As ``MagSoftCrawl-v0``: the robot's own, which were chosen on the open floor (paper-5a: 80 segments at
-    0.1 ms, 1.9 % there). Under the ceiling the contact events change, and so does what converges
-    (docs/convergence.md, section 5, measured with the beam inside the box): paper-5c, 20 segments at 0.2 ms
-    on the floor (2 %), is 27 % off inside the box, where 40 segments at 0.1 ms are within 4.8 % (robust;
-    ``segments=40, sim_dt=1e-4``) and 80 at 0.05 ms within 1.8 %. paper-5a does not crawl inside the box
+    As ``MagSoftCrawl-v0``: the robot's own for this scene (a robot file's ``simulation: {scenes: {channel:
+    ...}}``, else its floor numerics; paper-5a: 80 segments at 0.1 ms, 1.9 % on the floor). Under the ceiling
+    the contact events change, and so does what converges (docs/convergence.md, section 5, measured with the
+    beam inside the box): paper-5c, 20 segments at 0.2 ms on the floor (2 %), is 27 % off inside the box, where
+    40 segments at 0.1 ms are within 4.8 % (robust) and 80 at 0.05 ms within 1.8 %; its file states 40 at 0.1 ms
+    for the channel, which this env uses. paper-5a does not crawl inside the box
     (under 0.05 mm/s either way at every setting from 20 segments and 0.1 ms, against +0.49 mm/s on the
     floor), so only its floor crawl up to the entrance has a measured error.
 

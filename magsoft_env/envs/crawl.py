@@ -233,7 +233,8 @@ class MagSoftCrawlEnv(gym.Env):
         if sim_dt is not None:
             positive("sim_dt", sim_dt, unit="s")
         # one physics with the gaits: the robot's own numerics unless a level or explicit ones are given
-        segments, self.sim_dt = numerics(self.gait, fidelity=fidelity, segments=segments, timestep=sim_dt)
+        segments, self.sim_dt = numerics(self.gait, fidelity=fidelity, segments=segments, timestep=sim_dt,
+                                         scene=self._scene)
         self.fidelity = fidelity
         if self.sim_dt > MAX_TIMESTEP:
             raise ValueError(f"sim_dt must lie in (0, {MAX_TIMESTEP:g}] s, got {sim_dt!r}.")

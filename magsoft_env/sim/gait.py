@@ -39,7 +39,7 @@ def gait_rod_options(robot: Robot, *, scene: str = "floor", segments: int | None
     """
     if not isinstance(robot, Robot):
         raise ValueError(f"robot must be a magsoft_env.Robot (see load_robot), got {type(robot).__name__}.")
-    segments, timestep = numerics(robot, fidelity=fidelity, segments=segments, timestep=timestep)
+    segments, timestep = numerics(robot, fidelity=fidelity, segments=segments, timestep=timestep, scene=scene)
     friction = robot.friction if friction is None else friction
     return RodOptions(scene=scene, segments=segments, timestep=timestep, friction=friction,
                       render=render, feature_x=feature_x, contact_geom=GAIT_CONTACT_GEOM,
