@@ -127,6 +127,47 @@ def test_held_field_blocks_equal_stepping_one_step_at_a_time():
     assert hist.nsample == CONTACT_HISTORY
 
 
+def test_stepping_interleaves_simulators_block_by_block_without_changing_them():
+    # two simulators advanced in turn, a few steps each, on one thread (as the batched envs do): each
+    # ends bit for bit where step() alone takes it, with the same records; the caller's warning
+    # handler is back between blocks
+    beam, opts = gait_preset("paper-5b").beam, RodOptions(scene="floor", timestep=2e-4, segments=12)
+    fields = [(2e-3, 1e-3), (-1e-3, 2.5e-3)]
+    alone, paired = [], []
+    for f in fields:
+        for group in (alone, paired):
+            group.append(Simulator(beam, opts, field=f))
+    for sim in alone:
+        sim.step(180)
+    seen = []
+    handler = seen.append
+    prev = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(handler)
+    try:
+        runs = [sim.stepping(180, block=7) for sim in paired]
+        blocks = [0, 0]
+        live = [0, 1]
+        while live:
+            for i in list(live):
+                try:
+                    next(runs[i])
+                    blocks[i] += 1
+                    assert mujoco.get_mju_user_warning() is handler
+                except StopIteration:
+                    live.remove(i)
+    finally:
+        mujoco.set_mju_user_warning(prev)
+    assert blocks[0] >= 180 // 7  # it did yield between blocks
+    for a, b in zip(alone, paired, strict=True):
+        np.testing.assert_array_equal(a.data.qpos, b.data.qpos)
+        np.testing.assert_array_equal(a.data.qvel, b.data.qvel)
+        assert (a.nstep, a.time, a.max_penetration, a.energy_drift) == (b.nstep, b.time, b.max_penetration,
+                                                                          b.energy_drift)
+    assert not seen
+    with pytest.raises(ValueError, match="block must be None or a positive integer"):
+        next(alone[0].stepping(10, block=0))
+
+
 def test_paper_gait_trajectory_agrees_between_paths():
     # 0.3 s of the cosine-jig crawler on its stiff floor (3000 steps of 0.1 ms, per-step fields):
     # measured max |dq| 3.5e-13 (m, rad) between the paths; contact may amplify round-off, so the

@@ -41,11 +41,13 @@ def _robot(info: dict, i: int) -> dict:
     return {k: v[i] for k, v in info.items() if not k.startswith("_") and info[f"_{k}"][i]}
 
 
-@pytest.mark.parametrize("num_threads", [1, 2])
-def test_every_robot_is_the_single_env_through_episode_ends(num_threads):
+@pytest.mark.parametrize("num_threads, block", [(1, 25), (2, 25), (2, 3)])
+def test_every_robot_is_the_single_env_through_episode_ends(num_threads, block):
+    # block 3: each robot's 20-substep control step runs as 7 native blocks, interleaved with the others'
     kw = {**FAST, "max_episode_steps": 25}  # time limits as well as tumbles
-    envs = gym.make_vec("MagSoftCrawl-v0", num_envs=3, num_threads=num_threads, **kw)
-    assert isinstance(envs, MagSoftCrawlVecEnv) and envs.num_threads == num_threads
+    envs = gym.make_vec("MagSoftCrawl-v0", num_envs=3, num_threads=num_threads, block=block, **kw)
+    assert isinstance(envs, MagSoftCrawlVecEnv) and envs.num_threads == num_threads and envs.block == block
+    assert envs.envs[0].n_substeps == 20
     assert envs.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
     actions = np.random.default_rng(3).uniform(-1, 1, (60, 3, 2)).astype(np.float32)
     got = [(*envs.reset(seed=11), None, None, None)]
@@ -117,14 +119,15 @@ def test_an_unphysical_robot_truncates_alone_with_the_single_envs_info():
     assert r[0] == 0.0 and not trunc[0] and info["time"][0] == 0.0 and info["time"][1] > 0.0
 
 
-def test_mujoco_warnings_reach_the_robot_that_raised_them():
+@pytest.mark.parametrize("block", [25, 2])
+def test_mujoco_warnings_reach_the_robot_that_raised_them(block):
     # at 20 mT and 1 ms the 6-segment rod blows up (bad qacc) after a few hundred steps: every simulator's
     # warning text and step must be its own while two threads step them (one process-wide MuJoCo handler)
     kw = {"segments": 6, "sim_dt": 1e-3, "field_limit": 0.02, "crawl_mode": "none"}
     t = np.arange(30)
     wild = np.stack([np.sin(t), np.cos(1.3 * t)], axis=1).astype(np.float32)
     actions = np.stack([wild, np.zeros_like(wild), wild[::-1].copy()], axis=1)
-    envs = gym.make_vec("MagSoftCrawl-v0", num_envs=3, num_threads=2, **kw)
+    envs = gym.make_vec("MagSoftCrawl-v0", num_envs=3, num_threads=2, block=block, **kw)
     envs.reset(seed=[0, 0, 0])
     reasons = [None, None, None]
     for a in actions:
@@ -170,6 +173,7 @@ def test_make_vec_takes_the_single_envs_kwargs():
     ({"num_thread": 2}, "Did you mean 'num_threads'"),
     ({"num_threads": 0}, "num_threads must be an integer >= 1"),
     ({"max_episode_steps": 0}, "max_episode_steps must be an integer >= 1"),
+    ({"block": 0}, "block must be an integer >= 1"),
     ({"field_limit": -1.0}, "field_limit must be > 0"),
 ])
 def test_bad_arguments_are_refused(kwargs, match):
@@ -222,10 +226,29 @@ def test_vec_bench_runs_its_rows(capsys):
     # the benchmark's numbers are not checked (timings never are), only that its rows run and print
     from magsoft_env.bench import vec_bench
 
-    assert vec_bench.main(["--env-id", "MagSoftCrawl-v0", "--seconds", "0.05", "--sizes", "1", "2", "--only",
-                           "single,batched,bound", "--bound-steps", "3"]) == 0
+    assert vec_bench.main(["--env-id", "MagSoftCrawl-v0", "--seconds", "0.05", "--rounds", "2", "--sizes", "1", "2",
+                           "--only", "single,batched,machine,bound", "--bound-steps", "3"]) == 0
     out = capsys.readouterr().out
-    assert "single env loop (baseline)" in out and out.count("| batched |") == 1
+    assert "single env, robots in turn (baseline)" in out and out.count("| batched |") == 1
+    assert "| C step alone, 2 threads |" in out and "The machine's own 2-thread scaling" in out
     assert "C alone, 2 threads" in out and "1000 env steps/s on 2 cores needs <= 20 us" in out
     with pytest.raises(SystemExit, match="unknown mode"):
         vec_bench.main(["--only", "batched,gpu"])
+    with pytest.raises(SystemExit, match="--rounds"):
+        vec_bench.main(["--rounds", "0"])
+
+
+def test_vec_bench_baseline_runs_the_batched_envs_trajectories():
+    # the fixed-work comparison holds only if the baseline's robots are the batched env's, step for step
+    from magsoft_env.bench.vec_bench import _Single, _Vector
+
+    single = _Single("MagSoftCrawl-v0", 3, **FAST)
+    batched = _Vector("batched", "MagSoftCrawl-v0", 3, **FAST)
+    for _ in range(40):  # through episode ends (FAST tumbles within tens of steps)
+        single.step()
+        batched.step()
+    obs = np.array([env.unwrapped._get_obs() for env in single.envs])
+    assert any(env.unwrapped.sim.nstep < 40 * env.unwrapped.n_substeps for env in single.envs)  # some reset
+    np.testing.assert_array_equal(obs, [env._get_obs() for env in batched.venv.envs])
+    single.close()
+    batched.close()

@@ -4,12 +4,18 @@
                                           [--only single,batched,sync,async,subproc,bound]
 
 Every row steps its robots with random actions, uniform in [-1, 1]^2 (the default +-2 mT field
-limit), episodes ending and restarting as in training (autoreset; the single env resets itself), and
-gives aggregate env steps per second. For each number of envs, the vector envs and the single env
-loop take turns, ``--seconds / 3`` of wall time each (after one warm-up step), 3 rounds, so that all
-see the same load: the median rate, and the median of the per-round ratios to the single env:
+limit), episodes ending and restarting as in training (autoreset), and gives aggregate env steps per
+second. For each number of envs the measurement is fixed work, interleaved: every row starts from
+the same seeds and draws the same actions, so the baseline and the Gymnasium-semantics vector envs run
+the very same trajectories (the batched env bit for bit, tested); in each of ``--rounds`` rounds every
+row takes the same number of calls (the baseline's round lasting about ``--seconds / --rounds``), in
+alternating order, so that the slow and fast spells of this shared machine (its speed on a fixed
+workload swings by up to 1.5x within a second) fall on all of them alike. The table gives the rate over
+all rounds and its ratio to the baseline's (the same work), with the lowest and highest ratio over five
+runs of consecutive rounds:
 
-* ``single``: one ``gym.make`` env in a loop, in this process: the baseline.
+* ``single``: the baseline, the single env: ``n`` ``gym.make`` envs stepped one after another in this
+  process (seeded and autoreset as the vector envs' robots), so its rate is one env's.
 * ``batched``: :class:`~magsoft_env.envs.vector.MagSoftCrawlVecEnv` (``gym.make_vec``, its default
   threads: ``min(n, CPUs)``).
 * ``sync`` / ``async``: Gymnasium's ``SyncVectorEnv`` / ``AsyncVectorEnv`` (one process per env) of
@@ -33,7 +39,7 @@ import time
 
 import numpy as np
 
-MODES = ("single", "batched", "sync", "async", "subproc", "bound")
+MODES = ("single", "batched", "sync", "async", "subproc", "machine", "bound")
 
 
 def _actions(rng, shape) -> np.ndarray:
@@ -53,23 +59,34 @@ def _timed(step, seconds: float) -> float:
 
 
 class _Single:
-    """One ``gym.make`` env stepped in a loop (reset when an episode ends)."""
+    """The single env: ``n`` ``gym.make`` envs, seeded ``seed + i`` as the vector envs seed their robots,
+    stepped one after another in this process with the vector envs' action stream, each reset at the step
+    after its episode ended (their NEXT_STEP autoreset): the batched env's trajectories, one robot at a time."""
 
-    def __init__(self, env_id: str, seed: int = 0, **kwargs):
+    def __init__(self, env_id: str, n: int = 1, seed: int = 1, **kwargs):
         import gymnasium as gym
 
-        self.env = gym.make(env_id, **kwargs)
-        self.env.reset(seed=seed)
+        self.envs = [gym.make(env_id, **kwargs) for _ in range(n)]
+        for i, env in enumerate(self.envs):
+            env.reset(seed=seed + i)
+        self.done = [False] * n
+        self.n = n
         self.rng = np.random.default_rng(seed)
 
     def step(self) -> int:
-        _, _, term, trunc, _ = self.env.step(_actions(self.rng, (2,)))
-        if term or trunc:
-            self.env.reset()
-        return 1
+        actions = _actions(self.rng, (self.n, 2))
+        for i, env in enumerate(self.envs):
+            if self.done[i]:
+                env.reset()
+                self.done[i] = False
+                continue
+            _, _, term, trunc, _ = env.step(actions[i])
+            self.done[i] = term or trunc
+        return self.n
 
     def close(self) -> None:
-        self.env.close()
+        for env in self.envs:
+            env.close()
 
 
 class _Vector:
@@ -108,23 +125,126 @@ class _Vector:
         self.venv.close()
 
 
-def throughput(env_id: str, n: int, modes, *, seconds: float = 3.0, rounds: int = 3, **kwargs) -> dict:
-    """Aggregate env steps/s of ``n`` envs in each vector env of ``modes`` and of the single env loop,
-    measured in turn (``seconds / rounds`` each, ``rounds`` times) so that all see the same load:
-    ``{mode: (median rate, median of the per-round ratios to the single env)}``; ``"single"``: (rate, 1)."""
-    steppers = {"single": _Single(env_id, **kwargs)}
+class _CAlone:
+    """The machine's own scaling, measured alongside: the C step alone (``mj_step(m, d, k)`` for a control
+    step's ``k`` substeps, GIL released, no Python between substeps, no checks) of ``n`` robots, each from
+    a fixed mid-episode state of the baseline's robots (so every call is the same work), on 1 or 2 threads
+    taking robots from one queue. Its 2-thread / 1-thread ratio is what threads can give on this machine
+    at that moment: the vCPUs' speeds swing independently (60-99 us for the same substep, measured)."""
+
+    def __init__(self, single: _Single, threads: int):
+        import copy
+
+        import mujoco
+
+        self.n = single.n
+        base = single.envs[0].unwrapped
+        self.model, self.substeps = base.sim.model, base.n_substeps
+        self.spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+        self.datas = [copy.copy(env.unwrapped.sim.data) for env in single.envs]
+        self.states = []
+        for d in self.datas:
+            state = np.empty(mujoco.mj_stateSize(self.model, self.spec))
+            mujoco.mj_getState(self.model, d, state, self.spec)
+            self.states.append((state, d.qacc_warmstart.copy()))
+        self.threads = threads
+        self.pool = None
+        if threads > 1:
+            from concurrent.futures import ThreadPoolExecutor
+
+            self.pool = ThreadPoolExecutor(max_workers=threads - 1)
+
+    def _robot(self, i: int) -> None:
+        import mujoco
+
+        d = self.datas[i]
+        state, warm = self.states[i]
+        mujoco.mj_setState(self.model, d, state, self.spec)
+        d.qacc_warmstart[:] = warm
+        mujoco.mj_step(self.model, d, self.substeps)
+
+    def step(self) -> int:
+        import threading
+
+        todo = iter(range(self.n))
+        lock = threading.Lock()
+        busy = [self.threads - 1]
+
+        def worker():
+            while True:
+                with lock:
+                    i = next(todo, None)
+                if i is None:
+                    return
+                self._robot(i)
+
+        def pooled():
+            try:
+                worker()
+            finally:
+                with lock:
+                    busy[0] -= 1
+
+        for _ in range(self.threads - 1):
+            self.pool.submit(pooled)
+        worker()
+        while busy[0]:  # as the batched env waits for its pool
+            time.sleep(0)
+        return self.n
+
+    def close(self) -> None:
+        if self.pool is not None:
+            self.pool.shutdown()
+
+
+def throughput(env_id: str, n: int, modes, *, seconds: float = 3.0, rounds: int = 45, groups: int = 5,
+               **kwargs) -> dict:
+    """Aggregate env steps/s of ``n`` envs in each vector env of ``modes`` and of the single env.
+
+    Fixed work, finely interleaved: every stepper starts from the same seeds and draws the same actions,
+    so the single env (``n`` envs stepped in turn) and the Gymnasium-semantics vector envs run the same
+    trajectories; in each of ``rounds`` rounds each stepper takes the same ``K`` calls (``K`` sized so
+    that the single env's round lasts about ``seconds / rounds``), in alternating order, so that the
+    machine's slow and fast spells (this VM's speed swings by up to 1.5x within a second, measured) fall
+    on all of them alike. Returns ``{mode: (rate, ratio, lowest, highest)}``: the rate over all rounds,
+    its ratio to the single env's (the same work: the ratio of their total times), and the lowest and
+    highest ratio over ``groups`` runs of consecutive rounds; ``"single"``: its rate and ratios of 1."""
+    steppers = {"single": _Single(env_id, n, **kwargs)}
     try:
         for mode in modes:
-            steppers[mode] = _Vector(mode, env_id, n, **kwargs)
-        rates: dict = {k: [] for k in steppers}
-        for _ in range(rounds):
-            for k, st in steppers.items():
-                rates[k].append(_timed(st.step, seconds / rounds))
+            if mode == "machine":  # after a few steps, so that the robots are mid-crawl
+                for _ in range(20):
+                    steppers["single"].step()
+                steppers["machine:1"] = _CAlone(steppers["single"], 1)
+                steppers["machine:2"] = _CAlone(steppers["single"], 2)
+            else:
+                steppers[mode] = _Vector(mode, env_id, n, **kwargs)
+        for st in steppers.values():  # warm-up
+            st.step()
+        t0 = time.perf_counter()
+        steppers["single"].step()
+        calls = max(1, round(seconds / rounds / (time.perf_counter() - t0)))
+        times: dict = {k: np.zeros(rounds) for k in steppers}
+        steps: dict = {k: np.zeros(rounds) for k in steppers}
+        names = list(steppers)
+        for r in range(rounds):
+            for k in (names if r % 2 == 0 else names[::-1]):
+                st = steppers[k]
+                t0 = time.perf_counter()
+                steps[k][r] = sum(st.step() for _ in range(calls))
+                times[k][r] = time.perf_counter() - t0
     finally:
         for st in steppers.values():
             st.close()
-    single = np.array(rates["single"])
-    return {k: (float(np.median(v)), float(np.median(np.array(v) / single))) for k, v in rates.items()}
+    parts = np.array_split(np.arange(rounds), min(groups, rounds))
+    out = {}
+    for k in steppers:
+        rate = steps[k].sum() / times[k].sum()
+        base = steps["single"].sum() / times["single"].sum()
+        by_part = [(steps[k][p].sum() / times[k][p].sum()) / (steps["single"][p].sum() / times["single"][p].sum())
+                   for p in parts]
+        out[k] = (float(rate), float(rate / base), float(min(by_part)), float(max(by_part)))
+    return out
 
 
 def c_bound(env_id: str, steps: int, *, seed: int = 0, rounds: int = 3, **kwargs) -> dict:
@@ -202,7 +322,9 @@ def _load() -> str:
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--env-id", default="MagSoftCrawl-v0")
-    p.add_argument("--seconds", type=float, default=3.0, help="wall time per table cell, in 3 rounds (s, default 3)")
+    p.add_argument("--seconds", type=float, default=3.0,
+                   help="wall time of the single env per table column, in --rounds rounds (s, default 3)")
+    p.add_argument("--rounds", type=int, default=45, help="interleaved rounds per table column (default 45)")
     p.add_argument("--sizes", type=int, nargs="+", default=[1, 2, 8, 32], help="numbers of envs")
     p.add_argument("--only", default=",".join(MODES), help=f"comma-separated subset of {','.join(MODES)}")
     p.add_argument("--bound-steps", type=int, default=200, help="control steps replayed for the C bound")
@@ -215,15 +337,15 @@ def main(argv=None) -> int:
     bad = sorted(set(only) - set(MODES))
     if bad:
         raise SystemExit(f"--only: unknown mode(s) {bad}; choose from {', '.join(MODES)}")
-    if not args.seconds > 0 or min(args.sizes) < 1 or args.bound_steps < 1:
-        raise SystemExit("--seconds must be > 0, --sizes >= 1 and --bound-steps >= 1")
+    if not args.seconds > 0 or min(args.sizes) < 1 or args.bound_steps < 1 or args.rounds < 1:
+        raise SystemExit("--seconds must be > 0, --sizes, --rounds and --bound-steps >= 1")
     import magsoft_env  # noqa: F401  (registers the ids)
     from magsoft_env.envs.vector import usable_cpus
 
     env_id = args.env_id
     print(f"# {env_id}, random actions, {args.seconds:g} s per cell; {usable_cpus()} CPUs, load average "
           f"{_load()} (1, 5, 15 min)")
-    rows = [m for m in ("batched", "sync", "async", "subproc") if m in only]
+    rows = [m for m in ("batched", "sync", "async", "subproc", "machine") if m in only]
     try:
         extra_threads = [int(t) for t in args.batched_threads.split(",") if t.strip()]
     except ValueError:
@@ -233,17 +355,27 @@ def main(argv=None) -> int:
     rows[1:1] = [f"batched:{t}" for t in extra_threads]
     base = None
     if rows:
-        print("\nAggregate env steps/s, median of the rounds (in brackets: median ratio to the single env loop "
-              "measured in the same rounds)\n")
-        print(f"| vector env | {' | '.join(f'{n} envs' for n in args.sizes)} |")
+        print("\nAggregate env steps/s over all rounds (in brackets: the ratio to the single env on the same "
+              "trajectories, interleaved, and its lowest and highest over five runs of consecutive rounds)\n")
+        print(f"| vector env | {' | '.join(f'{n} env' + ('s' if n > 1 else '') for n in args.sizes)} |")
         print(f"|---|{'---|' * len(args.sizes)}")
-        table = {n: throughput(env_id, n, rows, seconds=args.seconds) for n in args.sizes}
+        table = {n: throughput(env_id, n, rows, seconds=args.seconds, rounds=args.rounds) for n in args.sizes}
         cells = [f"{table[n]['single'][0]:.0f}" for n in args.sizes]
-        print(f"| single env loop (baseline) | {' | '.join(cells)} |")
-        for mode in rows:
-            cells = [f"{table[n][mode][0]:.0f} ({table[n][mode][1]:.2f}x)" for n in args.sizes]
-            label = f"batched, {mode.partition(':')[2]} threads" if mode.startswith("batched:") else mode
+        print(f"| single env, robots in turn (baseline) | {' | '.join(cells)} |")
+        for mode in [r for r in rows if r != "machine"] + (["machine:1", "machine:2"] if "machine" in rows else []):
+            cells = [f"{rate:.0f} ({ratio:.2f}x, {lo:.2f}-{hi:.2f})"
+                     for rate, ratio, lo, hi in (table[n][mode] for n in args.sizes)]
+            names = {"machine:1": "C step alone, 1 thread", "machine:2": "C step alone, 2 threads"}
+            label = names.get(mode, mode)
+            label = f"batched, {mode.partition(':')[2]} threads" if mode.startswith("batched:") else label
             print(f"| {label} | {' | '.join(cells)} |")
+        if "machine" in rows:
+            scale = {n: table[n]["machine:2"][0] / table[n]["machine:1"][0] for n in args.sizes if n > 1}
+            print("\nThe machine's own 2-thread scaling in the same rounds (C step alone, 2 threads / 1 thread): "
+                  + (", ".join(f"x{scale[n]:.2f} at {n} envs" for n in scale) or "needs 2 envs or more"))
+            if "batched" in rows:
+                print("The batched env's ratio as a share of it: "
+                      + (", ".join(f"{table[n]['batched'][1] / scale[n]:.0%} at {n} envs" for n in scale) or "-"))
         base = float(np.median([table[n]["single"][0] for n in args.sizes]))
         print(f"\nload average after the table: {_load()}")
     elif "single" in only:

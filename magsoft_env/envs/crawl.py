@@ -372,8 +372,10 @@ class MagSoftCrawlEnv(gym.Env):
         self._last_obs = self._get_obs()
         return self._last_obs, self._info(0.0)
 
-    def _advance(self, action) -> tuple[float, float]:
-        """Apply the action and step the physics; returns (duration s, mean normalized field power)."""
+    def _advance(self, action, block: int | None = None):
+        """Apply the action and step the physics; a generator (:meth:`Simulator.stepping
+        <magsoft_env.sim.Simulator.stepping>`'s blocks, at most ``block`` steps each) that returns
+        (duration s, mean normalized field power)."""
         sim = self.sim
         if self.action_mode == "field":
             target = self.field_of_action(action)
@@ -396,15 +398,26 @@ class MagSoftCrawlEnv(gym.Env):
             n = max(1, int(round(1.0 / (wave.frequency * self.sim_dt))))
             power = 0.5 * (wave.amplitude_x**2 + wave.amplitude_z**2)
             self._field = np.zeros(2)  # a whole period ends where it began
-        sim.step(n)
+        yield from sim.stepping(n, block=block)
         return n * self.sim_dt, power / self.field_limit**2
 
     def step(self, action):
+        steps = self._stepping(action)
+        while True:
+            try:
+                next(steps)
+            except StopIteration as done:
+                return done.value
+
+    def _stepping(self, action, block: int | None = None):
+        """:meth:`step` as a generator: it yields between the physics' native blocks (at most ``block``
+        substeps each) and returns the step's ``(obs, reward, terminated, truncated, info)``; the
+        batched environments interleave their robots' blocks with it (:mod:`magsoft_env.envs.vector`)."""
         if self._broken:
             raise RuntimeError("step() called after the simulation became unstable; call reset() first.")
         action = np.asarray(action, dtype=np.float64).reshape(self.action_space.shape)
         try:
-            duration, power = self._advance(action)
+            duration, power = yield from self._advance(action, block)
         except SimulationError as err:
             self._broken = True
             info = self._info(0.0)

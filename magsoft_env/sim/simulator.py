@@ -563,9 +563,27 @@ class Simulator:
             :class:`UnphysicalError` (contact scenes) on a contact penetration, tunnelling or
             launch (see the class notes).
         """
+        for _ in self.stepping(n):
+            pass
+
+    def stepping(self, n: int = 1, *, block: int | None = None):
+        """:meth:`step` as a generator that yields after every block of steps MuJoCo runs natively.
+
+        Driving it to its end is :meth:`step` (the same steps, checks and errors); in between, the
+        caller may run other work, for example another simulator's block on the same thread: the
+        batched environments interleave their robots this way, so that all of them end a call
+        together. ``block`` caps the steps of one native block (default: the contact history,
+        :data:`~magsoft_env.sim.model.CONTACT_HISTORY`); a native block is ``mj_step(m, d, k)``,
+        k steps in a row, so the trajectory and the checks do not depend on it. The per-step paths
+        (Python couples, a field that changes every step) run without yielding.
+        """
         if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer)) or n < 0:
             raise ValueError(f"n must be a non-negative integer number of steps, got {n!r}.")
         n = check_steps("n", int(n), "Call step() repeatedly for a longer run.")
+        if block is not None and (isinstance(block, (bool, np.bool_)) or not isinstance(block, (int, np.integer))
+                                  or block < 1):
+            raise ValueError(f"block must be None or a positive integer number of steps, got {block!r}.")
+        block = self._block if block is None else min(int(block), self._block)
         d = self.data
         two = self._two_stage
         self._has_external = bool(np.any(self.external_wrench))
@@ -581,7 +599,12 @@ class Simulator:
         self._call_ref = (self.nstep, float(d.time))
         try:
             if self._native:
-                self._step_native(n, fields)
+                for _ in self._step_native(n, fields, block):
+                    # between blocks the caller's warning handler is back (it may step another simulator)
+                    mujoco.set_mju_user_warning(prev)
+                    yield
+                    prev = mujoco.get_mju_user_warning()
+                    mujoco.set_mju_user_warning(self._on_warning)
             elif self._has_external or not two:
                 self._step_general(n, fields, two)
             else:
@@ -749,7 +772,7 @@ class Simulator:
                 self._set_coefficients()
 
     # ------------------------------------------------------------------ native stepping
-    def _step_native(self, n: int, fields) -> None:
+    def _step_native(self, n: int, fields, block: int):
         # MuJoCo applies the couples (the pole actuators): Python only sets the field's inputs when
         # the field changes and reads the checks. Runs of one field go to MuJoCo as blocks of steps
         # (_native_run); a field that changes every step (a sine) takes the per-step loop
@@ -758,7 +781,7 @@ class Simulator:
         d.qfrc_applied[:] = 0.0  # Python couples never add to MuJoCo's (static_residual leaves them)
         d.xfrc_applied[b0:b1] = self.external_wrench[self._order] if self._has_external else 0.0
         if fields is None:
-            self._native_run(n)
+            yield from self._native_run(n, block)
             return
         new = np.empty(n, dtype=bool)
         new[:1] = True
@@ -779,7 +802,7 @@ class Simulator:
                 self._mquat[:] = quat[r]
                 self._B3[0], self._B3[2] = f
                 db = f - self._b_applied
-                if not self._native_run(e - s, dfield=db if track and (db[0] or db[1]) else None):
+                if not (yield from self._native_run(e - s, block, dfield=db if track and (db[0] or db[1]) else None)):
                     break
                 self._b_applied = f.copy()
         finally:
@@ -787,14 +810,15 @@ class Simulator:
             self._b_applied = fields[self._field_k].copy()
             self._set_coefficients()
 
-    def _native_run(self, count: int, *, dfield=None) -> bool:
+    def _native_run(self, count: int, block: int, *, dfield=None):
         """``count`` steps at the present inputs, in blocks that end at every energy check and after at
-        most ``self._block`` steps (the contact history), each checked step by step from the history.
+        most ``block`` steps (at most the contact history), each checked step by step from the history.
         ``dfield``: the field change (T) at the first step, whose work ``-M . dB`` is booked with the
-        net moment of that step's start (the first block is then that step alone). Returns False
-        when a bound broke or MuJoCo warned (the caller stops; :meth:`_check` reports it)."""
+        net moment of that step's start (the first block is then that step alone). A generator: it
+        yields between blocks and returns False when a bound broke or MuJoCo warned (the caller
+        stops; :meth:`_check` reports it)."""
         m, d = self.model, self.data
-        ce, block, warned = self.check_every, self._block, self._warning_text
+        ce, warned = self.check_every, self._warning_text
         done = 0
         while done < count:
             k = 1 if dfield is not None else min(count - done, ce - self.nstep % ce, block)
@@ -816,6 +840,8 @@ class Simulator:
                 return False
             if self.nstep % ce == 0:
                 self._check(energy=True)
+            if done < count:
+                yield
         return True
 
     def _scan_contacts(self, k: int, stop: int, n0: int, t0: float) -> bool:
