@@ -118,7 +118,7 @@ class MagSoftCrawlVecEnv(VectorEnv):
 
     ## Version History
 
-    - v0: initial version (magsoft_env 0.5); robots interleaved block by block (``block``), same results.
+    - v0: initial version (magsoft_env 0.4.0); robots interleaved block by block (``block``), same results.
 
     Examples
     --------
