@@ -177,6 +177,15 @@ def test_train_refuses_an_existing_run_id_before_any_work(tmp_path, capsys):
     assert sorted(p.name for p in (tmp_path / "taken").iterdir()) == ["keep.txt"]
 
 
+def test_train_refuses_an_unknown_vec_before_any_work(tmp_path):
+    from magsoft_env.rl import load_hyperparams, train
+
+    block = load_hyperparams(ROOT / "train" / "hyperparams.yml", "MagSoftCrawl-v0")
+    with pytest.raises(ValueError, match="vec must be one of threads, dummy, subproc, got 'gpu'"):
+        train(block, "MagSoftCrawl-v0", tmp_path / "r", vec="gpu")
+    assert not (tmp_path / "r").exists()
+
+
 @pytest.mark.parametrize("option, item, message", [
     ("--set", "learnin_rate=1e-3", "unknown PPO hyperparameter 'learnin_rate'. Did you mean 'learning_rate'"),
     ("--set", "n_step=64", "Did you mean 'n_steps'"),
@@ -201,7 +210,13 @@ def test_train_runs_rl_zoo_prints_progress_and_refuses_a_second_run(tmp_path, ca
     out = capsys.readouterr().out
     assert "python -m rl_zoo3.train --algo ppo --env MagSoftCrawl-v0 --gym-packages magsoft_env" in out
     assert "total_timesteps" in out and "Eval num_timesteps=64" in out  # log tables, evaluation callback
+    assert "[envs on threads: ThreadedVecEnv]" in out  # the default --vec threads
+    from rl_zoo3.exp_manager import ExperimentManager
+
+    assert ExperimentManager.default_vec_env_cls is None  # rl-zoo's hook is restored after the run
     run = tmp_path / "t"
+    assert (run / "zoo_command.txt").read_text().startswith("# stepped by magsoft_env.rl.ThreadedVecEnv")
+    assert json.loads((run / "train.json").read_text())["vec"] == "threads"
     log = run / "ppo" / "MagSoftCrawl-v0_1"
     for p in ("hyperparams.yml", "zoo_command.txt", "train.json"):
         assert (run / p).is_file(), p

@@ -10,7 +10,7 @@ from gymnasium.vector import AutoresetMode
 import magsoft_env  # noqa: F401  (registers the ids)
 from magsoft_env.envs.channel import MagSoftChannelEnv
 from magsoft_env.envs.obstacle import MagSoftObstacleEnv
-from magsoft_env.envs.vector import MagSoftChannelVecEnv, MagSoftCrawlVecEnv, MagSoftObstacleVecEnv
+from magsoft_env.envs.vector import MagSoftChannelVecEnv, MagSoftCrawlVecEnv, MagSoftObstacleVecEnv, usable_cpus
 
 #: small and coarse, with a field strong enough that episodes end (tumbles) within tens of steps
 FAST = {"segments": 4, "sim_dt": 1e-3, "field_limit": 4e-3}
@@ -252,3 +252,37 @@ def test_vec_bench_baseline_runs_the_batched_envs_trajectories():
     np.testing.assert_array_equal(obs, [env._get_obs() for env in batched.venv.envs])
     single.close()
     batched.close()
+
+
+def test_threaded_dummy_vec_env_is_dummy_vec_env_on_threads():
+    # rl-zoo3 runs (vec="threads"): SB3's DummyVecEnv semantics and results, every step, through episode ends
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from magsoft_env.rl import ThreadedVecEnv
+
+    threaded = make_vec_env("MagSoftCrawl-v0", n_envs=3, seed=5, vec_env_cls=ThreadedVecEnv, env_kwargs=FAST)
+    dummy = make_vec_env("MagSoftCrawl-v0", n_envs=3, seed=5, vec_env_cls=DummyVecEnv, env_kwargs=FAST)
+    assert threaded.num_threads == min(3, usable_cpus())
+    np.testing.assert_array_equal(threaded.reset(), dummy.reset())
+    rng = np.random.default_rng(0)
+    ended = 0
+    for _ in range(60):
+        a = rng.uniform(-1, 1, (3, 2)).astype(np.float32)
+        got, want = threaded.step(a), dummy.step(a)
+        for x, y in zip(got[:3], want[:3], strict=True):
+            np.testing.assert_array_equal(x, y)
+        for mine, theirs in zip(got[3], want[3], strict=True):
+            assert set(mine) == set(theirs)
+            for k in ("reward", "x_position", "TimeLimit.truncated"):
+                assert mine.get(k) == theirs.get(k), k
+            if "episode" in theirs:  # Monitor's return and length ("t" is wall time)
+                assert (mine["episode"]["r"], mine["episode"]["l"]) == (theirs["episode"]["r"], theirs["episode"]["l"])
+            if "terminal_observation" in theirs:
+                np.testing.assert_array_equal(mine["terminal_observation"], theirs["terminal_observation"])
+        ended += int(want[2].sum())
+    assert ended >= 3
+    threaded.close()
+    dummy.close()
+    with pytest.raises(ValueError, match="num_threads must be an integer >= 1"):
+        ThreadedVecEnv([lambda: gym.make("MagSoftCrawl-v0", **FAST)], num_threads=0)

@@ -21,6 +21,13 @@ runs of consecutive rounds:
 * ``sync`` / ``async``: Gymnasium's ``SyncVectorEnv`` / ``AsyncVectorEnv`` (one process per env) of
   ``gym.make`` envs.
 * ``subproc``: SB3's ``SubprocVecEnv`` (one process per env, ``fork``).
+* ``threaded``: :class:`~magsoft_env.rl.vec.ThreadedVecEnv`, SB3's ``DummyVecEnv`` on threads (``make_vec_env``
+  with ``Monitor``; what rl-zoo3 runs use by default). SB3 resets an env at once, not at the next step,
+  so its trajectories part from the baseline's at the first episode end (the same kind of work).
+* ``machine``: two rows, the C step alone (``mj_step(m, d, k)`` of a control step, from fixed mid-crawl
+  states of the baseline's robots, no Python) on one and on two threads in the same rounds: this
+  machine's own two-thread scaling at that moment, printed under the table with the batched env's
+  ratio as a share of it (the vCPUs of the development VM swing between 60 and 99 us per substep each).
 * ``bound``: the C step alone. The single env's own trajectory (random actions, ``--bound-steps``
   control steps) is replayed from its recorded states with its fields held, by
   ``mujoco.rollout.Rollout`` (no Python between substeps, no checks, no observations; bit for bit
@@ -39,7 +46,7 @@ import time
 
 import numpy as np
 
-MODES = ("single", "batched", "sync", "async", "subproc", "machine", "bound")
+MODES = ("single", "batched", "sync", "async", "subproc", "threaded", "machine", "bound")
 
 
 def _actions(rng, shape) -> np.ndarray:
@@ -90,7 +97,7 @@ class _Single:
 
 
 class _Vector:
-    """``n`` envs in vector env ``mode`` (batched, sync, async, subproc), autoresetting."""
+    """``n`` envs in vector env ``mode`` (batched, sync, async, subproc, threaded), autoresetting."""
 
     def __init__(self, mode: str, env_id: str, n: int, seed: int = 1, **kwargs):
         import gymnasium as gym
@@ -111,6 +118,13 @@ class _Vector:
 
             self.venv = SubprocVecEnv([make_one] * n, start_method="fork")
             self.venv.seed(seed)
+            self.venv.reset()
+        elif mode == "threaded":
+            from stable_baselines3.common.env_util import make_vec_env
+
+            from ..rl.vec import ThreadedVecEnv
+
+            self.venv = make_vec_env(env_id, n_envs=n, seed=seed, vec_env_cls=ThreadedVecEnv, env_kwargs=kwargs)
             self.venv.reset()
         else:
             vmode = {"batched": "vector_entry_point", "sync": "sync", "async": "async"}[mode]
@@ -345,7 +359,7 @@ def main(argv=None) -> int:
     env_id = args.env_id
     print(f"# {env_id}, random actions, {args.seconds:g} s per cell; {usable_cpus()} CPUs, load average "
           f"{_load()} (1, 5, 15 min)")
-    rows = [m for m in ("batched", "sync", "async", "subproc", "machine") if m in only]
+    rows = [m for m in ("batched", "sync", "async", "subproc", "threaded", "machine") if m in only]
     try:
         extra_threads = [int(t) for t in args.batched_threads.split(",") if t.strip()]
     except ValueError:

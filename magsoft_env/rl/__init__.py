@@ -1,7 +1,8 @@
 """Reinforcement learning on the environments through rl-zoo3: its hyperparameter files read and checked,
 training runs that are never overwritten, evaluation against the open-loop paper gaits, learning curves,
 policies checked against the env they are played in (the library behind ``train/``), and
-:class:`~magsoft_env.rl.vec.SB3VecAdapter`, the batched floor envs as an SB3 ``VecEnv``.
+:class:`~magsoft_env.rl.vec.SB3VecAdapter`, the batched floor envs as an SB3 ``VecEnv``, and
+:class:`~magsoft_env.rl.vec.ThreadedVecEnv`, SB3's ``DummyVecEnv`` on threads (rl-zoo3 runs with ``vec="threads"``).
 Stable-Baselines3, rl-zoo3 and torch are imported only when used (``SB3VecAdapter``: on first access)."""
 
 from .evaluation import (
@@ -32,7 +33,7 @@ from .runs import RunRecord, find_run, read_zoo_yaml
 from .training import GYM_PACKAGE, evaluate_run, learning_curve, run_zoo, summarize_run, train, zoo_argv
 
 #: names of .vec, which imports stable_baselines3: loaded on first access
-_VEC_NAMES = ("SB3VecAdapter", "make_sb3_vec_env", "unbatch_infos")
+_VEC_NAMES = ("SB3VecAdapter", "ThreadedVecEnv", "make_sb3_vec_env", "unbatch_infos")
 
 
 def __getattr__(name: str):
@@ -43,7 +44,8 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-__all__ = ["ALGOS", "GYM_PACKAGE", "ZOO_KEYS", "EvalResult", "Policy", "RunRecord", "SB3VecAdapter", "algo_arguments",
+__all__ = ["ALGOS", "GYM_PACKAGE", "ZOO_KEYS", "EvalResult", "Policy", "RunRecord", "SB3VecAdapter", "ThreadedVecEnv",
+           "algo_arguments",
            "algo_class", "check_algo_kwargs", "check_env_id", "check_env_kwargs", "check_hyperparams",
            "check_policy_env", "env_arguments", "evaluate_open_loop", "evaluate_run", "find_run", "learning_curve",
            "load_hyperparams", "load_policy", "make_sb3_vec_env", "open_loop_actor", "parse_override",

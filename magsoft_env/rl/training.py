@@ -52,21 +52,32 @@ def zoo_argv(env_id: str, conf, log_folder, *, algo: str = "ppo", seed: int = 0,
     return argv
 
 
-def run_zoo(argv: list[str]) -> None:
-    """Run ``python -m rl_zoo3.train *argv`` in this process (rl-zoo3 parses ``sys.argv``)."""
+#: ``vec`` choices of :func:`train`: rl-zoo3's two, and ``"threads"`` (:class:`~magsoft_env.rl.vec.ThreadedVecEnv`).
+VEC_CHOICES = ("threads", "dummy", "subproc")
+
+
+def run_zoo(argv: list[str], *, vec_env_cls=None) -> None:
+    """Run ``python -m rl_zoo3.train *argv`` in this process (rl-zoo3 parses ``sys.argv``); ``vec_env_cls``:
+    the SB3 ``VecEnv`` class rl-zoo3 builds its envs with, for this run (its ``ExperimentManager``'s
+    ``default_vec_env_cls`` hook, which overrides ``--vec-env``)."""
+    from rl_zoo3.exp_manager import ExperimentManager
     from rl_zoo3.train import train as zoo_train
 
-    saved = sys.argv
+    saved, saved_cls = sys.argv, ExperimentManager.default_vec_env_cls
     sys.argv = ["rl_zoo3.train", *argv]
+    if vec_env_cls is not None:
+        ExperimentManager.default_vec_env_cls = vec_env_cls
     try:
         zoo_train()
     finally:
         sys.argv = saved
+        ExperimentManager.default_vec_env_cls = saved_cls
 
 
 def train(block: dict, env_id: str, run_dir, *, algo: str = "ppo", seed: int = 0, eval_freq: int = 10000,
           eval_episodes: int = 2, save_freq: int = -1, tensorboard: bool = False, progress: bool = False,
-          trained_agent=None, vec: str = "dummy", num_threads: int = 1, max_seconds: float | None = None) -> RunRecord:
+          trained_agent=None, vec: str = "threads", num_threads: int = 1,
+          max_seconds: float | None = None) -> RunRecord:
     """Train one run with rl-zoo3 into the new folder ``run_dir``.
 
     Writes ``run_dir/hyperparams.yml`` (``{env_id: block}``, rl-zoo's format: the resolved settings),
@@ -86,6 +97,10 @@ def train(block: dict, env_id: str, run_dir, *, algo: str = "ppo", seed: int = 0
     max_seconds : float, optional
         Wall-time budget for learning (s): a :class:`magsoft_env.rl.callbacks.WallTimeLimit` entry in the
         block's ``callback`` list; the model is saved when it runs out.
+    vec : {"threads", "dummy", "subproc"}
+        The SB3 vector env of the run: ``"threads"`` (default), :class:`~magsoft_env.rl.vec.ThreadedVecEnv`,
+        rl-zoo3's ``DummyVecEnv`` with the envs stepped on threads (the same results; zoo_command.txt then
+        reads ``--vec-env dummy``, with a comment); ``"dummy"`` / ``"subproc"``: rl-zoo3's own.
 
     Returns
     -------
@@ -106,6 +121,8 @@ def train(block: dict, env_id: str, run_dir, *, algo: str = "ppo", seed: int = 0
         limit = {"magsoft_env.rl.callbacks.WallTimeLimit": {"max_seconds": float(max_seconds)}}
         block["callback"] = [*callbacks, limit]
     check_hyperparams(block, env_id, algo)
+    if vec not in VEC_CHOICES:
+        raise ValueError(f"vec must be one of {', '.join(VEC_CHOICES)}, got {vec!r}.")
     if trained_agent is not None:
         trained = find_run(trained_agent)
         if trained.env_id != env_id:
@@ -116,18 +133,25 @@ def train(block: dict, env_id: str, run_dir, *, algo: str = "ppo", seed: int = 0
     conf.write_text(header + yaml.safe_dump({env_id: block}, sort_keys=False, default_flow_style=None))
     argv = zoo_argv(env_id, conf, run_dir, algo=algo, seed=seed, eval_freq=eval_freq, eval_episodes=eval_episodes,
                     save_freq=save_freq, tensorboard_log=run_dir / "tensorboard" if tensorboard else None,
-                    progress=progress, trained_agent=trained_agent, vec=vec, num_threads=num_threads,
-                    eval_env_kwargs=block.get("env_kwargs") or None)
+                    progress=progress, trained_agent=trained_agent, vec="dummy" if vec == "threads" else vec,
+                    num_threads=num_threads, eval_env_kwargs=block.get("env_kwargs") or None)
     command = "python -m rl_zoo3.train " + shlex.join(argv)
-    (run_dir / "zoo_command.txt").write_text(command + "\n")
-    print(f"train: {command}", flush=True)
+    note = ("# stepped by magsoft_env.rl.ThreadedVecEnv (rl-zoo3's DummyVecEnv on threads, the same results; "
+            "magsoft_env.rl.train(vec='threads'))\n") if vec == "threads" else ""
+    (run_dir / "zoo_command.txt").write_text(note + command + "\n")
+    print(f"train: {command}" + (" [envs on threads: ThreadedVecEnv]" if vec == "threads" else ""), flush=True)
+    vec_env_cls = None
+    if vec == "threads":
+        from .vec import ThreadedVecEnv
+
+        vec_env_cls = ThreadedVecEnv
     t0 = time.perf_counter()
-    run_zoo(argv)
+    run_zoo(argv, vec_env_cls=vec_env_cls)
     wall = time.perf_counter() - t0
     rec = find_run(run_dir)
     (run_dir / "train.json").write_text(json.dumps(
         {"env_id": env_id, "algo": algo, "seed": int(seed), "n_timesteps": int(block["n_timesteps"]),
-         "wall_s": wall, "log_dir": str(rec.log_dir), "zoo_command": command}, indent=2))
+         "wall_s": wall, "log_dir": str(rec.log_dir), "zoo_command": command, "vec": vec}, indent=2))
     return rec
 
 

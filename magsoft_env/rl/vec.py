@@ -1,10 +1,14 @@
-"""A Stable-Baselines3 ``VecEnv`` over a Gymnasium vector env (the batched floor envs), so PPO and SAC train on it."""
+"""Stable-Baselines3 ``VecEnv`` s for the batched floor envs: an adapter over a Gymnasium vector env, and
+``DummyVecEnv`` on threads (what rl-zoo3 runs use: ``magsoft_env.rl.train(vec="threads")``)."""
 
 from __future__ import annotations
+
+import time
 
 import gymnasium as gym
 import numpy as np
 from gymnasium.vector import AutoresetMode
+from stable_baselines3.common.vec_env import DummyVecEnv
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
 
@@ -147,6 +151,85 @@ class SB3VecAdapter(VecEnv):
         return [is_wrapped(envs[i], wrapper_class) for i in ids]
 
 
+class ThreadedVecEnv(DummyVecEnv):
+    """SB3's ``DummyVecEnv`` with its envs stepped on threads: the same envs (built by ``env_fns``, with their
+    wrappers: ``Monitor``, ``TimeLimit``, rl-zoo3's), the same semantics and results, in less wall time
+    where an env's step releases the GIL for most of its time, as the MagSoft envs' MuJoCo blocks do.
+
+    Each call hands the envs to ``num_threads`` threads (the calling one included; the env whose last step
+    took longest first); each steps its env, records SB3's ``dones``, ``TimeLimit.truncated`` and
+    ``terminal_observation`` and resets it when its episode ended, as ``DummyVecEnv.step_wait`` does one
+    env after the other. Envs are independent, so the order does not change any env's result (tested
+    against ``DummyVecEnv``). A MagSoft env's simulator gets its MuJoCo warnings from whichever thread
+    steps it (:func:`magsoft_env.envs.vector.route_warnings`).
+
+    rl-zoo3 builds its vector env with ``make_vec_env(..., vec_env_cls=...)``: :func:`magsoft_env.rl.train`
+    with ``vec="threads"`` (``train/train.py --vec threads``) sets this class as rl-zoo3's
+    ``ExperimentManager.default_vec_env_cls`` for the run. Unlike :class:`SB3VecAdapter` over
+    ``gym.make_vec`` (which interleaves the robots block by block), whole env steps are the unit here,
+    so the threads end a call up to one env step apart.
+
+    Parameters
+    ----------
+    env_fns : list of callables
+        Each returns a new env (as for ``DummyVecEnv``).
+    num_threads : int, optional
+        Threads, the calling one included; default ``min(len(env_fns), usable CPUs)``.
+
+    Examples
+    --------
+    >>> import gymnasium as gym, magsoft_env
+    >>> from stable_baselines3.common.env_util import make_vec_env
+    >>> venv = make_vec_env("MagSoftCrawl-v0", n_envs=2, vec_env_cls=ThreadedVecEnv,
+    ...                     env_kwargs={"segments": 4, "sim_dt": 1e-3})
+    >>> venv.num_threads <= 2
+    True
+    >>> venv.close()
+    """
+
+    def __init__(self, env_fns, num_threads: int | None = None):
+        from ..envs.vector import ThreadTeam, route_warnings, usable_cpus
+
+        super().__init__(env_fns)
+        n = self.num_envs
+        if num_threads is None:
+            num_threads = min(n, usable_cpus())
+        if isinstance(num_threads, (bool, np.bool_)) or not isinstance(num_threads, (int, np.integer)) \
+                or num_threads < 1:
+            raise ValueError(f"num_threads must be an integer >= 1, got {num_threads!r}.")
+        self.num_threads = min(int(num_threads), n)
+        self._team = ThreadTeam(self.num_threads, name="magsoft-sb3vec")
+        self._sinks = [route_warnings(getattr(env.unwrapped, "sim", None)) for env in self.envs]
+        self._cost = np.zeros(n)  # wall time of each env's last step (s): the longest go first
+
+    def _step_env(self, i: int) -> None:
+        t0 = time.perf_counter()
+        env = self.envs[i]
+        obs, reward, terminated, truncated, info = env.step(self.actions[i])
+        self.buf_rews[i] = reward
+        self.buf_dones[i] = done = terminated or truncated
+        info["TimeLimit.truncated"] = truncated and not terminated
+        if done:  # SB3: the episode's last observation in the info, the reset's in the buffer
+            info["terminal_observation"] = obs
+            obs, self.reset_infos[i] = env.reset()
+        self.buf_infos[i] = info
+        self._save_obs(i, obs)
+        self._cost[i] = time.perf_counter() - t0
+
+    def step_wait(self):
+        from copy import deepcopy
+
+        from ..envs.vector import with_sink
+
+        order = np.argsort(-self._cost, kind="stable").tolist()
+        self._team.each(order, lambda i: with_sink(self._sinks[i], self._step_env, i))
+        return self._obs_from_buf(), np.copy(self.buf_rews), np.copy(self.buf_dones), deepcopy(self.buf_infos)
+
+    def close(self) -> None:
+        self._team.close()
+        super().close()
+
+
 def make_sb3_vec_env(env_id: str, num_envs: int = 1, *, seed: int | None = None, monitor: bool = True,
                      **env_kwargs) -> VecEnv:
     """``gym.make_vec(env_id, num_envs, vectorization_mode="vector_entry_point", **env_kwargs)`` as an SB3
@@ -161,4 +244,4 @@ def make_sb3_vec_env(env_id: str, num_envs: int = 1, *, seed: int | None = None,
     return VecMonitor(env) if monitor else env
 
 
-__all__ = ["SB3VecAdapter", "make_sb3_vec_env", "unbatch_infos"]
+__all__ = ["SB3VecAdapter", "ThreadedVecEnv", "make_sb3_vec_env", "unbatch_infos"]
