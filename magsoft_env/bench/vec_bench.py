@@ -151,6 +151,8 @@ class _CAlone:
 
         import mujoco
 
+        from ..envs.vector import ThreadTeam
+
         self.n = single.n
         base = single.envs[0].unwrapped
         self.model, self.substeps = base.sim.model, base.n_substeps
@@ -161,12 +163,7 @@ class _CAlone:
             state = np.empty(mujoco.mj_stateSize(self.model, self.spec))
             mujoco.mj_getState(self.model, d, state, self.spec)
             self.states.append((state, d.qacc_warmstart.copy()))
-        self.threads = threads
-        self.pool = None
-        if threads > 1:
-            from concurrent.futures import ThreadPoolExecutor
-
-            self.pool = ThreadPoolExecutor(max_workers=threads - 1)
+        self.team = ThreadTeam(threads, name="magsoft-bench")  # the batched env's threads and end-of-call poll
 
     def _robot(self, i: int) -> None:
         import mujoco
@@ -178,37 +175,11 @@ class _CAlone:
         mujoco.mj_step(self.model, d, self.substeps)
 
     def step(self) -> int:
-        import threading
-
-        todo = iter(range(self.n))
-        lock = threading.Lock()
-        busy = [self.threads - 1]
-
-        def worker():
-            while True:
-                with lock:
-                    i = next(todo, None)
-                if i is None:
-                    return
-                self._robot(i)
-
-        def pooled():
-            try:
-                worker()
-            finally:
-                with lock:
-                    busy[0] -= 1
-
-        for _ in range(self.threads - 1):
-            self.pool.submit(pooled)
-        worker()
-        while busy[0]:  # as the batched env waits for its pool
-            time.sleep(0)
+        self.team.each(range(self.n), self._robot)
         return self.n
 
     def close(self) -> None:
-        if self.pool is not None:
-            self.pool.shutdown()
+        self.team.close()
 
 
 def throughput(env_id: str, n: int, modes, *, seconds: float = 3.0, rounds: int = 45, groups: int = 5,
