@@ -22,6 +22,9 @@ from .obstacle import MagSoftObstacleEnv
 #: Substeps per interleaved block (a 100-substep control step: 4 blocks); the trajectory does not depend on it.
 DEFAULT_BLOCK = 25
 
+#: How long the calling thread polls for the pool's end before it sleeps on an event (s).
+SPIN_S = 2e-3
+
 #: The warning sink of the simulator each thread is stepping (MuJoCo's warning handler is one per process).
 _local = threading.local()
 
@@ -75,8 +78,9 @@ class ThreadTeam:
 
     While they run, MuJoCo's (process-wide) warning handler is the router that sends each warning to
     the sink of the thread that raised it (:func:`route_warnings`). The calling thread polls for the
-    others' end rather than waiting on a condition, which an idle vCPU of a virtual machine takes 1-2 ms
-    to wake from (measured on the development VM: about 5 % of an 8-robot call).
+    others' end (for at most :data:`SPIN_S`, then it sleeps on an event) rather than waiting on a
+    condition at once, which an idle vCPU of a virtual machine takes 1-2 ms to wake from (measured on
+    the development VM: about 5 % of an 8-robot call).
     """
 
     def __init__(self, num_threads: int, *, name: str = "magsoft-vec"):
@@ -93,6 +97,7 @@ class ThreadTeam:
         mujoco.set_mju_user_warning(_route_warning)
         lock = threading.Lock()
         busy = [0]
+        done = threading.Event()
         errors: list[BaseException] = []
 
         def pooled():
@@ -103,6 +108,8 @@ class ThreadTeam:
             finally:
                 with lock:
                     busy[0] -= 1
+                    if not busy[0]:
+                        done.set()
 
         try:
             if self._pool is not None:
@@ -111,8 +118,13 @@ class ThreadTeam:
                     self._pool.submit(pooled)
             worker()
         finally:
-            while busy[0]:  # the others end within about a block of this one: poll, yielding CPU and GIL
+            # the others usually end within a block of this one: poll for them, yielding CPU and GIL, for
+            # at most SPIN_S; then sleep until the last one signals (a long job, e.g. a waveform period)
+            t0 = time.perf_counter()
+            while busy[0] and time.perf_counter() - t0 < SPIN_S:
                 time.sleep(0)
+            if busy[0]:
+                done.wait()
             mujoco.set_mju_user_warning(prev)
         if errors:
             raise errors[0]
