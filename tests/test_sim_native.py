@@ -14,9 +14,10 @@ from magsoft_env import Beam
 from magsoft_env.cases.gaits import gait_preset
 from magsoft_env.sim import RodBatch, RodOptions, Simulator, Sine, as_waveform, build_model
 from magsoft_env.sim.gait import gait_rod_options
-from magsoft_env.sim.health import PENETRATION_LIMIT, SensorHistory, UnphysicalError
+from magsoft_env.sim.health import PENETRATION_LIMIT, SensorHistory, SimulationError, UnphysicalError
 from magsoft_env.sim.magnetics import magnetic_poles
 from magsoft_env.sim.model import CONTACT_HISTORY, CONTACT_SENSOR, NATIVE_CONTROL_SPEC, native_controls
+from magsoft_env.sim.waveforms import PhaseShifted
 
 H = 1.13e-3
 UNIFORM = Beam(length=25e-3, width=5e-3, thickness=H, volume_fraction=0.2)
@@ -166,6 +167,60 @@ def test_stepping_interleaves_simulators_block_by_block_without_changing_them():
     assert not seen
     with pytest.raises(ValueError, match="block must be None or a positive integer"):
         next(alone[0].stepping(10, block=0))
+
+
+@pytest.mark.parametrize("options", [
+    RodOptions(scene="floor", timestep=2e-4, segments=12), RodOptions(scene="floor", base="first", segments=7),
+    RodOptions(timestep=1e-4), RodOptions(scene="channel", segments=10, timestep=2e-4),
+], ids=["floor", "floor-first", "cantilever", "channel"])
+def test_waveform_rollout_blocks_equal_the_per_step_loop(options):
+    # a field that changes every step runs in mujoco.rollout blocks: the same trajectory bit for bit as
+    # one mj_step at a time, the same records, the field's work booked from the recorded states
+    wf = PhaseShifted(2e-3, 1.5e-3, 2.0, 0.3, 0.0)
+    loop, blocks = (Simulator(gait_preset("paper-5b").beam, options) for _ in range(2))
+    loop.rollout_blocks = False
+    for sim in (loop, blocks):
+        sim.set_waveform(wf)
+        for _ in range(3):
+            sim.step(137)
+    assert blocks._rollout_ok() and not loop._rollout_ok() and blocks._roller is not None and loop._roller is None
+    np.testing.assert_array_equal(loop.data.qpos, blocks.data.qpos)
+    np.testing.assert_array_equal(loop.data.qvel, blocks.data.qvel)
+    assert np.abs(blocks.data.qpos[blocks.rod.hinge_qpos]).max() > 1e-3  # it moved
+    assert (loop.nstep, loop.time, loop.field, loop.max_penetration) == (blocks.nstep, blocks.time, blocks.field,
+                                                                           blocks.max_penetration)
+    assert blocks._work == pytest.approx(loop._work, rel=1e-12, abs=1e-20)
+    if options.has_contact:
+        assert abs(loop._work) > 0 and blocks.energy_drift == pytest.approx(loop.energy_drift, abs=1e-12)
+    # the angles behind the net moments: R_y(A q + phi0) is every piece's xmat, at any state
+    A, phi0 = blocks._angles
+    rng = np.random.default_rng(1)
+    d = blocks.data
+    for _ in range(10):
+        d.qpos[:] = rng.uniform(-2.0, 2.0, blocks.model.nq) * 1e-2
+        d.qpos[blocks.rod.hinge_qpos] = rng.uniform(-1.5, 1.5, len(blocks.rod.hinge_qpos))
+        mujoco.mj_kinematics(blocks.model, d)
+        phi = A @ d.qpos + phi0
+        c, s = np.cos(phi), np.sin(phi)
+        x = d.xmat[blocks._b0:blocks._b1]
+        np.testing.assert_allclose(x[:, [0, 2, 6, 8]], np.stack([c, s, -s, c], axis=1), rtol=0, atol=1e-14)
+
+
+@pytest.mark.parametrize("options, wf, limit", [
+    (RodOptions(scene="floor"), PhaseShifted(0.1, 0.1, 5.0, 1.0, 1.0), PENETRATION_LIMIT),
+    (RodOptions(segments=6, timestep=2e-3), PhaseShifted(0.05, 0.05, 9.0, 1.0, 0.0), PENETRATION_LIMIT),
+], ids=["penetration", "blow-up"])
+def test_waveform_failures_in_rollout_blocks_are_reported_as_the_loop_reports_them(options, wf, limit):
+    errors = []
+    for blocks in (False, True):
+        sim = Simulator(UNIFORM, options, penetration_limit=limit)
+        sim.rollout_blocks = blocks
+        sim.set_waveform(wf)
+        with pytest.raises(SimulationError) as info:
+            for _ in range(20):
+                sim.step(250)
+        errors.append((type(info.value), info.value.step, str(info.value)))
+    assert errors[0] == errors[1]
 
 
 def test_paper_gait_trajectory_agrees_between_paths():

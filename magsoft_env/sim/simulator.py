@@ -30,12 +30,14 @@ from .model import (
     CONTACT_HISTORY,
     CONTACT_SENSOR,
     FEATURE_SENSOR,
+    NATIVE_CONTROL_SPEC,
     RodModel,
     RodOptions,
     build_model,
     contact_timeconst,
     field_control,
     field_controls,
+    native_controls,
 )
 from .waveforms import Waveform, as_waveform
 
@@ -146,6 +148,11 @@ class Simulator:
     The records :attr:`max_penetration`, :attr:`energy_drift` and :attr:`max_kinetic_ratio`
     say of every run whether it stayed resolved.
 
+    A field that changes every step (a waveform) runs in ``mujoco.rollout`` blocks with the fields'
+    inputs as per-step controls (:attr:`rollout_blocks`; the planar rod), bit for bit the per-step loop's
+    trajectory and failure reports, the field's work for the energy balance booked from the recorded
+    states (equal to round-off).
+
     Native blocks keep these checks: a block ends at every energy check and after at most
     :data:`~magsoft_env.sim.model.CONTACT_HISTORY` steps, whose deepest contacts MuJoCo keeps in
     the contact sensors' history buffer; a bound broken (or a MuJoCo warning) inside a block is
@@ -207,6 +214,11 @@ class Simulator:
             self._ctrl = self.data.ctrl
             self._mquat = self.data.mocap_quat[self.rod.field_mocap]
         self.check_every = int(check_every)
+        #: Native magnetics: run a field that changes every step (a waveform) in ``mujoco.rollout`` blocks
+        #: (True, the planar rod) rather than one ``mj_step`` at a time with Python in between (False).
+        self.rollout_blocks = True
+        self._angles = None  # (A, phi0) of _angle_map, False where it does not apply; built on first use
+        self._roller = None
         disc = self.rod.disc
         self._bodies = self.rod.body_ids
         self._m_body = magnetics.body_moments_3d(disc.moment)
@@ -301,6 +313,33 @@ class Simulator:
         c = np.zeros((len(self._bodies), 9))
         c[:, 6], c[:, 8] = mx, mz
         return c
+
+    def _angle_map(self):
+        """``(A, phi0)`` with every piece's rotation angle about y (body-id order) = ``A @ qpos + phi0``, when
+        every rotation of the tree is about y (the planar rod: hinges and body frames about +-y, slides
+        otherwise); else None. ``R_y(phi)`` is then each piece's ``xmat`` to round-off (tested), so the
+        net moment of a recorded ``qpos`` is ``cos`` / ``sin`` sums, without MuJoCo's kinematics."""
+        m = self.model
+        nb = m.nbody
+        A = np.zeros((nb, m.nq))
+        phi0 = np.zeros(nb)
+        for b in range(1, nb):
+            w, x, y, z = m.body_quat[b]
+            if x != 0.0 or z != 0.0:
+                return None
+            parent = m.body_parentid[b]
+            A[b], phi0[b] = A[parent], phi0[parent] + 2.0 * math.atan2(y, w)
+            for j in range(m.body_jntadr[b], m.body_jntadr[b] + m.body_jntnum[b]):
+                kind = m.jnt_type[j]
+                if kind == mujoco.mjtJoint.mjJNT_HINGE:
+                    ax = m.jnt_axis[j]
+                    if ax[0] != 0.0 or ax[2] != 0.0 or abs(ax[1]) != 1.0:
+                        return None
+                    A[b, m.jnt_qposadr[j]] += ax[1]
+                elif kind != mujoco.mjtJoint.mjJNT_SLIDE:
+                    return None
+        ids = np.arange(self._b0, self._b1)
+        return A[ids], phi0[ids]
 
     # ------------------------------------------------------------------ state
     @property
@@ -792,7 +831,10 @@ class Simulator:
         self._field_k = 0  # index of the field applied last
         try:
             if starts.size == n:
-                self._native_per_step(fields, mag, quat)
+                if self._rollout_ok():  # a field that changes every step, in rollout blocks
+                    yield from self._native_run(n, block, fields=fields)
+                else:
+                    self._native_per_step(fields, mag, quat)
                 return
             ends = [*starts[1:].tolist(), n]
             track = self._energy_valid
@@ -811,20 +853,83 @@ class Simulator:
             self._b_applied = fields[self._field_k].copy()
             self._set_coefficients()
 
-    def _native_run(self, count: int, block: int, *, dfield=None):
+    def _rollout_ok(self) -> bool:
+        """Whether a field that changes every step may run in ``mujoco.rollout`` blocks: the planar rod,
+        whose piece angles are linear in ``qpos`` (the energy balance's net moments then come from the
+        recorded states, see :meth:`_angle_map`)."""
+        if self._angles is None:
+            amap = self._angle_map()
+            self._angles = False if amap is None else amap
+        return self._angles is not False and self.rollout_blocks
+
+    def _roll_block(self, controls: np.ndarray) -> np.ndarray:
+        """Run ``len(controls)`` steps with per-step controls (:data:`NATIVE_CONTROL_SPEC`) in one
+        ``mujoco.rollout`` call on this simulator's own data, which ends where as many ``mj_step`` calls
+        with the controls set before each would leave it (state, warm start, contact history: tested bit
+        for bit); returns the recorded full-physics states after each step, shape ``(k, nstate)``."""
+        m, d = self.model, self.data
+        k = controls.shape[0]
+        if self._roller is None:
+            from mujoco import rollout as mjrollout
+
+            self._roller = mjrollout.Rollout(nthread=0)
+            self._spec = int(mujoco.mjtState.mjSTATE_FULLPHYSICS)
+            self._s0 = np.empty((1, mujoco.mj_stateSize(m, self._spec)))
+            self._w0 = np.empty((1, m.nv))
+            self._bufs = {}
+        if k not in self._bufs:
+            self._bufs[k] = (np.empty((1, k, self._s0.shape[1])), np.empty((1, k, m.nsensordata)))
+        states, sens = self._bufs[k]
+        mujoco.mj_getState(m, d, self._s0[0], self._spec)
+        self._w0[0] = d.qacc_warmstart
+        self._roller.rollout([m], [d], self._s0, np.ascontiguousarray(controls[None]), control_spec=NATIVE_CONTROL_SPEC,
+                             skip_checks=True, nstep=k, initial_warmstart=self._w0, state=states, sensordata=sens)
+        return states[0]
+
+    def _field_work(self, q0: np.ndarray, states: np.ndarray, fields: np.ndarray, previous: np.ndarray) -> float:
+        """The work ``-sum M_j . dB_j`` of a block's field changes: ``M_j`` the net moment at step j's start
+        (``qpos`` ``q0``, then the recorded states), ``dB_j`` the change from the field before it."""
+        A, phi0 = self._angles
+        nq = self.model.nq
+        q = np.empty((len(fields), nq))
+        q[0] = q0
+        q[1:] = states[:-1, 1:1 + nq]  # full physics: time, then qpos
+        phi = q @ A.T + phi0
+        c, s_ = np.cos(phi), np.sin(phi)
+        mx, mz = self._m_body[self._order, 0], self._m_body[self._order, 2]
+        mom_x = c @ mx + s_ @ mz
+        mom_z = c @ mz - s_ @ mx
+        db = np.diff(fields, axis=0, prepend=previous[None, :])
+        return -float(mom_x @ db[:, 0] + mom_z @ db[:, 1])
+
+    def _native_run(self, count: int, block: int, *, dfield=None, fields=None):
         """``count`` steps at the present inputs, in blocks that end at every energy check and after at
         most ``block`` steps (at most the contact history), each checked step by step from the history.
         ``dfield``: the field change (T) at the first step, whose work ``-M . dB`` is booked with the
-        net moment of that step's start (the first block is then that step alone). A generator: it
+        net moment of that step's start (the first block is then that step alone). ``fields``: a field
+        per step, shape ``(count, 2)``, applied through ``mujoco.rollout`` blocks (:meth:`_roll_block`),
+        their work booked from the recorded states (:meth:`_field_work`). A generator: it
         yields between blocks and returns False when a bound broke or MuJoCo warned (the caller
         stops; :meth:`_check` reports it)."""
         m, d = self.model, self.data
         ce, warned = self.check_every, self._warning_text
         done = 0
+        controls = None if fields is None else native_controls(self.rod, fields)
+        track = fields is not None and self._energy_valid
         while done < count:
             k = 1 if dfield is not None else min(count - done, ce - self.nstep % ce, block)
             n0, t0 = self.nstep, float(d.time)
-            mujoco.mj_step(m, d, k)
+            if controls is None:
+                mujoco.mj_step(m, d, k)
+            else:
+                q0 = d.qpos.copy() if track else None
+                states = self._roll_block(controls[done:done + k])
+                if track:
+                    before = self._b_applied
+                    self._work += self._field_work(q0, states, fields[done:done + k], before)
+                self._field_k = done + k - 1  # the field applied last (_step_native ends at it)
+                self._b_applied = fields[done + k - 1].copy()
+                self._B3[0], self._B3[2] = fields[done + k - 1]
             self.nstep += k
             self._stale = True
             done += k
@@ -835,9 +940,12 @@ class Simulator:
             stop = k
             if warned:  # the steps before the one that warned count, as in a per-step loop
                 stop = max(0, self._warned_step() - 1 - n0)
-            if self._contact and self._scan_contacts(k, stop, n0, t0):
-                return False
-            if warned:
+            broke = self._contact and self._scan_contacts(k, stop, n0, t0)
+            if broke or warned:
+                if fields is not None:  # the field of the step that failed, as a per-step loop ends at it
+                    first = min(self._pen_step() if self._pen_hit else math.inf,
+                                self._warned_step() if warned else math.inf)
+                    self._field_k = int(min(max(first - 1 - self._call_ref[0], 0), count - 1))
                 return False
             if self.nstep % ce == 0:
                 self._check(energy=True)
