@@ -193,7 +193,7 @@ def test_waveform_rollout_blocks_equal_the_per_step_loop(options):
     if options.has_contact:
         assert abs(loop._work) > 0 and blocks.energy_drift == pytest.approx(loop.energy_drift, abs=1e-12)
     # the angles behind the net moments: R_y(A q + phi0) is every piece's xmat, at any state
-    A, phi0 = blocks._angles
+    A, phi0 = blocks._angle_map()
     rng = np.random.default_rng(1)
     d = blocks.data
     for _ in range(10):

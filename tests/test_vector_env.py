@@ -73,6 +73,20 @@ def test_every_robot_is_the_single_env_through_episode_ends(num_threads, block):
     assert ended >= 6  # the run went through several autoresets (terminations and time limits)
 
 
+def test_waveform_robots_are_the_single_env_in_rollout_blocks():
+    # waveform mode: a whole field period per step, in mujoco.rollout blocks of 100 interleaved on two threads
+    kw = {"segments": 4, "sim_dt": 1e-3}
+    envs = gym.make_vec("MagSoftCrawlWaveform-v0", num_envs=2, num_threads=2, **kw)
+    assert envs.block == 100 and envs.envs[0].sim._rollout_ok()
+    actions = np.random.default_rng(5).uniform(-1, 1, (4, 2, 4)).astype(np.float32)
+    got = [envs.reset(seed=3)[0]] + [envs.step(a)[0] for a in actions]
+    envs.close()
+    for i in range(2):
+        want = [w[0] for w in _single_run("MagSoftCrawlWaveform-v0", 3 + i, actions[:, i], **kw)]
+        for t, (obs, w) in enumerate(zip(got, want, strict=True)):
+            np.testing.assert_array_equal(obs[i], w, err_msg=f"robot {i}, step {t}")
+
+
 def test_robots_are_independent():
     envs = gym.make_vec("MagSoftCrawl-v0", num_envs=3, **FAST)
     obs, _ = envs.reset(seed=[5, 5, 5])

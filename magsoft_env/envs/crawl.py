@@ -14,7 +14,7 @@ from ..cases.robots import resolve_robot
 from ..sim import PhaseShifted, Ramp, SimulationError, Simulator
 from ..sim.gait import gait_rod_options
 from ..sim.health import UnphysicalError, check_steps
-from ..sim.model import MAX_TIMESTEP
+from ..sim.model import CONTACT_HISTORY, MAX_TIMESTEP
 from ..spec.drive import Waveparams
 from ..validate import choice, finite_number, nonnegative, positive
 from . import refuse_unknown_kwargs
@@ -289,8 +289,8 @@ class MagSoftCrawlEnv(gym.Env):
                                    friction=friction, render=render_mode is not None, feature_x=feature_x)
         # the energy checks once per control step (at least every 50 substeps): with the contact history of
         # sim.model.CONTACT_HISTORY steps, a 100-substep step runs as one block in MuJoCo (10 % more env steps/s
-        # than blocks of 25, same trajectory: vec_bench)
-        every = max(50, self.n_substeps) if self.action_mode == "field" else 50
+        # than blocks of 25, same trajectory: vec_bench); waveform mode: every 100 substeps, its rollout blocks
+        every = max(50, self.n_substeps) if self.action_mode == "field" else CONTACT_HISTORY
         self.sim = Simulator(self.gait.beam, options, check_every=every)
         self.segments = options.segments
         self._mass = self.sim.rod.disc.mass

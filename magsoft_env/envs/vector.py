@@ -14,12 +14,15 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from ..sim.model import CONTACT_HISTORY
 from . import constructor_arguments, refuse_unknown_kwargs
 from .channel import MagSoftChannelEnv
 from .crawl import MagSoftCrawlEnv
 from .obstacle import MagSoftObstacleEnv
 
-#: Substeps per interleaved block (a 100-substep control step: 4 blocks); the trajectory does not depend on it.
+#: Substeps per interleaved block in field mode (a 100-substep control step: 4 blocks); the trajectory does not
+#: depend on it. Waveform mode, whose control step is a whole field period (hundreds to thousands of substeps),
+#: interleaves blocks of the contact history's length (100).
 DEFAULT_BLOCK = 25
 
 #: How long the calling thread polls for the pool's end before it sleeps on an event (s).
@@ -214,7 +217,8 @@ class MagSoftCrawlVecEnv(VectorEnv):
     | ``max_episode_steps`` | None | time limit (steps); ``gym.make_vec`` passes the registered one |
     | ``num_threads`` | None | threads stepping the robots (the calling one included); None: ``min(num_envs,`` |
     | | | usable CPUs) |
-    | ``block`` | 25 | substeps of one robot the threads run before taking the next robot in turn |
+    | ``block`` | None | substeps of one robot the threads run before taking the next robot in turn; None: |
+    | | | 25 in field mode, 100 in waveform mode (a whole period per control step) |
     | ``**kwargs`` | | every argument of :attr:`env_class` (``robot``, ``field_limit``, ...), checked as there |
 
     ## Version History
@@ -236,7 +240,7 @@ class MagSoftCrawlVecEnv(VectorEnv):
     env_class = MagSoftCrawlEnv
 
     def __init__(self, num_envs: int = 1, *, max_episode_steps: int | None = None, num_threads: int | None = None,
-                 block: int = DEFAULT_BLOCK, **kwargs):
+                 block: int | None = None, **kwargs):
         allowed = constructor_arguments(self.env_class)
         refuse_unknown_kwargs(self, {k: v for k, v in kwargs.items() if k not in allowed}, classes=(self.env_class,))
         self.num_envs = _count("num_envs", num_envs)
@@ -244,8 +248,10 @@ class MagSoftCrawlVecEnv(VectorEnv):
         threads = min(self.num_envs, usable_cpus()) if num_threads is None else _count("num_threads", num_threads)
         self.num_threads = min(threads, self.num_envs)
         #: Substeps of one robot's native block, the unit the threads interleave (see ``_step_all``).
-        self.block = _count("block", block)
+        self.block = None if block is None else _count("block", block)
         self.envs = tuple(self.env_class(**kwargs) for _ in range(self.num_envs))
+        if self.block is None:
+            self.block = DEFAULT_BLOCK if self.envs[0].action_mode == "field" else CONTACT_HISTORY
         # each simulator's warnings reach it from any thread (see "Health checks"): the thread that steps
         # a robot names its own handler as the sink of the handler all of them install
         self._sinks = [route_warnings(env.sim) for env in self.envs]

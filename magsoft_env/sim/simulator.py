@@ -217,7 +217,7 @@ class Simulator:
         #: Native magnetics: run a field that changes every step (a waveform) in ``mujoco.rollout`` blocks
         #: (True, the planar rod) rather than one ``mj_step`` at a time with Python in between (False).
         self.rollout_blocks = True
-        self._angles = None  # (A, phi0) of _angle_map, False where it does not apply; built on first use
+        self._angles = None  # from _angle_map (see _rollout_ok), False where it does not apply; built on first use
         self._roller = None
         disc = self.rod.disc
         self._bodies = self.rod.body_ids
@@ -859,7 +859,12 @@ class Simulator:
         recorded states, see :meth:`_angle_map`)."""
         if self._angles is None:
             amap = self._angle_map()
-            self._angles = False if amap is None else amap
+            if amap is None:
+                self._angles = False
+            else:  # (A^T, phi0, m_x, m_z of the pieces in body-id order), for _field_work
+                A, phi0 = amap
+                self._angles = (np.ascontiguousarray(A.T), phi0, np.ascontiguousarray(self._m_body[self._order, 0]),
+                                np.ascontiguousarray(self._m_body[self._order, 2]))
         return self._angles is not False and self.rollout_blocks
 
     def _roll_block(self, controls: np.ndarray) -> np.ndarray:
@@ -889,17 +894,19 @@ class Simulator:
     def _field_work(self, q0: np.ndarray, states: np.ndarray, fields: np.ndarray, previous: np.ndarray) -> float:
         """The work ``-sum M_j . dB_j`` of a block's field changes: ``M_j`` the net moment at step j's start
         (``qpos`` ``q0``, then the recorded states), ``dB_j`` the change from the field before it."""
-        A, phi0 = self._angles
+        At, phi0, mx, mz = self._angles
         nq = self.model.nq
         q = np.empty((len(fields), nq))
         q[0] = q0
         q[1:] = states[:-1, 1:1 + nq]  # full physics: time, then qpos
-        phi = q @ A.T + phi0
+        phi = q @ At
+        phi += phi0
         c, s_ = np.cos(phi), np.sin(phi)
-        mx, mz = self._m_body[self._order, 0], self._m_body[self._order, 2]
         mom_x = c @ mx + s_ @ mz
         mom_z = c @ mz - s_ @ mx
-        db = np.diff(fields, axis=0, prepend=previous[None, :])
+        db = np.empty_like(fields)
+        db[0] = fields[0] - previous
+        np.subtract(fields[1:], fields[:-1], out=db[1:])
         return -float(mom_x @ db[:, 0] + mom_z @ db[:, 1])
 
     def _native_run(self, count: int, block: int, *, dfield=None, fields=None):
