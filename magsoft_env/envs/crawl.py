@@ -187,7 +187,8 @@ class MagSoftCrawlEnv(gym.Env):
 
     - v0: initial version (magsoft_env 0.1).
     - v0, magsoft_env 0.4: ``sim_dt`` and ``segments`` default to the robot's own numerics (paper-5c: 20 and
-      0.2 ms, as before); ``fidelity`` added.
+      0.2 ms, as before); ``fidelity`` added. Waveform mode and ``slew_rate`` step in ``mujoco.rollout``
+      blocks (the same trajectories), with energy checks every 100 substeps in waveform mode (was 50).
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 50}
