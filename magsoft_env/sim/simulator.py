@@ -613,9 +613,10 @@ class Simulator:
         batched environments interleave their robots this way, so that all of them end a call
         together. ``block`` caps the steps of one native block (default: the contact history,
         :data:`~magsoft_env.sim.model.CONTACT_HISTORY`); a native block is ``mj_step(m, d, k)``,
-        k steps in a row, so the trajectory and the checks do not depend on it. The per-step paths
-        (Python couples, a field that changes every step) run without yielding. A generator closed
-        before its end leaves the state of its last block, without the end-of-call check.
+        k steps in a row (``mujoco.rollout`` with per-step inputs for a field that changes every step), so
+        the trajectory and the checks do not depend on it. The per-step paths (Python couples, a tree
+        that is not planar, ``rollout_blocks = False``) run without yielding. A generator closed before
+        its end leaves the state of its last block, without the end-of-call check.
         """
         if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer)) or n < 0:
             raise ValueError(f"n must be a non-negative integer number of steps, got {n!r}.")
