@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import time
+from copy import deepcopy
 
 import gymnasium as gym
 import numpy as np
@@ -217,9 +218,7 @@ class ThreadedVecEnv(DummyVecEnv):
         self._cost[i] = time.perf_counter() - t0
 
     def step_wait(self):
-        from copy import deepcopy
-
-        from ..envs.vector import with_sink
+        from ..envs.vector import with_sink  # (envs.vector imports MuJoCo and the envs: on first use)
 
         order = np.argsort(-self._cost, kind="stable").tolist()
         self._team.each(order, lambda i: with_sink(self._sinks[i], self._step_env, i))
