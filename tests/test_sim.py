@@ -370,42 +370,45 @@ def test_import_is_light():
     assert r.returncode == 0, r.stdout + r.stderr
 
 
-def test_planar_fast_path_matches_general_couples(beam):
-    # the simulator writes the couples as generalized forces (a constant planar map); they must
-    # equal MuJoCo's own projection of the general cross-product couples (R m) x B
+def test_native_forces_match_general_couples(beam):
+    # MuJoCo's pole forces must equal its own projection of the general cross-product couples (R m) x B
     b = Beam(length=L, width=5e-3, thickness=1.13e-3, magnetization=lambda s: 90.0 * s)
     for options in (RodOptions(segments=12, gravity=9.81), RodOptions(segments=12, scene="floor")):
         sim = Simulator(b, options, field=(-0.004, 0.006))
         sim.step(100)  # a bent, moving state
         couples = sim.magnetic_couples()  # brings kinematics up to date
         assert np.abs(couples[:, 1]).max() > 0
-        sim._apply_torques()
+        mujoco.mj_forward(sim.model, sim.data)
         expected = np.zeros(sim.model.nv)
         for body, c in zip(sim.rod.body_ids, couples, strict=True):
             mujoco.mj_applyFT(sim.model, sim.data, np.zeros(3), c, sim.data.xipos[body], int(body), expected)
-        np.testing.assert_allclose(sim.data.qfrc_applied, expected, rtol=1e-12, atol=1e-18)
-        assert not sim.data.xfrc_applied.any()
+        scale = np.abs(expected).max()
+        np.testing.assert_allclose(sim.data.qfrc_actuator, expected, rtol=0, atol=1e-12 * scale)
+        assert not sim.data.xfrc_applied.any() and not sim.data.qfrc_applied.any()
 
 
 def test_couples_as_generalized_forces_match_the_body_couple_path(beam):
-    # stepping with the generalized forces against stepping with the general couples in
-    # xfrc_applied (the pre-0.3 path), state-exact every step: equal to round-off
-    from magsoft_env.sim import Sine
+    # stepping with MuJoCo's pole forces against stepping a model without them, the general couples
+    # written into xfrc_applied every step: equal to round-off
+    import dataclasses
+
+    from magsoft_env.sim import Sine, build_model
 
     b = Beam(length=L, width=5e-3, thickness=1.13e-3, magnetization=lambda s: 90.0 * s)
     for options in (RodOptions(segments=10, timestep=1e-4), RodOptions(segments=10, scene="floor", timestep=1e-4)):
         wf = Sine((1e-3, 2e-3), 2.0)
-        a, ref = Simulator(b, options), Simulator(b, options)
+        a = Simulator(b, options)
+        ref = build_model(b, dataclasses.replace(options, magnetics="python"))
         a.set_waveform(wf)
         a.step(500)
-        m, d, ids = ref.model, ref.data, ref.rod.body_ids
+        m, d, ids = ref.model, mujoco.MjData(ref.model), ref.body_ids
         for _ in range(500):
             f = wf.sample(np.array([d.time]))[0]
             mujoco.mj_step1(m, d)
             d.xfrc_applied[ids, 3:6] = magnetics.couples(
-                magnetics.world_moments(d.xmat[ids], ref._m_body), np.array([f[0], 0.0, f[1]]))
+                magnetics.world_moments(d.xmat[ids], a.backend.m_body), np.array([f[0], 0.0, f[1]]))
             mujoco.mj_step2(m, d)
-        assert np.abs(d.qpos[ref.rod.hinge_qpos]).max() > 1e-3  # it bent
+        assert np.abs(d.qpos[ref.hinge_qpos]).max() > 1e-3  # it bent
         np.testing.assert_allclose(a.data.qpos, d.qpos, rtol=0, atol=1e-12)
 
 

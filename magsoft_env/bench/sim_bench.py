@@ -2,13 +2,13 @@
 
 Sections (run all, or pick with ``--only``):
 
-* ``targets``: issue 3's timing targets, every timed case once in each of ``--rounds``
+* ``targets``: the timing targets (clamped ``mj_step`` <= 10 us, floor ``mj_step`` <= 30 us, end to end >= 25x
+  real time), every timed case once in each of ``--rounds``
   interleaved rounds (best, median, and in how many rounds each target and all of them
   together were met): raw ``mj_step`` of the clamped rod; for two 20-segment crawlers at the
   default floor settings, ``mj_step`` alone (a C replay of the same trajectory) and end to end
   (microseconds per step, real-time factor), beside the dynamic error against a fine-step
-  reference of the same contact model and against the stiff material-contact model; the
-  couples held over 2 and 5 steps (a shortcut, measured).
+  reference of the same contact model and against the stiff material-contact model.
 
 * ``static``: tip error / L against segments for the uniform cantilever without gravity
   (baseline: the elastica closed form, ``magsoft_env.sim.reference``) and for the paper's
@@ -36,8 +36,6 @@ Sections (run all, or pick with ``--only``):
   ``discrete`` integrator at 50 / 25 / 12.5 us against a second integrator (``euler``, whose
   springs and contact rows are explicit) at 10 / 5 / 2.5 us and its Richardson extrapolation.
 * ``symmetry``: numerical left/right bias, from a mirror-symmetric robot driven both ways.
-* ``batch``: ``RodBatch`` (``mujoco.batch``, one thread) against a Python loop of
-  ``Simulator`` objects; the cost of computing the couples in C (site actuators) instead.
 * ``peer``: PyElastica (if installed) on the same magnetic cantilever: time to the same
   static error (``magsoft_env.bench.sim_peer``).
 
@@ -364,11 +362,11 @@ def speed(quick: bool) -> None:
     print(f"floor defaults, crawling: mj_step contact on {on:.1f} us ({ncon} contacts), contact off {off:.1f} us")
 
 
-def _crawl(beam, duration, *, waveform=None, torque_every=1, mj_opt=None, **options):
+def _crawl(beam, duration, *, waveform=None, mj_opt=None, **options):
     """Crawl under ``waveform`` (default B_z = 2 mT sin(2 pi 2 t)): trajectory (every 10 ms),
     CPU s, max penetration (m). ``mj_opt``: MuJoCo ``opt`` fields set on the built model (settings
     ``RodOptions`` does not expose, e.g. ``impratio``)."""
-    sim = Simulator(beam, RodOptions(scene="floor", **options), torque_every=torque_every)
+    sim = Simulator(beam, RodOptions(scene="floor", **options))
     for key, value in (mj_opt or {}).items():
         setattr(sim.model.opt, key, value)
     dt = sim.timestep
@@ -410,51 +408,44 @@ def _travel(run) -> float:
 class _CrawlTimer:
     """Per-step CPU cost along one default crawl, one sample per :meth:`round`:
 
-    * ``Simulator.step`` over the whole crawl (one call), magnetics every step or held over
-      ``h`` steps, for each ``h`` in ``holds``;
-    * ``mj_step`` alone along the same trajectory: the generalized magnetic forces of every step
-      recorded from a ``Simulator`` run and replayed by ``mujoco.rollout`` (a C loop, no Python
-      per step) from the same initial state."""
+    * ``Simulator.step`` over the whole crawl (one call: rollout blocks with every check);
+    * ``mj_step`` alone along the same trajectory: the field's per-step inputs replayed by ``mujoco.rollout``
+      (a C loop, no Python per step) from the same initial state."""
 
-    def __init__(self, beam, waveform, duration, holds=(1, 2, 5), **options):
+    def __init__(self, beam, waveform, duration, **options):
+        from magsoft_env.sim.model import native_controls
+
         self.waveform = waveform
-        self.sims = {h: Simulator(beam, RodOptions(scene="floor", magnetics="python", **options), torque_every=h)
-                     for h in holds}
-        # the Python couples: their generalized forces are what the replay feeds mj_step
-        rec = Simulator(beam, RodOptions(scene="floor", magnetics="python", **options))
-        rec.set_waveform(waveform)
-        m, d = rec.model, rec.data
+        self.sim = Simulator(beam, RodOptions(scene="floor", **options))
+        m, d = self.sim.model, self.sim.data
         spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
         self.x0 = np.empty(mujoco.mj_stateSize(m, spec))
         mujoco.mj_getState(m, d, self.x0, spec)
         self.w0 = d.qacc_warmstart.copy()
-        self.n = n = int(round(duration / rec.timestep))
-        self.qfrc = np.empty((n, m.nv))
-        for k in range(n):
-            rec.step(1)
-            self.qfrc[k] = d.qfrc_applied
-        self.model, self.qend = m, d.qpos.copy()
+        self.n = n = int(round(duration / self.sim.timestep))
+        self.controls = native_controls(self.sim.rod, waveform.sample(self.sim.timestep * np.arange(n)))
+        self.model = m
         self.scratch = mujoco.MjData(m)
         self.replay_diff = math.nan
 
-    def round(self) -> tuple[dict, float]:
-        """One sample: ({hold: Simulator.step us}, replayed mj_step us)."""
+    def round(self) -> tuple[float, float]:
+        """One sample: (Simulator.step us, replayed mj_step us)."""
         from mujoco import rollout as mjrollout
 
-        e2e = {}
-        for h, sim in self.sims.items():
-            sim.reset()
-            sim.set_waveform(self.waveform)
-            t0 = time.process_time()
-            sim.step(self.n)
-            e2e[h] = (time.process_time() - t0) / self.n * 1e6
+        from magsoft_env.sim.model import NATIVE_CONTROL_SPEC
+
+        sim = self.sim
+        sim.reset()
+        sim.set_waveform(self.waveform)
         t0 = time.process_time()
-        state, _ = mjrollout.rollout(self.model, self.scratch, self.x0[None], self.qfrc[None],
-                                     control_spec=mujoco.mjtState.mjSTATE_QFRC_APPLIED,
-                                     initial_warmstart=self.w0[None])
+        sim.step(self.n)
+        e2e = (time.process_time() - t0) / self.n * 1e6
+        t0 = time.process_time()
+        state, _ = mjrollout.rollout(self.model, self.scratch, self.x0[None], self.controls[None],
+                                     control_spec=NATIVE_CONTROL_SPEC, initial_warmstart=self.w0[None])
         raw = (time.process_time() - t0) / self.n * 1e6
         nq = self.model.nq  # FULLPHYSICS rows: time, qpos, ...
-        self.replay_diff = float(np.abs(state[0, -1, 1 : 1 + nq] - self.qend).max())
+        self.replay_diff = float(np.abs(state[0, -1, 1 : 1 + nq] - sim.data.qpos).max())
         return e2e, raw
 
 
@@ -472,7 +463,7 @@ class _ClampedTimer:
     def round(self) -> tuple[float, float]:
         sim, n, st = self.sim, self.n, self.st
         mujoco.mj_setState(sim.model, self.raw_data, st, mujoco.mjtState.mjSTATE_INTEGRATION)
-        self.raw_data.qfrc_applied[:] = sim.data.qfrc_applied
+        self.raw_data.ctrl[:], self.raw_data.mocap_quat[:] = sim.data.ctrl, sim.data.mocap_quat
         t0 = time.process_time()
         mujoco.mj_step(sim.model, self.raw_data, nstep=n)
         raw = (time.process_time() - t0) / n * 1e6
@@ -482,7 +473,7 @@ class _ClampedTimer:
         return raw, (time.process_time() - t0) / n * 1e6
 
 
-#: issue 3's timing targets: clamped mj_step (us), floor mj_step (us), end to end (x real time)
+#: timing targets: clamped mj_step (us), floor mj_step (us), end to end (x real time)
 TARGET_CLAMPED_US, TARGET_FLOOR_US, TARGET_RTF = 10.0, 30.0, 25.0
 
 
@@ -498,10 +489,9 @@ def targets(quick: bool, rounds: int | None = None) -> None:
     clamped = _ClampedTimer()
     timers = [_CrawlTimer(beam, wf, duration) for _, beam, wf in crawlers]
     # the half step, within 5 % of the fine reference (convergence section): how fast can it be?
-    halves = [_CrawlTimer(beam, wf, duration, holds=(1,), timestep=5e-4) for _, beam, wf in crawlers]
-    holds = tuple(timers[0].sims)
+    halves = [_CrawlTimer(beam, wf, duration, timestep=5e-4) for _, beam, wf in crawlers]
     c_raw, c_full = [], []
-    e2e = [{h: [] for h in holds} for _ in timers]
+    e2e = [[] for _ in timers]
     raw = [[] for _ in timers]
     h_e2e, h_raw = [[] for _ in halves], [[] for _ in halves]
     for _ in range(rounds):  # every timed case in every round: the machine's speed drifts within a run
@@ -511,15 +501,14 @@ def targets(quick: bool, rounds: int | None = None) -> None:
         for i, t in enumerate(timers):
             e, w = t.round()
             raw[i].append(w)
-            for h in holds:
-                e2e[i][h].append(e[h])
+            e2e[i].append(e)
         for i, t in enumerate(halves):
             e, w = t.round()
             h_raw[i].append(w)
-            h_e2e[i].append(e[1])
+            h_e2e[i].append(e)
     all_met = [
         c_raw[k] <= TARGET_CLAMPED_US
-        and all(raw[i][k] <= TARGET_FLOOR_US and 1e3 / e2e[i][1][k] >= TARGET_RTF for i in range(len(timers)))
+        and all(raw[i][k] <= TARGET_FLOOR_US and 1e3 / e2e[i][k] >= TARGET_RTF for i in range(len(timers)))
         for k in range(rounds)
     ]
     print(f"timings: CPU time of this process, {rounds} rounds, every timed case below once in each round "
@@ -533,10 +522,10 @@ def targets(quick: bool, rounds: int | None = None) -> None:
     print(f"all timing targets met in the same round (clamped, and both crawlers' mj_step and end to end): "
           f"{sum(all_met)}/{rounds} rounds")
     print("\nend to end at the default floor settings (N = 20, dt 1 ms, contact tc 2 ms, discrete, "
-          "magnetics every step), one core")
+          "native magnetics), one core")
     print(f"each crawler for {duration:g} s. us/step = CPU time of Simulator.step over the whole run "
-          "(magnetics, checks); mj_step = the same trajectory replayed by mujoco.rollout with the recorded "
-          "generalized magnetic forces (C loop; |dq| = its distance from the run); best (median); "
+          "(magnetics, checks); mj_step = the same trajectory replayed by mujoco.rollout with the field's "
+          "per-step inputs (C loop; |dq| = its distance from the run); best (median); "
           "RTF = dt / best us/step; 'dt 0.5 ms': the same at half the default step (mj_step: the real-time "
           "factor of mj_step alone, a bound for any per-step work)")
     print("crawl = centre-of-mass x travel; d = its error vs the reference; shape = max over time of the centerline "
@@ -552,7 +541,7 @@ def targets(quick: bool, rounds: int | None = None) -> None:
 
     for (name, beam, wf), t, rw, e, th, hr, he in zip(crawlers, timers, raw, e2e, halves, h_raw, h_e2e,
                                                        strict=True):
-        us = e[1]
+        us = e
         run = _crawl(beam, duration, waveform=wf)
         fine = _crawl(beam, duration, waveform=wf, timestep=5e-5)
         stiff = _crawl(beam, duration, waveform=wf, timestep=2.5e-5, contact_timeconst="material")
@@ -562,13 +551,6 @@ def targets(quick: bool, rounds: int | None = None) -> None:
               f"{_met(us, lambda v: 1e3 / v >= TARGET_RTF):>6} {c:>9.3f} {cf:>8.3f} "
               f"{100 * (c - cf) / cf:>+8.1f} {100 * _shape_error(run, fine, beam.length):>8.2f} "
               f"{run[4] * 1e6:>7.1f} {cs:>8.3f} {100 * (c - cs) / cs:>+9.1f} {stiff[4] * 1e6:>7.1f}um")
-        for hold in holds[1:]:
-            us_h = e[hold]
-            rh = _crawl(beam, duration, waveform=wf, torque_every=hold)
-            ch = 1e3 * _travel(rh)
-            print(f"{'  couples held ' + str(hold) + ' steps':>34} {'':>13} {'':>6} {'':>7} {best_med(us_h):>13} "
-                  f"{1e3 / min(us_h):>5.1f} {'':>6} {ch:>9.3f} {cf:>8.3f} {100 * (ch - cf) / cf:>+8.1f} "
-                  f"{100 * _shape_error(rh, fine, beam.length):>8.2f} {rh[4] * 1e6:>7.1f}")
         rh = _crawl(beam, duration, waveform=wf, timestep=5e-4)
         ch = 1e3 * _travel(rh)
         print(f"{'  dt 0.5 ms (mj_step: ' + format(5e2 / min(hr), '.1f') + 'x)':>34} {best_med(hr):>13} "
@@ -720,100 +702,6 @@ def symmetry(quick: bool) -> None:
         print(f"{geom:>13} {base:>7} {travel[0]:>8.3f} {travel[1]:>8.3f} {travel[0] + travel[1]:>+8.3f}")
 
 
-def batch(quick: bool) -> None:
-    print("\n## batch: many crawlers, one thread; baseline a Python loop over Simulator objects")
-    from magsoft_env.sim import RodBatch
-
-    beam = _crawler()
-    nsteps = 200 if quick else 1000
-    wf = Sine((0.0, 2e-3), 2.0)
-    print(f"{'nsim':>5} {'loop us/rod-step':>17} {'RodBatch us/rod-step':>21} {'speed-up':>9} {'max |dq|':>9}")
-    for nsim in (1, 8, 32):
-        sims = [Simulator(beam, RodOptions(scene="floor")) for _ in range(nsim)]
-        rb = RodBatch(beam, RodOptions(scene="floor"), nsim=nsim, nthread=1)
-        rb.set_waveforms([wf] * nsim)
-        for s in sims:
-            s.set_waveform(wf)
-        loop = bat = math.inf
-        for _ in range(3):
-            t0 = time.process_time()
-            for s in sims:
-                s.step(nsteps)
-            loop = min(loop, time.process_time() - t0)
-            t0 = time.process_time()
-            rb.step(nsteps)
-            bat = min(bat, time.process_time() - t0)
-        dq = max(float(np.abs(rb.qpos[i] - s.data.qpos).max()) for i, s in enumerate(sims))
-        k = nsteps * nsim
-        print(f"{nsim:>5} {loop / k * 1e6:>17.1f} {bat / k * 1e6:>21.1f} {loop / bat:>9.2f} {dq:>9.1e}")
-    # torques computed in C instead (what mujoco.rollout needs: no Python between steps)
-    from mujoco import rollout as mjrollout
-
-    sim = Simulator(beam, RodOptions(scene="floor", magnetics="python"))
-    m_act = _actuator_model(sim)
-    d_act = mujoco.MjData(m_act)
-    sim.set_field((0.0, 2e-3))
-    d_act.ctrl[0::2], d_act.ctrl[1::2] = 0.0, 2e-3
-    n = 300 if quick else 1000
-    plain = _cpu_us_per_step(lambda k: mujoco.mj_step(sim.model, sim.data, nstep=k), n)
-    act = _cpu_us_per_step(lambda k: mujoco.mj_step(m_act, d_act, nstep=k), n)
-    full = _cpu_us_per_step(sim.step, n)
-    print(f"couples as {m_act.nu} site actuators (force pairs along B at two sites per piece, refsite in the world): "
-          f"mj_step {act:.1f} us vs {plain:.1f} us without magnetics and {full:.1f} us for Simulator.step")
-    # open loop: the crawl waveform as controls, rolled out in C, against Simulator.run
-    nsim = 8
-    duration = 0.1 if quick else 0.3
-    nst = int(round(duration / sim.timestep))
-    fields = wf.sample(sim.timestep * np.arange(nst))  # B at the start of each step, as Simulator uses
-    ctrl = np.tile(fields, (1, m_act.nu // 2))[None].repeat(nsim, axis=0)
-    d0 = mujoco.MjData(m_act)
-    mujoco.mj_forward(m_act, d0)
-    spec_full = mujoco.mjtState.mjSTATE_FULLPHYSICS
-    x0 = np.empty(mujoco.mj_stateSize(m_act, spec_full))
-    mujoco.mj_getState(m_act, d0, x0, spec_full)
-    t0 = time.process_time()
-    state, _ = mjrollout.rollout(m_act, [mujoco.MjData(m_act)], np.tile(x0, (nsim, 1)), ctrl)
-    t_roll = time.process_time() - t0
-    loop_sims = [Simulator(beam, RodOptions(scene="floor")) for _ in range(nsim)]
-    t0 = time.process_time()
-    for s1 in loop_sims:
-        s1.set_waveform(wf)
-        s1.step(nst)
-    t_loop = time.process_time() - t0
-    qpos_roll = state[0, -1, 1 : 1 + m_act.nq]  # FULLPHYSICS rows: time, qpos, qvel, ...
-    print(f"open loop, {nsim} crawlers x {duration:g} s: mujoco.rollout (actuator couples) "
-          f"{t_roll / (nsim * nst) * 1e6:.1f} us/rod-step vs Simulator loop {t_loop / (nsim * nst) * 1e6:.1f}; "
-          f"max |qpos difference| {np.abs(qpos_roll - s1.data.qpos).max():.1e}")
-
-
-def _actuator_model(sim) -> mujoco.MjModel:
-    """The simulator's rod with each magnetic couple as two world-frame force pairs (site actuators).
-
-    A couple ``(R m) x B`` equals a force ``(|m| / l) B`` at ``p + l R m_hat`` and its opposite
-    at ``p``; ``ctrl`` holds ``(B_x, B_z, B_x, B_z)`` per piece (T).
-    """
-    from magsoft_env.sim import build_spec
-
-    spec, disc = build_spec(sim.beam, sim.options)
-    spec.worldbody.add_site(name="field_frame")
-    for i in range(sim.options.segments + 1):
-        body = spec.body(f"piece{i}")
-        m = disc.moment[i]
-        mag, ell = float(np.hypot(*m)), float(disc.piece_length[i])
-        u = m / mag
-        body.add_site(name=f"ma{i}", pos=[0.0, 0.0, 0.0])
-        body.add_site(name=f"mb{i}", pos=[ell * u[0], 0.0, ell * u[1]])
-        for site, sign in ((f"mb{i}", 1.0), (f"ma{i}", -1.0)):
-            for comp in (0, 2):
-                a = spec.add_actuator(name=f"{site}_{comp}", target=site, trntype=mujoco.mjtTrn.mjTRN_SITE,
-                                      refsite="field_frame")
-                gear = [0.0] * 6
-                gear[comp] = sign
-                a.gear = gear
-                a.gainprm[0] = mag / ell
-    return spec.compile()
-
-
 def peer(quick: bool) -> None:
     from magsoft_env.bench import sim_peer
 
@@ -824,7 +712,6 @@ SECTIONS = {
     "targets": targets,
     "static": static, "timestep": timestep, "sweep": sweep, "speed": speed, "floor": floor, "contact": contact,
     "convergence": convergence, "reference": reference, "symmetry": symmetry,
-    "batch": batch,
     "peer": peer,
 }
 

@@ -60,10 +60,10 @@ def route_warnings(sim):
     """Let ``sim``'s MuJoCo warnings reach it from any thread: its own warning handler is returned, to be
     named the thread's sink (:func:`with_sink`) while that thread steps it, and ``sim`` installs the
     router instead (MuJoCo's warning handler is one per process). ``sim`` without a handler: None."""
-    own = getattr(sim, "_on_warning", None)
+    own = getattr(sim, "on_warning", None)
     if own is None or own is _route_warning:
         return own
-    sim._on_warning = _route_warning
+    sim.on_warning = _route_warning
     return own
 
 

@@ -2,23 +2,23 @@
 
 Importing this package imports mujoco (no renderer, no gymnasium, no torch).
 
-Main entry points: :class:`Simulator` (dynamics, waveforms, settling, readouts),
-:class:`RodBatch` (many rods stepped together with ``mujoco.batch``),
+Main entry points: :class:`Simulator` (dynamics, waveforms, settling, readouts: one stepping engine over a
+rod backend, :class:`~magsoft_env.sim.planar.PlanarRod`, with one health monitor),
 :func:`mujoco_equilibrium` and :func:`mujoco_path` (statics along a loading path),
 :func:`build_model` / :class:`RodOptions` (the MjSpec builder), :mod:`.waveforms`.
 """
 
-from .batch import RodBatch
 from .discretize import RodDiscretization, discretize
 from .equilibrium import SimEquilibrium, mujoco_equilibrium, mujoco_path
 from .health import UnphysicalError
 from .model import CHANNEL_SIZE, INTEGRATORS, OBSTACLE_SIZE, SCENES, RodModel, RodOptions, build_model, build_spec
+from .planar import PlanarRod
 from .simulator import SettleResult, SimulationError, Simulator, Trajectory
 from .waveforms import Hold, PhaseShifted, Ramp, Sequence, Sine, Square, SwitchedSquare, Waveform, as_waveform
 
 __all__ = [
     "CHANNEL_SIZE", "INTEGRATORS", "OBSTACLE_SIZE", "SCENES", "Hold", "PhaseShifted", "Ramp", "RodDiscretization",
-    "RodBatch", "RodModel", "RodOptions", "SettleResult", "Sequence", "SimEquilibrium", "SimulationError",
+    "PlanarRod", "RodModel", "RodOptions", "SettleResult", "Sequence", "SimEquilibrium", "SimulationError",
     "UnphysicalError", "Simulator", "Sine", "Square", "SwitchedSquare", "Trajectory", "Waveform", "as_waveform",
     "build_model", "build_spec", "discretize", "mujoco_equilibrium", "mujoco_path",
 ]

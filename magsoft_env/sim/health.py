@@ -1,8 +1,7 @@
-"""Health checks of a MuJoCo rod simulation, shared by :class:`~magsoft_env.sim.Simulator` and
-:class:`~magsoft_env.sim.RodBatch`: the error types, the MuJoCo warnings that stop a run, the
-runaway-energy bound, the physical bounds of the contact scenes (penetration, tunnelling,
-launch), the work bound of one call, and the reader of MuJoCo's sensor history buffers that lets
-blocks of steps run inside MuJoCo keep the per-step penetration check.
+"""Health checks of a MuJoCo rod simulation: the error types, the MuJoCo warnings that stop a run, the
+runaway-energy bound, the physical bounds of the contact scenes (penetration, tunnelling, launch), the work
+bound of one call, the reader of MuJoCo's sensor history buffers that lets blocks of steps run inside MuJoCo
+keep the per-step penetration check, and :class:`HealthMonitor`, the one component that applies them.
 """
 
 from __future__ import annotations
@@ -32,7 +31,7 @@ STABILITY_HINT = "Use a smaller timestep or integrator='discrete'."
 #: centreline is h/2 below the surface). Chosen from measurements (docs/sim.md, "Physical checks"):
 #: the gaits at their 0.1-0.2 ms steps reach at most 0.08 h; the soft default contact (2 ms at
 #: 1 ms) reaches 0.79 h in current uses (the cosine-jig crawler at 2 mT), 1.1-1.6 h when the beam
-#: tumbles at 2-3 mT, and the silent failure of issue 12 (100 mT) 2.1 h in its first step.
+#: tumbles at 2-3 mT, and a beam driven at 100 mT 2.1 h in its first step.
 PENETRATION_LIMIT = 1.0
 #: Contact scenes: energy created by the numerics (total mechanical + magnetic energy above its
 #: start plus the work the field did), as a fraction of the energy scale, above which the run is a
@@ -159,6 +158,335 @@ def runaway_hint(energy_scale: float, where: str = "") -> str:
     return f"It exceeds {RUNAWAY_FACTOR:g} x the energy scale {energy_scale:.3g} J{where}. {STABILITY_HINT}"
 
 
-__all__ = ["ENERGY_DRIFT_LIMIT", "MAX_STEPS", "PENETRATION_LIMIT", "RUNAWAY_FACTOR", "STABILITY_HINT", "WARNINGS",
-           "WARNING_IDS", "SensorHistory", "SimulationError", "UnphysicalError", "check_steps", "new_warning",
-           "runaway", "runaway_hint"]
+
+#: field magnitude (T) below which the energy scale uses this floor instead
+FIELD_FLOOR = 0.05
+
+
+class HealthMonitor:
+    """Every check of one simulation, and its records: MuJoCo's warnings, a non-finite state, runaway kinetic
+    energy and, in contact scenes, the physical bounds (penetration read step by step from the contact
+    sensors' history, tunnelling, and the energy balance that detects a launch).
+
+    The stepping engine calls :meth:`begin_call` before a call to ``step``, :meth:`scan_block` after every
+    native block, :meth:`check` at every energy check and at the end of a call, and :meth:`book_work` with the
+    work of every field change. The records (:attr:`max_penetration`, :attr:`energy_drift`,
+    :attr:`max_kinetic_ratio`) say of every run whether it stayed resolved.
+
+    Parameters
+    ----------
+    rod
+        The rod backend (:class:`~magsoft_env.sim.planar.PlanarRod`): energies, net moment, lowest point.
+    data : mujoco.MjData
+    penetration_limit : float
+        Deepest contact allowed (m).
+    contact_timeconst : float
+        The contact ``solref`` time constant (s), quoted in failure messages.
+    """
+
+    def __init__(self, rod, data, *, penetration_limit: float, contact_timeconst: float):
+        self.rod = rod
+        self.model = rod.model
+        self.data = data
+        self.contact = rod.has_contact
+        self.feature = rod.has_feature
+        self.penetration_limit = float(penetration_limit)
+        self.tc = float(contact_timeconst)
+        self.energy_on = self.contact and rod.two_stage
+        self.hist, self.hist_feature = rod.contact_histories(data)
+        self._sd = data.sensordata if self.contact else np.zeros(1)
+        self._adr, self._adr2 = rod.contact_adr, rod.feature_adr
+        self._mv = np.zeros(self.model.nv)
+        self.warning_text: list[str] = []
+        self.warning_times: list[float] = []
+        self.call_ref = (0, 0.0)  # (nstep, time) at the start of the present call
+        self.energy_scale = 0.0
+        self.energy_valid = False
+        self.work = self.e0 = 0.0
+        self.state_key = b""
+        self.b_applied = np.zeros(2)  # the field (B_x, B_z) the last step applied (T)
+        self.warn0 = np.zeros(len(WARNING_IDS), dtype=int)
+        self.min_dist = self.min_feature = 0.0  # most negative contact distances seen (m)
+        self.pen_at = self.feature_at = (0, 0.0)  # step and time of each
+        self.pen_hit = ""  # "", "floor" or "scene": which bound was broken
+        self.overlap0 = 0.0
+        self.floor_limit = self.feature_limit = -self.penetration_limit
+        self.max_ke_ratio = 0.0
+        self.drift = math.nan
+
+    # ------------------------------------------------------------------ records
+    def reset(self, field2: np.ndarray) -> None:
+        """Start the records again from the present (synchronized, freshly reset) state under ``field2``."""
+        self.warning_text.clear()
+        self.warning_times.clear()
+        self.warn0 = self.warning_counts()
+        self.min_dist = self.min_feature = 0.0
+        self.pen_at = self.feature_at = (0, 0.0)
+        self.pen_hit = ""
+        # a start that already overlaps a scene feature (feature_x through the resting beam) is the
+        # caller's geometry, not the dynamics': the contact bounds then count from that overlap
+        self.overlap0 = 0.0
+        if self.feature:  # the scene sensor sees the floor too: only a contact deeper than the floor's counts
+            d_all, d_floor = float(self._sd[self._adr2]), float(self._sd[self._adr])
+            self.overlap0 = -d_all if d_all < min(d_floor, 0.0) else 0.0
+        self.feature_limit = self.floor_limit = -self.penetration_limit - self.overlap0
+        self.max_ke_ratio = 0.0
+        self.drift = 0.0 if self.energy_on else math.nan
+        self.b_applied = np.array(field2, dtype=float)
+        self.rebaseline(stale=False)
+
+    @property
+    def max_penetration(self) -> float:
+        """Deepest rod contact seen since the last reset (m)."""
+        return max(0.0, -self.min_dist, -self.min_feature)  # 0.0 first: never -0.0
+
+    def warning_counts(self) -> np.ndarray:
+        return self.data.warning.number[WARNING_IDS].copy()
+
+    def on_warning(self, text: str) -> None:
+        """MuJoCo's warning handler while a call runs: the text, with the time of the step that raised it."""
+        self.warning_text.append(text)
+        self.warning_times.append(float(self.data.time))
+
+    def warned_step(self, nstep: int) -> int:
+        """Steps done when the first MuJoCo warning of this call was raised (counting the step that raised
+        it, as a per-step loop stops); ``nstep`` if none was timed in this call."""
+        n0, t0 = self.call_ref
+        dt = self.model.opt.timestep
+        if not self.warning_times or self.warning_times[0] < t0 - 0.5 * dt:
+            return nstep
+        return n0 + int(round((self.warning_times[0] - t0) / dt)) + 1
+
+    # ------------------------------------------------------------------ energy balance
+    def kinetic(self) -> float:
+        mujoco.mj_mulM(self.model, self.data, self._mv, self.data.qvel)
+        return 0.5 * float(self.data.qvel @ self._mv)
+
+    def key(self) -> bytes:
+        return self.data.qpos.tobytes() + self.data.qvel.tobytes()
+
+    def rebaseline(self, *, stale: bool) -> None:
+        """Start the energy balance from the present state (``stale``: positions not yet synchronized)."""
+        self.work = 0.0
+        self.energy_valid = self.energy_on
+        if self.energy_on:
+            if stale:
+                mujoco.mj_fwdPosition(self.model, self.data)
+            self.e0 = self.rod.energy(self.data, self.b_applied, kinetic=self.kinetic(), staggered=False)
+        self.state_key = self.key()
+
+    def begin_call(self, nstep: int, field2: np.ndarray | None, *, external: bool, stale: bool) -> bool:
+        """Before a call: restart the energy balance after an outside write to the state (or a call it could
+        not follow, or an external wrench whose work it does not count), and book the work of a held field
+        set since the last step (``field2``; None when the call's fields vary). Returns whether the
+        positions were synchronized here."""
+        self.call_ref = (nstep, float(self.data.time))
+        if not self.contact:
+            return False
+        synced = False
+        if not self.energy_on or external:
+            self.energy_valid = False
+            self.drift = math.nan
+        elif not self.energy_valid or self.key() != self.state_key:
+            self.rebaseline(stale=stale)
+            synced = stale
+        if self.energy_valid and field2 is not None:
+            db = field2 - self.b_applied
+            if db[0] or db[1]:
+                # a held field jumps at the state now: the work -M . dB with M of this state
+                if stale and not synced:
+                    mujoco.mj_kinematics(self.model, self.data)
+                mom = self.rod.net_moment(self.data)
+                self.work -= float(mom[0] * db[0] + mom[1] * db[1])
+            self.b_applied = field2.copy()
+        return synced
+
+    def book_work(self, qpos0: np.ndarray, states: np.ndarray, fields: np.ndarray) -> None:
+        """The work ``-sum M_j . dB_j`` of a block of per-step fields ``(k, 2)``: ``M_j`` the net moment at step
+        j's start (``qpos0``, then the recorded full-physics ``states``), ``dB_j`` the change from the field
+        before it."""
+        if self.energy_valid:
+            nq = self.model.nq
+            q = np.empty((len(fields), nq))
+            q[0] = qpos0
+            q[1:] = states[:-1, 1:1 + nq]  # full physics: time, then qpos
+            mom = self.rod.net_moments(q)
+            db = np.empty_like(fields)
+            db[0] = fields[0] - self.b_applied
+            np.subtract(fields[1:], fields[:-1], out=db[1:])
+            self.work -= float(mom[:, 0] @ db[:, 0] + mom[:, 1] @ db[:, 1])
+        self.b_applied = fields[-1].copy()
+
+    # ------------------------------------------------------------------ per-step contact bounds
+    def scan_block(self, k: int, stop: int, n0: int, t0: float) -> bool:
+        """Record the deepest contacts of the first ``stop`` of the ``k`` steps just taken (from step ``n0`` at
+        time ``t0``); True when one broke a bound (recorded there: a per-step loop stops at that step)."""
+        if stop <= 0 or not self.contact:
+            return False
+        sd = self._sd
+        if k == 1:
+            floor = np.array([sd[self._adr]])
+            scene = np.array([sd[self._adr2]]) if self.feature else None
+        elif stop == k and self.hist.values.min() >= self.min_dist and (
+                not self.feature or self.hist_feature.values.min() >= self.min_feature):
+            return False  # the buffer (this block's steps and older ones) holds no new deepest contact
+        else:
+            floor = self.hist.last(k)[:stop]
+            scene = self.hist_feature.last(k)[:stop] if self.feature else None
+        dt = self.model.opt.timestep
+        first = np.flatnonzero(floor < self.floor_limit)
+        if scene is not None:
+            s_first = np.flatnonzero(scene < self.feature_limit)
+            # the scene's bound counts at a step whose floor contact did not already stop the loop
+            if s_first.size and (not first.size or s_first[0] < first[0]):
+                floor = floor[:s_first[0] + 1]
+                scene = scene[:s_first[0] + 1]
+                first = np.zeros(0, dtype=int)
+            elif first.size:
+                scene = scene[:first[0]]
+        if first.size:
+            floor = floor[:first[0] + 1]
+        j = int(np.argmin(floor))
+        if floor[j] < self.min_dist:  # a new deepest floor contact, of the state step n0 + j started from
+            self.min_dist = float(floor[j])
+            self.pen_at = (n0 + j, t0 + j * dt)
+            if self.min_dist < self.floor_limit:
+                self.pen_hit = "floor"
+        if scene is not None and scene.size:
+            j = int(np.argmin(scene))
+            if scene[j] < self.min_feature:
+                self.min_feature = float(scene[j])
+                self.feature_at = (n0 + j, t0 + j * dt)
+                if self.min_feature < self.feature_limit:
+                    self.pen_hit = "scene"
+        return bool(self.pen_hit)
+
+    def pen_step(self) -> int:
+        """Steps done after the step whose start state broke the contact bound (a per-step loop stops there)."""
+        at = self.pen_at if self.pen_hit == "floor" else self.feature_at
+        return at[0] + 1
+
+    def failed_step(self, nstep: int) -> float:
+        """The step (count) at which this call's first failure happened (inf if none)."""
+        first = self.pen_step() if self.pen_hit else math.inf
+        if self.warning_text:
+            first = min(first, self.warned_step(nstep))
+        return first
+
+    # ------------------------------------------------------------------ checks
+    def check(self, nstep: int, field2: np.ndarray, *, energy: bool) -> None:
+        """Raise :class:`SimulationError` on a MuJoCo warning, a broken contact bound or a non-finite state;
+        with ``energy``, also on runaway kinetic energy and, in contact scenes, tunnelling or a launch."""
+        d = self.data
+        what = new_warning(self.warning_counts(), self.warn0)
+        # the first cause first: a native block may run on past a broken contact bound into a
+        # warning or a non-finite state (a per-step loop stops at the bound)
+        if what is not None and not (self.pen_hit and self.pen_step() < self.warned_step(nstep)):
+            text = f" ({self.warning_text[0].strip()})" if self.warning_text else ""
+            self.fail(nstep, field2, f"MuJoCo warning: {what}{text}", math.nan, STABILITY_HINT,
+                      step=self.warned_step(nstep))
+        if self.pen_hit:
+            where, self.pen_hit = self.pen_hit, ""  # reported once; a deeper contact reports again
+            self._fail_penetration(nstep, field2, where)
+        for name in ("qpos", "qvel"):
+            if not math.isfinite(getattr(d, name).sum()):  # a NaN or an infinity makes the sum non-finite
+                self.fail(nstep, field2, f"non-finite {name}", math.nan, STABILITY_HINT)
+        if not energy:
+            return
+        # the mass matrix of the step's start (mj_step leaves it in qM) is enough for a
+        # factor-100 runaway test and saves recomputing the position stage every check
+        ke = self.kinetic()
+        if runaway(ke, self.energy_scale):
+            self.fail(nstep, field2, "runaway kinetic energy (J)", ke, runaway_hint(self.energy_scale))
+        self.max_ke_ratio = max(self.max_ke_ratio, ke / self.energy_scale)
+        if self.contact:
+            if self._sd.item(self._adr) == 0.0:
+                # no floor contact found: the only case a beam can pass below the floor
+                # unseen by the penetration check (the plane collides with anything below it)
+                self._check_tunnelling(nstep, field2)
+            if self.energy_valid:
+                self._check_energy(nstep, field2, ke)
+
+    def _where(self, nstep: int, step: int) -> tuple[int, float]:
+        if step == nstep:
+            return nstep, float(self.data.time)
+        return step, self.call_ref[1] + (step - self.call_ref[0]) * self.model.opt.timestep
+
+    def _setting(self, field2) -> str:
+        o = self.rod.options
+        tc = f"contact time constant {self.tc * 1e3:.3g} ms, " if self.contact else ""
+        return (f"integrator={o.integrator!r}, timestep={o.timestep:g} s, {tc}segments={o.segments}, "
+                f"field=({field2[0] * 1e3:.4g}, {field2[1] * 1e3:.4g}) mT")
+
+    def fail(self, nstep: int, field2, quantity: str, value: float, hint: str, *, step: int | None = None) -> None:
+        step, t = self._where(nstep, nstep if step is None else step)
+        o = self.rod.options
+        raise SimulationError(
+            f"simulation unstable at step {step} (t = {t:.6g} s): {quantity}"
+            f"{'' if math.isnan(value) else f' = {value:.4g}'}. {hint} "
+            f"(integrator={o.integrator!r}, timestep={o.timestep:g} s, segments={o.segments}, "
+            f"field=({field2[0] * 1e3:.4g}, {field2[1] * 1e3:.4g}) mT).",
+            step=step, time=t, quantity=quantity, value=value,
+        )
+
+    def _unphysical(self, nstep: int, field2, cause: str, reason: str, hint: str, figures: dict, value: float, *,
+                    at: tuple | None = None) -> None:
+        step, t = (nstep, float(self.data.time)) if at is None else at
+        h = self.rod.beam.thickness
+        base = {"step": int(nstep), "time_s": float(self.data.time), "max_penetration_m": self.max_penetration,
+                "max_penetration_h": self.max_penetration / h, "energy_drift": float(self.drift)}
+        raise UnphysicalError(
+            f"unphysical motion at step {step} (t = {t:.6g} s): {reason}. {hint} ({self._setting(field2)}).",
+            cause=cause, reason=reason, figures={**base, **figures, "step": step, "time_s": t}, step=step,
+            time=t, quantity=cause, value=value,
+        )
+
+    def _fail_penetration(self, nstep: int, field2, where: str) -> None:
+        h = self.rod.beam.thickness
+        if where == "floor":
+            depth, (step, t), what = -self.min_dist, self.pen_at, "contact penetration into the floor"
+        else:
+            depth, (step, t) = -self.min_feature, self.feature_at
+            what = f"contact penetration into the {self.rod.options.scene}"
+        lim = self.penetration_limit + self.overlap0
+        start = f" + the {self.overlap0 * 1e3:.3g} mm overlap of the start" if self.overlap0 > 0.0 else ""
+        reason = (f"{what} {depth * 1e3:.3g} mm = {depth / h:.3g} h (limit {self.penetration_limit / h:.3g} h{start} "
+                  f"= {lim * 1e3:.3g} mm) at step {step} (t = {t:.6g} s)")
+        dt = self.model.opt.timestep
+        self._unphysical(
+            nstep, field2, "penetration", reason,
+            "The contact is not resolved: use a smaller timestep or a gentler field "
+            "(Simulator(penetration_limit=...) moves the bound)",
+            {"penetration_m": depth, "penetration_h": depth / h}, depth,
+            at=None if step + 1 == nstep else (step + 1, t + dt),
+        )
+
+    def _check_tunnelling(self, nstep: int, field2) -> None:
+        # the centreline (stale: the step's start, as the contact sensor) against the floor z = 0
+        zmin = self.rod.lowest_point(self.data, -self.penetration_limit)
+        if zmin < -self.penetration_limit:
+            h = self.rod.beam.thickness
+            reason = (f"tunnelling: the centreline is {-zmin * 1e3:.3g} mm = {-zmin / h:.3g} h below the floor "
+                      f"(limit {self.penetration_limit / h:.3g} h)")
+            self._unphysical(nstep, field2, "tunnelling", reason, "The contact is not resolved: use a smaller timestep",
+                             {"floor_depth_m": -zmin, "floor_depth_h": -zmin / h}, -zmin)
+
+    def _check_energy(self, nstep: int, field2, kinetic: float) -> None:
+        # E - E_0 - W <= 0 for a passive rod in a field that did work W on it (damping and
+        # contact only dissipate); anything above is energy the numerics made
+        excess = self.rod.energy(self.data, field2, kinetic=kinetic, staggered=True) - self.e0 - self.work
+        drift = excess / self.energy_scale
+        if drift > self.drift:
+            self.drift = drift
+        if drift > ENERGY_DRIFT_LIMIT:
+            mg = self.rod.weight
+            lift = excess / (mg * self.rod.beam.length) if mg > 0 else math.inf
+            reason = (f"launch: the rod gained {excess:.3g} J more than the field supplied ({drift:.3g} of the "
+                      f"energy scale {self.energy_scale:.3g} J, limit {ENERGY_DRIFT_LIMIT:g}; enough to lift it "
+                      f"{lift:.3g} beam lengths)")
+            self._unphysical(nstep, field2, "launch", reason, STABILITY_HINT, {"energy_created_J": excess}, excess)
+
+
+__all__ = ["ENERGY_DRIFT_LIMIT", "FIELD_FLOOR", "MAX_STEPS", "PENETRATION_LIMIT", "RUNAWAY_FACTOR", "STABILITY_HINT",
+           "WARNINGS", "WARNING_IDS", "HealthMonitor", "SensorHistory", "SimulationError", "UnphysicalError",
+           "check_steps", "new_warning", "runaway", "runaway_hint"]

@@ -96,8 +96,6 @@ class RodOptions:
     timestep : float or None
         Simulation step (s), in (0, 0.1]. ``None``: 1 ms for every scene (docs/sim.md has the
         measured errors of each step).
-
-        .. versionchanged:: 0.3 the contact scenes' default was 0.1 ms.
     gravity : float
         Gravitational acceleration along -z (m/s^2), in [0, 1000]; 0 turns gravity off.
     clamp_angle : float
@@ -113,8 +111,6 @@ class RodOptions:
         beam's own through-thickness time ``h sqrt(rho / E)`` (about 0.14 ms for the paper's
         1.13 mm phi = 0.2 beam; :func:`material_contact_timeconst`), a much stiffer contact
         that needs dt <= 0.1 ms and crawls differently (docs/sim.md, "contact").
-
-        .. versionchanged:: 0.3 the default was ``"material"`` (0.2) and ``2 * timestep`` (0.1).
     contact_refsafe : bool
         Keep MuJoCo's ``refsafe`` (which raises every contact time constant to at least
         ``2 * timestep``, so the contact softens as the step grows). Off by default: the
@@ -131,8 +127,6 @@ class RodOptions:
         ``None`` (default): 1.5 for the cantilever (the largest grading that improves every
         static cross-check but one, measured in docs/sim.md), 1 (equal cells) for the contact
         scenes.
-
-        .. versionchanged:: 0.3 the cantilever's default was equal cells.
     base : {"middle", "first"}
         Floor scenes: which piece carries the planar base joint (the root of the kinematic
         tree). ``middle`` (default) is the least biased with soft contact (docs/sim.md, "symmetry");

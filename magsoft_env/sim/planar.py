@@ -1,0 +1,250 @@
+"""The planar rod backend: the hinge chain in the x-z plane, its field inputs and its physical readouts.
+
+A rod backend is what :class:`~magsoft_env.sim.Simulator` steps. It builds the MuJoCo model of a beam in a
+scene, turns an applied field into the model's inputs (once, or one row per step for ``mujoco.rollout``), and
+reads physical quantities off a ``mjData`` (centreline, centre of mass, angles, energies, the net magnetic
+moment the energy balance needs). The stepping engine and the health checks know a backend only through
+this interface, so a second rod (a 3D flexcomp strip) is a second class with the same methods.
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+from ..spec import Beam
+from . import magnetics
+from .health import SensorHistory
+from .model import (
+    CONTACT_SENSOR,
+    FEATURE_SENSOR,
+    NATIVE_CONTROL_SPEC,
+    RodModel,
+    RodOptions,
+    build_model,
+    field_control,
+    native_controls,
+)
+
+
+class PlanarRod:
+    """A beam as a planar hinge chain (:func:`~magsoft_env.sim.model.build_model`) with native magnetics.
+
+    The pieces are numbered base half-cell first, tip last; the MuJoCo bodies of the pieces have
+    consecutive ids (rows ``b0:b1`` of ``xmat``, ``xpos``, ``xfrc_applied``), in :attr:`order`.
+
+    Parameters
+    ----------
+    beam : Beam
+    options : RodOptions
+        ``magnetics`` must be ``"native"``: the couples are MuJoCo's own forces (magnetic poles), so
+        every block of steps runs inside MuJoCo.
+    """
+
+    #: ``mujoco.rollout`` control spec of :meth:`controls` rows.
+    control_spec = NATIVE_CONTROL_SPEC
+
+    def __init__(self, beam: Beam, options: RodOptions):
+        if options.magnetics != "native":
+            raise ValueError(
+                "the Simulator applies the magnetic couples as MuJoCo forces: RodOptions.magnetics must be "
+                f"'native', got {options.magnetics!r} (build_model(beam, RodOptions(magnetics='python')) gives "
+                "a model without them, for couples of your own).")
+        rod: RodModel = build_model(beam, options)
+        self.rod = rod
+        self.model = rod.model
+        self.beam = beam
+        self.options = options
+        disc = rod.disc
+        self.disc = disc
+        self.bodies = rod.body_ids
+        #: body-frame magnetic moments of the pieces (A m^2), shape (N + 1, 3)
+        self.m_body = magnetics.body_moments_3d(disc.moment)
+        #: hinge stiffnesses (N m / rad) and their dof / qpos addresses
+        self.stiffness = disc.stiffness
+        self.hinge_dof = rod.hinge_dof
+        self.hinge_qpos = rod.hinge_qpos
+        self.tip_len = float(disc.piece_length[-1])
+        self.two_stage = self.model.opt.integrator != mujoco.mjtIntegrator.mjINT_RK4
+        self.order = np.argsort(self.bodies)
+        self.b0, self.b1 = int(self.bodies.min()), int(self.bodies.max()) + 1
+        if self.b1 - self.b0 != len(self.bodies):
+            raise RuntimeError("rod bodies must have consecutive ids")  # guaranteed by build_model
+        self.has_contact = options.has_contact
+        self.has_feature = rod.feature_sensor >= 0
+        self.contact_adr = max(rod.contact_sensor, 0)
+        self.feature_adr = max(rod.feature_sensor, 0)
+        mx, mz = self.m_body[self.order, 0], self.m_body[self.order, 2]
+        # (R m)_x and (R m)_z of the pieces are xmat rows @ these columns: the net moment is one product
+        c = np.zeros((len(self.bodies), 9, 2))
+        c[:, 0, 0], c[:, 2, 0], c[:, 6, 1], c[:, 8, 1] = mx, mz, mx, mz
+        self._moment_map = np.ascontiguousarray(c.reshape(-1, 2))
+        self._mx, self._mz = np.ascontiguousarray(mx), np.ascontiguousarray(mz)
+        self._mass_g = disc.mass * options.gravity
+        self._mass_g_ids = np.ascontiguousarray(self._mass_g[self.order])
+        self.weight = float(self._mass_g.sum())
+        self._hq, self._hd, self._hinge_k = self._hinge_blocks()
+        self._angles = self._angle_map()
+        m_tot = float(disc.mass.sum())
+        mags = float(np.linalg.norm(self.m_body, axis=1).sum())
+        elastic = 0.5 * float(np.sum(self.stiffness)) * math.pi**2
+        self._scale_terms = (2.0 * mags, 2.0 * m_tot * options.gravity * beam.length + elastic)
+
+    # ------------------------------------------------------------------ model pieces
+    def contact_histories(self, data: mujoco.MjData) -> tuple[SensorHistory | None, SensorHistory | None]:
+        """Readers of the floor and scene contact sensors' history buffers (None where a scene has none)."""
+        if not self.has_contact:
+            return None, None
+        sid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SENSOR, CONTACT_SENSOR)
+        floor = SensorHistory(self.model, sid, data.history)
+        scene = None
+        if self.has_feature:
+            sid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SENSOR, FEATURE_SENSOR)
+            scene = SensorHistory(self.model, sid, data.history)
+        return floor, scene
+
+    def _hinge_blocks(self):
+        # the hinges' qpos / dof addresses as slices where they form one block (they do: the base joints
+        # first, then the hinges), with the stiffnesses in that order: views, not gathers
+        hq, hd = np.asarray(self.hinge_qpos), np.asarray(self.hinge_dof)
+        if (np.array_equal(np.sort(hq), np.arange(hq.min(), hq.min() + hq.size))
+                and np.array_equal(hd - hd.min(), hq - hq.min())):
+            q0, d0 = int(hq.min()), int(hd.min())
+            k = np.zeros(hq.size)
+            k[hq - hq.min()] = self.stiffness
+            return slice(q0, q0 + hq.size), slice(d0, d0 + hd.size), k
+        return hq, hd, np.asarray(self.stiffness, dtype=float)
+
+    def _angle_map(self):
+        """``(A^T, phi0)`` with the pieces' rotation angles about y (body-id order) ``= qpos @ A^T + phi0``: every
+        rotation of the chain is about y (hinges and body frames about +-y, slides otherwise), so ``R_y(phi)``
+        is each piece's ``xmat`` to round-off (tested) and the net moment of a recorded ``qpos`` needs no
+        MuJoCo kinematics."""
+        m = self.model
+        A = np.zeros((m.nbody, m.nq))
+        phi0 = np.zeros(m.nbody)
+        for b in range(1, m.nbody):
+            w, x, y, z = m.body_quat[b]
+            if x != 0.0 or z != 0.0:
+                raise RuntimeError("the planar rod's bodies turn about y only")  # guaranteed by build_model
+            parent = m.body_parentid[b]
+            A[b], phi0[b] = A[parent], phi0[parent] + 2.0 * math.atan2(y, w)
+            for j in range(m.body_jntadr[b], m.body_jntadr[b] + m.body_jntnum[b]):
+                if m.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE:
+                    A[b, m.jnt_qposadr[j]] += m.jnt_axis[j][1]
+        ids = np.arange(self.b0, self.b1)
+        return np.ascontiguousarray(A[ids].T), phi0[ids]
+
+    # ------------------------------------------------------------------ field inputs
+    def check_field(self, field3: np.ndarray) -> None:
+        """A planar rod takes fields in its plane (B_y = 0)."""
+        if field3[1] != 0.0:
+            raise ValueError(f"the planar rod takes fields (B_x, B_z) in its plane, got B_y = {field3[1]:g} T.")
+
+    def write_field(self, data: mujoco.MjData, field3: np.ndarray) -> None:
+        """Write the inputs of a held field ``(B_x, B_y, B_z)`` (T): every pole actuator's control ``|B|``
+        and the field frame's orientation (bit-identical to :meth:`controls` rows)."""
+        mag, w, y = field_control(float(field3[0]), float(field3[2]))
+        data.ctrl.fill(mag)
+        mq = data.mocap_quat[self.rod.field_mocap]
+        mq[0], mq[1], mq[2], mq[3] = w, 0.0, y, 0.0
+
+    def controls(self, fields: np.ndarray) -> np.ndarray:
+        """Per-step inputs of the fields ``(k, 2)`` (B_x, B_z; T), rows for ``mujoco.rollout`` with
+        :attr:`control_spec`."""
+        return native_controls(self.rod, fields)
+
+    # ------------------------------------------------------------------ energies
+    def net_moment(self, data: mujoco.MjData) -> np.ndarray:
+        """Net magnetic moment ``sum R_i m_i`` (world x, z; A m^2) of the orientations in ``xmat``."""
+        return data.xmat[self.b0:self.b1].reshape(-1) @ self._moment_map
+
+    def net_moments(self, qpos: np.ndarray) -> np.ndarray:
+        """Net magnetic moments (world x, z) of recorded positions ``qpos`` ``(k, nq)``, shape ``(k, 2)``."""
+        phi = qpos @ self._angles[0]
+        phi += self._angles[1]
+        c, s = np.cos(phi), np.sin(phi)
+        out = np.empty((qpos.shape[0], 2))
+        out[:, 0] = c @ self._mx + s @ self._mz
+        out[:, 1] = c @ self._mz - s @ self._mx
+        return out
+
+    def energy(self, data: mujoco.MjData, field, *, kinetic: float, staggered: bool) -> float:
+        """Kinetic (given) + elastic + gravitational + magnetic energy (J) under ``field`` (B_x, B_z).
+
+        ``staggered``: the positions in ``xmat`` / ``xipos`` are those of the step's start (after
+        ``mj_step``), paired with the new velocity, the pair symplectic Euler keeps; the hinge angles are
+        then ``qpos - dt qvel`` (exact for the Euler-type integrators)."""
+        q = data.qpos[self._hq]
+        q = q - self.model.opt.timestep * data.qvel[self._hd] if staggered else q
+        mom = self.net_moment(data)
+        return (kinetic + 0.5 * float(self._hinge_k @ (q * q))
+                + float(self._mass_g_ids @ data.xipos[self.b0:self.b1, 2])
+                - float(mom[0] * field[0] + mom[1] * field[1]))
+
+    def energy_scale(self, bmax: float) -> float:
+        """Energy scale (J) of the rod in fields up to ``bmax`` (T): twice the largest magnetic energy and
+        potential energy of lifting the rod its length, plus the elastic energy of a half-turn bend."""
+        slope, rest = self._scale_terms
+        return slope * bmax + rest
+
+    def energies(self, data: mujoco.MjData, field3: np.ndarray, kinetic: float) -> dict[str, float]:
+        """Kinetic, elastic, gravitational (from z = 0), magnetic (``-sum (R m) . B``) and total energy (J)."""
+        q = data.qpos[self.hinge_qpos]
+        elastic = 0.5 * float(np.sum(self.stiffness * q**2))
+        grav = float(np.sum(self.disc.mass * data.xipos[self.bodies, 2])) * self.options.gravity
+        mag = magnetics.energy(magnetics.world_moments(data.xmat[self.bodies], self.m_body), field3)
+        return {"kinetic": kinetic, "elastic": elastic, "gravity": grav, "magnetic": mag,
+                "total": kinetic + elastic + grav + mag}
+
+    # ------------------------------------------------------------------ readouts (of a synchronized mjData)
+    def centerline(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+        """Centreline points (x, z) (m): the base end, every hinge, the tip; shape ``(N + 2,)`` each."""
+        p = data.xpos[self.bodies]
+        tipmat = data.xmat[self.bodies[-1]]
+        tip = p[-1] + self.tip_len * tipmat[[0, 3, 6]]
+        return np.concatenate([p[:, 0], [tip[0]]]), np.concatenate([p[:, 2], [tip[2]]])
+
+    def tip_position(self, data: mujoco.MjData) -> tuple[float, float]:
+        """Tip point (x, z) (m)."""
+        b = self.bodies[-1]
+        p, r = data.xpos[b], data.xmat[b]
+        return float(p[0] + self.tip_len * r[0]), float(p[2] + self.tip_len * r[6])
+
+    def lowest_point(self, data: mujoco.MjData, below: float) -> float:
+        """Lowest centreline height (m) if it may lie below ``below`` (m), else a value above ``below``."""
+        zmin = data.xpos[self.b0:self.b1, 2].min()
+        if zmin > below + self.tip_len:  # the tip (ds/2 past the last hinge) cannot be lower
+            return float(zmin)
+        b = int(self.bodies[-1])
+        return min(float(zmin), data.xpos.item(b, 2) + self.tip_len * data.xmat.item(b, 6))
+
+    def center_of_mass(self, data: mujoco.MjData) -> np.ndarray:
+        """Centre of mass (x, z) (m), shape ``(2,)``."""
+        m, p = self.disc.mass, data.xipos[self.bodies]
+        return np.array([m @ p[:, 0], m @ p[:, 2]]) / m.sum()
+
+    def arc_length(self) -> np.ndarray:
+        """Reference arc length (m) of the centreline points, shape ``(N + 2,)``."""
+        return np.concatenate([[0.0], self.disc.hinge_s, [self.disc.length]])
+
+    def angles(self, data: mujoco.MjData) -> np.ndarray:
+        """Tangent angle of every piece from +x toward +z (rad), shape ``(N + 1,)``."""
+        R = data.xmat[self.bodies]
+        return np.arctan2(R[:, 6], R[:, 0])
+
+    def tip_angle(self, data: mujoco.MjData) -> float:
+        """Tangent angle of the tip piece (rad), continuous beyond +-pi (the sum of joint angles)."""
+        base = self.options.clamp_angle
+        if self.rod.base_qpos.size:
+            base += float(data.qpos[self.rod.base_qpos[2]])
+        return base + float(np.sum(data.qpos[self.hinge_qpos[self.options.base_piece:]]))
+
+    def magnetic_couples(self, data: mujoco.MjData, field3: np.ndarray) -> np.ndarray:
+        """Couples ``(R m) x B`` on the pieces, world frame, shape ``(N + 1, 3)`` (N m)."""
+        return magnetics.couples(magnetics.world_moments(data.xmat[self.bodies], self.m_body), field3)
+
+
+__all__ = ["PlanarRod"]
