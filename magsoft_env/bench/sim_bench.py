@@ -2,7 +2,7 @@
 
 Sections (run all, or pick with ``--only``):
 
-* ``targets``: issue 3's timing targets, every timed case once in each of ``--rounds``
+* ``targets``: the rod's timing targets, every timed case once in each of ``--rounds``
   interleaved rounds (best, median, and in how many rounds each target and all of them
   together were met): raw ``mj_step`` of the clamped rod; for two 20-segment crawlers at the
   default floor settings, ``mj_step`` alone (a C replay of the same trajectory) and end to end
@@ -482,7 +482,7 @@ class _ClampedTimer:
         return raw, (time.process_time() - t0) / n * 1e6
 
 
-#: issue 3's timing targets: clamped mj_step (us), floor mj_step (us), end to end (x real time)
+#: The rod's timing targets: clamped mj_step (us), floor mj_step (us), end to end (x real time)
 TARGET_CLAMPED_US, TARGET_FLOOR_US, TARGET_RTF = 10.0, 30.0, 25.0
 
 
