@@ -1,4 +1,4 @@
-"""The simulator never lies (issue 12): bad input refused, work bounded, unphysical runs reported."""
+"""The simulator never lies: bad input refused, work bounded, unphysical runs reported."""
 
 from __future__ import annotations
 
@@ -214,7 +214,7 @@ def test_work_refusal_says_how_much_and_what_to_change(beam):
 
 # ---------------------------------------------------------------- unphysical runs stop, with figures
 def test_deep_floor_penetration_stops_the_simulator(beam):
-    # the silent failure of issue 12: 100 mT on the default (soft, 1 ms) floor drove the
+    # a once silent failure: 100 mT on the default (soft, 1 ms) floor drove the
     # centreline 2.65 mm below the floor within 2 ms, then threw the beam 0.16-0.37 m
     sim = Simulator(beam, RodOptions(scene="floor"))
     sim.set_waveform(Sine((0.1, 0.1), 5, phase=1))

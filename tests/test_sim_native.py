@@ -1,4 +1,4 @@
-"""Native magnetic forces (issue 14): MuJoCo's own pole forces against the Python couples, block stepping, rollouts."""
+"""Native magnetic forces: MuJoCo's own pole forces against the Python couples, block stepping, rollouts."""
 
 from __future__ import annotations
 
