@@ -9,7 +9,7 @@ second. For each number of envs the measurement is fixed work, interleaved: ever
 the same seeds and draws the same actions, so the baseline and the Gymnasium-semantics vector envs run
 the very same trajectories (the batched env bit for bit, tested); in each of ``--rounds`` rounds every
 row takes the same number of calls (the baseline's round lasting about ``--seconds / --rounds``), in
-alternating order, so that the slow and fast spells of this shared machine (its speed on a fixed
+alternating order, so that the slow and fast spells of a shared machine (a 2-core cloud VM's speed on a fixed
 workload swings by up to 1.5x within a second) fall on all of them alike. The table gives the rate over
 all rounds and its ratio to the baseline's (the same work), with the lowest and highest ratio over five
 runs of consecutive rounds:
