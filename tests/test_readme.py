@@ -77,8 +77,8 @@ def test_test_command_is_what_ci_runs():
 
 
 _NARRATIVE = re.compile(
-    r"\bissues? \d+|\bissue-\d+|\bthis (?:VM|machine)\b|\b(?:founding|last|this|previous|next|earlier|later) "
-    r"sessions?\b|versionchanged",
+    r"\bissues? \d+|\bissue-\d+|\bthis (?:VM|machine|\d-core machine)\b|\bdevelopment (?:VM|machine)\b"
+    r"|\b(?:founding|last|this|previous|next|earlier|later) sessions?\b|versionchanged",
     re.I,
 )
 
