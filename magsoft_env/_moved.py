@@ -1,6 +1,6 @@
 """Old module paths of version 0.3, kept importable for one release with a DeprecationWarning.
 
-Version 0.4 gave every module one layer (see README, "Layout"). ``import magsoft_env.gaits``
+Version 0.4 gave every module one layer (see docs/layout.md). ``import magsoft_env.gaits``
 and ``from magsoft_env.presets import load_preset`` still work: a finder on ``sys.meta_path``
 answers for the old names only (after the normal finders found nothing) with a module whose
 attributes are looked up, on first use, in the modules that now hold them. Nothing here
@@ -44,7 +44,7 @@ class _MovedModule(types.ModuleType):
                 return value
         raise AttributeError(
             f"module {self.__name__!r} was split in version 0.4 and {name!r} is not in "
-            f"{', '.join(MOVED[self.__name__])}; see README, 'Layout'."
+            f"{', '.join(MOVED[self.__name__])}; see docs/layout.md."
         )
 
     def __dir__(self):

@@ -1,4 +1,4 @@
-"""Unknown environment arguments are refused by name, with the closest valid one (issue 13, item 4)."""
+"""Unknown environment arguments are refused by name, with the closest valid one."""
 
 import gymnasium as gym
 import pytest
@@ -23,7 +23,7 @@ def test_unknown_env_argument_names_the_closest_one(env_id, kwargs, hint):
 
 @pytest.mark.parametrize("limit", [0.05, 0.1])
 def test_shape_env_runs_at_its_own_field_limit(limit):
-    # issue 12: at field_limit = 0.1 T the 1 ms step went unstable on the second full reversal
+    # a regression: at field_limit = 0.1 T the 1 ms step went unstable on the second full reversal
     import numpy as np
 
     env = gym.make("MagSoftShape-v0", field_limit=limit)

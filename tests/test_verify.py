@@ -26,7 +26,7 @@ def _case(beam, *, gravity=9.81, support="cantilever", coupling="rotated", exten
 
 
 def test_free_free_case_that_used_to_return_a_wrong_shape_is_resolved_and_verified():
-    # issue 12: on 33 nodes this returned success with a trailing coefficient of 1.7e-3 rad
+    # a regression: on 33 nodes this returned success with a trailing coefficient of 1.7e-3 rad
     r = ms.solve_equilibrium(SINE, (-0.1114, 0.0), gravity=0, support="free")
     assert r.success and r.status == 0 and r.verification <= 1e-8
     fine = ms.solve_equilibrium(SINE, (-0.1114, 0.0), gravity=0, support="free",

@@ -1,5 +1,5 @@
 """A converged reference for the paper gaits' crawl, the error of every cheaper setting against it, and the
-physical sensitivity (issue 14, items 3-4): docs/convergence.md.
+physical sensitivity: docs/convergence.md.
 
     python -m magsoft_env.bench.crawl_convergence [--quick] [--sections grid,colliders,sensitivity,noslip]
                                                   [--segments 10,20,40,80,160] [--timesteps-ms ...]
@@ -304,7 +304,7 @@ def grid_table(grid: dict, refs: dict) -> list[dict]:
 
 def knee(table: list[dict], gaits=GAITS, tolerance: float = 0.05, *, robust: bool = False) -> dict | None:
     """The cheapest (N, dt) of the grid whose error (displacement and speed) is within ``tolerance`` on every
-    gait; cost = the mean wall time per simulated second of the gaits (this machine). ``robust``: the next
+    gait; cost = the mean wall time per simulated second of the gaits (the machine's). ``robust``: the next
     finer step at the same N must be within ``tolerance`` too (an irregular sequence can pass by luck)."""
     by = {}
     for r in table:
@@ -419,7 +419,7 @@ def main(argv=None) -> int:
                   f"{k['wall_per_sim_s']:.2f} |")
         else:
             print(f"| {name} | none in the grid | | | |")
-    # the issue's acceptance: at a setting, the 3 s displacement against a 4x finer step at 80 segments (same
+    # the acceptance check: at a setting, the 3 s displacement against a 4x finer step at 80 segments (same
     # contact model), and the speed against the reference
     acc = []
     print("\n| setting | gait | displacement vs N 80 at dt / 4 | speed vs reference |")

@@ -1,4 +1,4 @@
-"""The issue-14 acceptance check at the floor environments' defaults: is each paper gait's crawl, run through the
+"""The acceptance check at the floor environments' defaults: is each paper gait's crawl, run through the
 environment itself at its default numerics, within 5 % of a converged answer?
 
     python -m magsoft_env.bench.env_defaults [--robots paper-5a,paper-5b,paper-5c] [--fidelity LEVEL]
@@ -15,8 +15,8 @@ per env step, the same sine :func:`~magsoft_env.sim.gait.run_gait` applies), no 
   at the material contact (:data:`REFERENCE_SPEED`, measured by :mod:`magsoft_env.bench.crawl_convergence`,
   docs/convergence.md, with its uncertainty).
 
-Both must be within :data:`TOLERANCE` (5 %). Wall time per simulated second is printed beside each (one run,
-this machine; a cost ratio). The 4x finer runs dominate: about 4 minutes in all on one core (paper-5b's
+Both must be within :data:`TOLERANCE` (5 %). Wall time per simulated second is printed beside each (one run on
+the machine that runs it; a cost ratio). The 4x finer runs dominate: about 4 minutes in all on one core (paper-5b's
 0.00625 ms run at 80 segments about 2 of them).
 """
 
@@ -35,7 +35,7 @@ from magsoft_env.io import write_json
 #: (mm/s): N = 160 / 80 at 0.025 ms and finer, Richardson-extrapolated where regular (docs/convergence.md,
 #: section 1, "Reference"; ``python -m magsoft_env.bench.crawl_convergence --segments 10,20,40,80,160``).
 REFERENCE_SPEED = {"paper-5a": (0.490, 0.004), "paper-5b": (-0.842, 0.012), "paper-5c": (-0.401, 0.004)}
-#: The issue's tolerance on both criteria (relative).
+#: The tolerance on both criteria (relative).
 TOLERANCE = 0.05
 ROBOTS = tuple(REFERENCE_SPEED)
 

@@ -1,5 +1,5 @@
-"""What each MuJoCo feature of the floor scenes costs, and what it changes (issue 14, item 5: skip what a scene does
-not need, measured per feature).
+"""What each MuJoCo feature of the floor scenes costs, and what it changes (to skip what a scene does not
+need, measured per feature).
 
     python -m magsoft_env.bench.feature_cost [--robot paper-5c] [--seconds 3] [--rounds 3] [--fidelity LEVEL]
 

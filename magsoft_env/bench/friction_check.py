@@ -1,4 +1,4 @@
-"""The floor friction against Coulomb's law (issue 14, item 3): does a flat beam creep below the static limit,
+"""The floor friction against Coulomb's law: does a flat beam creep below the static limit,
 and does it slide at mu N above it?
 
     python -m magsoft_env.bench.friction_check [--quick] [--json out.json]

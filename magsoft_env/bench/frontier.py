@@ -1,4 +1,4 @@
-"""Time against error for every floor scene (issue 14, item 4): wall time per simulated second against the crawl
+"""Time against error for every floor scene: wall time per simulated second against the crawl
 error over segments N and timestep dt, the Pareto frontier, the knee, and where each robot's own numerics sit.
 
     python -m magsoft_env.bench.frontier [--cache runs.json] [--cached-only] [--scenes floor,channel,obstacle]

@@ -50,7 +50,7 @@ from magsoft_env.sim.gait import run_gait
 from magsoft_env.spec.drive import Waveparams
 from magsoft_env.units import MT
 
-#: The numerics the study tables of docs/envs.md were measured at (before 0.4.0 gave each robot its own): 20
+#: The numerics the study tables of docs/envs.md were measured at (not each robot's own numerics): 20
 #: segments (40 for paper-5b) at 0.1 ms. Every group but ``presets`` runs them unless its row says otherwise, so
 #: that the tables reproduce; ``presets`` runs each robot at its own numerics, as ``magsoft gait`` does.
 STUDY_SEGMENTS = {"paper-5a": 20, "paper-5b": 40, "paper-5c": 20}

@@ -9,7 +9,7 @@ second. For each number of envs the measurement is fixed work, interleaved: ever
 the same seeds and draws the same actions, so the baseline and the Gymnasium-semantics vector envs run
 the very same trajectories (the batched env bit for bit, tested); in each of ``--rounds`` rounds every
 row takes the same number of calls (the baseline's round lasting about ``--seconds / --rounds``), in
-alternating order, so that the slow and fast spells of this shared machine (its speed on a fixed
+alternating order, so that the slow and fast spells of a shared machine (a 2-core cloud VM's speed on a fixed
 workload swings by up to 1.5x within a second) fall on all of them alike. The table gives the rate over
 all rounds and its ratio to the baseline's (the same work), with the lowest and highest ratio over five
 runs of consecutive rounds:
@@ -25,9 +25,9 @@ runs of consecutive rounds:
   with ``Monitor``; what rl-zoo3 runs use by default). SB3 resets an env at once, not at the next step,
   so its trajectories part from the baseline's at the first episode end (the same kind of work).
 * ``machine``: two rows, the C step alone (``mj_step(m, d, k)`` of a control step, from fixed mid-crawl
-  states of the baseline's robots, no Python) on one and on two threads in the same rounds: this
+  states of the baseline's robots, no Python) on one and on two threads in the same rounds: the
   machine's own two-thread scaling at that moment, printed under the table with the batched env's
-  ratio as a share of it (the vCPUs of the development VM swing between 60 and 99 us per substep each).
+  ratio as a share of it (the vCPUs of a 2-core x86 cloud VM swing between 60 and 99 us per substep each).
 * ``bound``: the C step alone. The single env's own trajectory (random actions, ``--bound-steps``
   control steps) is replayed from its recorded states with its fields held, by
   ``mujoco.rollout.Rollout`` (no Python between substeps, no checks, no observations; bit for bit
@@ -144,7 +144,7 @@ class _CAlone:
     """The machine's own scaling, measured alongside: the C step alone (``mj_step(m, d, k)`` for a control
     step's ``k`` substeps, GIL released, no Python between substeps, no checks) of ``n`` robots, each from
     a fixed mid-episode state of the baseline's robots (so every call is the same work), on 1 or 2 threads
-    taking robots from one queue. Its 2-thread / 1-thread ratio is what threads can give on this machine
+    taking robots from one queue. Its 2-thread / 1-thread ratio is what threads can give on the machine
     at that moment: the vCPUs' speeds swing independently (60-99 us for the same substep, measured)."""
 
     def __init__(self, single: _Single, threads: int):
@@ -191,7 +191,7 @@ def throughput(env_id: str, n: int, modes, *, seconds: float = 3.0, rounds: int 
     so the single env (``n`` envs stepped in turn) and the Gymnasium-semantics vector envs run the same
     trajectories; in each of ``rounds`` rounds each stepper takes the same ``K`` calls (``K`` sized so
     that the single env's round lasts about ``seconds / rounds``), in alternating order, so that the
-    machine's slow and fast spells (this VM's speed swings by up to 1.5x within a second, measured) fall
+    machine's slow and fast spells (a cloud VM's speed swings by up to 1.5x within a second, measured) fall
     on all of them alike. Returns ``{mode: (rate, ratio, lowest, highest)}``: the rate over all rounds,
     its ratio to the single env's (the same work: the ratio of their total times), and the lowest and
     highest ratio over ``groups`` runs of consecutive rounds; ``"single"``: its rate and ratios of 1."""

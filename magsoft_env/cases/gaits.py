@@ -36,7 +36,8 @@ GAIT_FRICTION = DEFAULT_FRICTION
 GAIT_SEGMENTS = DEFAULT_SEGMENTS
 #: Named numerics of the floor scenes, (segments, timestep in s), with the crawl error each gave against the
 #: converged reference at the material contact (3 s runs, the larger of the displacement and speed errors;
-#: docs/convergence.md) and the wall time per simulated second on one core of the 2-vCPU development machine:
+#: docs/convergence.md) and the wall time per simulated second on one core of a 2-core x86 cloud VM
+#: (``python -m magsoft_env.bench.crawl_convergence``):
 #:
 #: - ``"fast"``: 20 segments, 0.2 ms: 5a 4.3 % (a lucky point: 4-17 % at 20 segments), 5b 31 %, 5c 2.7 %; 0.3-0.4 s/s.
 #: - ``"fine"``: 80 segments, 0.1 ms: 5a 1.9 %, 5b 9.6 %, 5c 2.0 %; 3-4.6 s/s.

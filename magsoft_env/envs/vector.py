@@ -83,7 +83,7 @@ class ThreadTeam:
     the sink of the thread that raised it (:func:`route_warnings`). The calling thread polls for the
     others' end (for at most :data:`SPIN_S`, then it sleeps on an event) rather than waiting on a
     condition at once, which an idle vCPU of a virtual machine takes 1-2 ms to wake from (measured on
-    the development VM: about 5 % of an 8-robot call).
+    a 2-core x86 cloud VM: about 5 % of an 8-robot call).
     """
 
     def __init__(self, num_threads: int, *, name: str = "magsoft-vec"):
@@ -172,7 +172,7 @@ class MagSoftCrawlVecEnv(VectorEnv):
     rather than one robot's whole step. Robot ``i`` is therefore the single env, bit for bit, under the
     same seed and actions (tested), whatever the thread count and block.
 
-    On the 2-vCPU development machine the batch gives 1.7-1.8x the single env's steps/s at 8 and 32
+    On a 2-core x86 cloud VM the batch gives 1.7-1.8x the single env's steps/s at 8 and 32
     robots, which is the machine's own two-thread scaling of MuJoCo's C step at that moment (98-106 % of
     it, measured in the same rounds: ``python -m magsoft_env.bench.vec_bench --only batched,machine``).
 
