@@ -577,7 +577,6 @@ def floor(quick: bool) -> None:
     D, M = "default contact (tc 2 ms)", "material contact"
     cases = [("defaults", D, {}, dt) for dt in (5e-5, 1e-4, 2.5e-4, 5e-4, 1e-3, 2e-3)]
     cases += [
-        ("defaults, couples held 2 steps", D, dict(torque_every=2), 1e-3),
         ("implicitfast integrator", D, dict(integrator="implicitfast"), 1e-3),
         ("pyramidal cones", D, dict(cone="pyramidal"), 1e-3),
         ("capsules", D, dict(contact_geom="capsule"), 1e-3),
