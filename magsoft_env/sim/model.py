@@ -347,14 +347,35 @@ def _quat_y(theta: float) -> list[float]:
     return [math.cos(theta / 2), 0.0, -math.sin(theta / 2), 0.0]
 
 
-def build_spec(beam: Beam, options: RodOptions) -> tuple[mujoco.MjSpec, RodDiscretization]:
-    """The scene as an editable ``mujoco.MjSpec`` (see :func:`build_model`)."""
-    if not isinstance(options, RodOptions):
-        raise ValueError(f"options must be a RodOptions, got {type(options).__name__}.")
-    disc = discretize(beam, options.segments, grading=options.grading)
-    o = options
-    spec = mujoco.MjSpec()
-    spec.modelname = f"magsoft_rod_{o.scene}_{o.segments}"
+@dataclass(frozen=True)
+class _Contact:
+    """The rod-scene contact parameters, one definition for the geoms and the explicit pairs."""
+
+    friction: float
+    solref: tuple[float, float]
+    solimp: tuple[float, ...] | None  # None: MuJoCo's default
+
+    @classmethod
+    def of(cls, o: RodOptions, tc: float) -> _Contact:
+        imp = o.contact_impedance
+        return cls(float(o.friction), (tc, o.contact_dampratio),
+                   None if imp is None else (imp[0], imp[1], 0.001, 0.5, 2.0))
+
+    def set_geom(self, g) -> None:
+        g.friction = [self.friction, 0.005, 0.0001]
+        g.solref = list(self.solref)
+        if self.solimp is not None:
+            g.solimp = list(self.solimp)
+
+    def add_pair(self, spec, g1, g2) -> None:
+        pair = spec.add_pair(geomname1=g1.name, geomname2=g2.name)
+        pair.condim = 3
+        pair.friction = [self.friction, self.friction, 0.005, 0.0001, 0.0001]
+        pair.solref = list(self.solref)
+        pair.solimp = list(g2.solimp)  # the rod geom's: this one's, or MuJoCo's default
+
+
+def _set_options(spec, o: RodOptions) -> None:
     spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
     spec.option.timestep = o.timestep
     spec.option.integrator = INTEGRATORS[o.integrator]
@@ -370,143 +391,141 @@ def build_spec(beam: Beam, options: RodOptions) -> tuple[mujoco.MjSpec, RodDiscr
     # is cheaper than dense at 23 dofs. Both measured, neither changes the result (docs/sim.md)
     spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_ISLAND
     spec.option.jacobian = mujoco.mjtJacobian.mjJAC_SPARSE
-
-    h, w = beam.thickness, beam.width
-    radius = 0.5 * h
-    tc = contact_timeconst(beam, o)
     if o.has_contact and not o.contact_refsafe:
         spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_REFSAFE
-    world = spec.worldbody
-
-    scene_geoms = _add_scene(spec, beam, o, tc) if o.has_contact else []
-    rod_geoms = []
-
     spec.option.cone = CONES[o.cone]
     spec.option.noslip_iterations = int(o.noslip_iterations)
     spec.option.iterations = int(o.solver_iterations)
     spec.option.tolerance = float(o.solver_tolerance)
-    spheres = o.has_contact and o.contact_geom == "sphere"
 
-    def collider(g):
-        g.contype, g.conaffinity = _ROD_CONTYPE, _ROD_CONAFFINITY
-        g.friction = [o.friction, 0.005, 0.0001]
-        g.solref = [tc, o.contact_dampratio]
-        if o.contact_impedance is not None:
-            g.solimp = [o.contact_impedance[0], o.contact_impedance[1], 0.001, 0.5, 2.0]
-        g.group = 3
-        rod_geoms.append(g)
 
-    def add_piece(parent, i, pos, quat=None):
-        body = parent.add_body(name=f"piece{i}", pos=pos)
-        if quat is not None:
-            body.quat = quat
-        body.explicitinertial = True
-        body.mass = float(disc.mass[i])
-        body.ipos = [float(disc.com[i]), 0.0, 0.0]
-        body.inertia = [float(v) for v in disc.inertia[i]]
-        length = float(disc.piece_length[i])
-        if spheres:
-            # one sphere at the middle of each piece, owned by that piece: a contact below a
-            # hinge would move with whichever piece owns it, a chirality that drifts
-            # mirror-symmetric robots (measured: docs/sim.md)
-            collider(body.add_geom(
-                name=f"sphere{i}", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[radius, 0, 0], pos=[0.5 * length, 0, 0],
-            ))
-        elif o.has_contact and o.contact_geom == "hinge_sphere":
-            ends = [0.0, length] if i == o.segments else [0.0]
-            for k, x in enumerate(ends):
-                collider(body.add_geom(
-                    name=f"sphere{i}" + ("_tip" if k else ""), type=mujoco.mjtGeom.mjGEOM_SPHERE,
-                    size=[radius, 0, 0], pos=[x, 0, 0],
-                ))
-        elif o.has_contact:
-            collider(body.add_geom(
-                name=f"capsule{i}", type=mujoco.mjtGeom.mjGEOM_CAPSULE, size=[radius, 0, 0],
-                fromto=[0, 0, 0, length, 0, 0],
-            ))
-        # no contact (cantilever): no colliders at all, MuJoCo would pose them every step
-        if o.render:
-            v = body.add_geom(
-                name=f"box{i}", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.5 * length, 0.5 * w, 0.5 * h],
-                pos=[0.5 * length, 0, 0], rgba=[0.35, 0.35, 0.4, 1],
-            )
-            v.contype = v.conaffinity = 0
-            v.group = 1
-        return body
+def _add_piece(parent, i: int, pos, disc: RodDiscretization, beam: Beam, o: RodOptions, collider, quat=None):
+    """Rigid piece ``i`` (mass, inertia; its colliders through ``collider``; a box to draw when rendering)."""
+    body = parent.add_body(name=f"piece{i}", pos=pos)
+    if quat is not None:
+        body.quat = quat
+    body.explicitinertial = True
+    body.mass = float(disc.mass[i])
+    body.ipos = [float(disc.com[i]), 0.0, 0.0]
+    body.inertia = [float(v) for v in disc.inertia[i]]
+    length = float(disc.piece_length[i])
+    radius = 0.5 * beam.thickness
+    if not o.has_contact:
+        pass  # the cantilever: no colliders at all, MuJoCo would pose them every step
+    elif o.contact_geom == "sphere":
+        # one sphere at the middle of each piece, owned by that piece: a contact below a
+        # hinge would move with whichever piece owns it, a chirality that drifts
+        # mirror-symmetric robots (measured: docs/sim.md)
+        collider(body.add_geom(name=f"sphere{i}", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[radius, 0, 0],
+                               pos=[0.5 * length, 0, 0]))
+    elif o.contact_geom == "hinge_sphere":
+        ends = [0.0, length] if i == o.segments else [0.0]
+        for k, x in enumerate(ends):
+            collider(body.add_geom(name=f"sphere{i}" + ("_tip" if k else ""), type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                                   size=[radius, 0, 0], pos=[x, 0, 0]))
+    else:
+        collider(body.add_geom(name=f"capsule{i}", type=mujoco.mjtGeom.mjGEOM_CAPSULE, size=[radius, 0, 0],
+                               fromto=[0, 0, 0, length, 0, 0]))
+    if o.render:
+        v = body.add_geom(name=f"box{i}", type=mujoco.mjtGeom.mjGEOM_BOX,
+                          size=[0.5 * length, 0.5 * beam.width, 0.5 * beam.thickness], pos=[0.5 * length, 0, 0],
+                          rgba=[0.35, 0.35, 0.4, 1])
+        v.contype = v.conaffinity = 0
+        v.group = 1
+    return body
+
+
+def _add_rod(spec, disc: RodDiscretization, beam: Beam, o: RodOptions, collider) -> None:
+    """The pieces and hinges: the base piece on the world (welded at ``clamp_angle``, or on a planar base
+    joint), the pieces right of it hanging from their left ends, those left of it from their right ends."""
 
     def add_hinge(body, j, pos, axis):
         # hinge j joins pieces j and j + 1; its angle is theta_{j+1} - theta_j either way round
         k = float(disc.stiffness[j])
-        body.add_joint(
-            name=f"hinge{j}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=axis, pos=pos,
-            stiffness=[k, 0.0, 0.0], damping=[o.retardation_time * k, 0.0, 0.0],
-        )
+        body.add_joint(name=f"hinge{j}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=axis, pos=pos,
+                       stiffness=[k, 0.0, 0.0], damping=[o.retardation_time * k, 0.0, 0.0])
 
+    world = spec.worldbody
     b = o.base_piece
     if o.scene == "cantilever":
-        base = add_piece(world, 0, [0.0, 0.0, 0.0], _quat_y(o.clamp_angle))
+        base = _add_piece(world, 0, [0.0, 0.0, 0.0], disc, beam, o, collider, _quat_y(o.clamp_angle))
     else:
         # the base piece's left end starts where arc length s_b lies on the straight beam
         s_b = float(np.sum(disc.piece_length[:b]))
         ca, sa = math.cos(o.clamp_angle), math.sin(o.clamp_angle)
-        base = add_piece(world, b, [s_b * ca, 0.0, radius + s_b * sa], _quat_y(o.clamp_angle))
+        base = _add_piece(world, b, [s_b * ca, 0.0, 0.5 * beam.thickness + s_b * sa], disc, beam, o, collider,
+                          _quat_y(o.clamp_angle))
         base.add_joint(name="base_x", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[1, 0, 0])
         base.add_joint(name="base_z", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, 1])
         # the base hinge turns about the base piece's centre: with the middle piece the tree is
         # then mirror-symmetric about the beam's midpoint
-        base.add_joint(
-            name="base_theta", type=mujoco.mjtJoint.mjJNT_HINGE, axis=list(_HINGE_AXIS),
-            pos=[0.5 * float(disc.piece_length[b]), 0.0, 0.0],
-        )
-
+        base.add_joint(name="base_theta", type=mujoco.mjtJoint.mjJNT_HINGE, axis=list(_HINGE_AXIS),
+                       pos=[0.5 * float(disc.piece_length[b]), 0.0, 0.0])
     parent = base
     for i in range(b - 1, -1, -1):  # pieces left of the base, children toward s = 0
         length = float(disc.piece_length[i])
-        body = add_piece(parent, i, [-length, 0.0, 0.0])
+        body = _add_piece(parent, i, [-length, 0.0, 0.0], disc, beam, o, collider)
         add_hinge(body, i, [length, 0.0, 0.0], [-a for a in _HINGE_AXIS])
         parent = body
     parent = base
     for i in range(b + 1, o.segments + 1):
-        body = add_piece(parent, i, [float(disc.piece_length[i - 1]), 0.0, 0.0])
+        body = _add_piece(parent, i, [float(disc.piece_length[i - 1]), 0.0, 0.0], disc, beam, o, collider)
         add_hinge(body, i - 1, [0.0, 0.0, 0.0], list(_HINGE_AXIS))
         parent = body
 
+
+def _add_contact_sensors(spec, o: RodOptions) -> None:
+    # the deepest rod contact each step, computed by MuJoCo in the position stage (cheap; read by the
+    # simulator's penetration check, changes nothing in the dynamics)
+    for name, ref in ((CONTACT_SENSOR, "floor"), (FEATURE_SENSOR, None)):
+        if ref is None and o.scene == "floor":
+            continue
+        sensor = spec.add_sensor(name=name, type=mujoco.mjtSensor.mjSENS_CONTACT,
+                                 objtype=mujoco.mjtObj.mjOBJ_XBODY, objname=f"piece{o.base_piece}")
+        if ref is not None:
+            sensor.reftype, sensor.refname = mujoco.mjtObj.mjOBJ_GEOM, ref
+        sensor.intprm = [1 << int(mujoco.mjtConDataField.mjCONDATA_DIST), 1, 1]  # dist; mindist; 1 contact
+        if o.magnetics == "native":
+            # a history buffer (read only by the simulator, no delay): a block of steps run inside
+            # MuJoCo leaves every step's deepest contact there
+            sensor.nsample = CONTACT_HISTORY
+
+
+def build_spec(beam: Beam, options: RodOptions) -> tuple[mujoco.MjSpec, RodDiscretization]:
+    """The scene as an editable ``mujoco.MjSpec`` (see :func:`build_model`)."""
+    if not isinstance(options, RodOptions):
+        raise ValueError(f"options must be a RodOptions, got {type(options).__name__}.")
+    disc = discretize(beam, options.segments, grading=options.grading)
+    o = options
+    spec = mujoco.MjSpec()
+    spec.modelname = f"magsoft_rod_{o.scene}_{o.segments}"
+    _set_options(spec, o)
+    contact = _Contact.of(o, contact_timeconst(beam, o))
+    scene_geoms = _add_scene(spec, beam, o, contact) if o.has_contact else []
+    rod_geoms = []
+
+    def collider(g):
+        g.contype, g.conaffinity = _ROD_CONTYPE, _ROD_CONAFFINITY
+        contact.set_geom(g)
+        g.group = 3
+        rod_geoms.append(g)
+
+    _add_rod(spec, disc, beam, o, collider)
     if o.magnetics == "native":
         _add_poles(spec, disc, o)
-
     if o.has_contact and o.contact_pairs:
         # explicit pairs: no broad phase (it cost more than the narrow phase of these pairs)
         for sg in scene_geoms:
             for rg in rod_geoms:
-                pair = spec.add_pair(geomname1=sg.name, geomname2=rg.name)
-                pair.condim = 3
-                pair.friction = [o.friction, o.friction, 0.005, 0.0001, 0.0001]
-                pair.solref = [tc, o.contact_dampratio]
-                pair.solimp = list(rg.solimp)
+                contact.add_pair(spec, sg, rg)
         for g in (*scene_geoms, *rod_geoms):
             g.contype = g.conaffinity = 0
-
     if o.has_contact:
-        # the deepest rod contact each step, computed by MuJoCo in the position stage (cheap;
-        # read by the simulator's penetration check, changes nothing in the dynamics)
-        for name, ref in ((CONTACT_SENSOR, "floor"), (FEATURE_SENSOR, None)):
-            if ref is None and o.scene == "floor":
-                continue
-            sensor = spec.add_sensor(name=name, type=mujoco.mjtSensor.mjSENS_CONTACT,
-                                     objtype=mujoco.mjtObj.mjOBJ_XBODY, objname=f"piece{b}")
-            if ref is not None:
-                sensor.reftype, sensor.refname = mujoco.mjtObj.mjOBJ_GEOM, ref
-            sensor.intprm = [1 << int(mujoco.mjtConDataField.mjCONDATA_DIST), 1, 1]  # dist; mindist; 1 contact
-            if o.magnetics == "native":
-                # a history buffer (read only by the simulator, no delay): a block of steps run inside
-                # MuJoCo leaves every step's deepest contact there
-                sensor.nsample = CONTACT_HISTORY
-
+        _add_contact_sensors(spec, o)
     if o.render:
+        world = spec.worldbody
         world.add_light(name="light", pos=[0.5 * beam.length, -0.1, 0.1], dir=[0, 1, -1])
-        world.add_camera(
-            name="side", pos=[0.5 * beam.length, -4.0 * beam.length, 0.0], xyaxes=[1, 0, 0, 0, 0, 1],
-        )
+        world.add_camera(name="side", pos=[0.5 * beam.length, -4.0 * beam.length, 0.0], xyaxes=[1, 0, 0, 0, 0, 1])
     return spec, disc
 
 
@@ -626,17 +645,14 @@ def native_controls(rod: RodModel, fields) -> np.ndarray:
     return out
 
 
-def _add_scene(spec, beam: Beam, o: RodOptions, tc: float) -> list:
+def _add_scene(spec, beam: Beam, o: RodOptions, contact: _Contact) -> list:
     world = spec.worldbody
     geoms = []
 
     def static_geom(name, **kw):
         g = world.add_geom(name=name, **kw)
         g.contype, g.conaffinity = _SCENE_CONTYPE, _SCENE_CONAFFINITY
-        g.friction = [o.friction, 0.005, 0.0001]
-        g.solref = [tc, o.contact_dampratio]
-        if o.contact_impedance is not None:
-            g.solimp = [o.contact_impedance[0], o.contact_impedance[1], 0.001, 0.5, 2.0]
+        contact.set_geom(g)
         geoms.append(g)
         return g
 
