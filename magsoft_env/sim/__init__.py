@@ -8,6 +8,7 @@ rod backend, :class:`~magsoft_env.sim.planar.PlanarRod`, with one health monitor
 :func:`build_model` / :class:`RodOptions` (the MjSpec builder), :mod:`.waveforms`.
 """
 
+from .backend import RodBackend, rod_backend
 from .discretize import RodDiscretization, discretize
 from .equilibrium import SimEquilibrium, mujoco_equilibrium, mujoco_path
 from .health import UnphysicalError
@@ -18,7 +19,8 @@ from .waveforms import Hold, PhaseShifted, Ramp, Sequence, Sine, Square, Switche
 
 __all__ = [
     "CHANNEL_SIZE", "INTEGRATORS", "OBSTACLE_SIZE", "SCENES", "Hold", "PhaseShifted", "Ramp", "RodDiscretization",
-    "PlanarRod", "RodModel", "RodOptions", "SettleResult", "Sequence", "SimEquilibrium", "SimulationError",
+    "PlanarRod", "RodBackend", "RodModel", "RodOptions", "SettleResult", "Sequence", "SimEquilibrium",
+    "SimulationError",
     "UnphysicalError", "Simulator", "Sine", "Square", "SwitchedSquare", "Trajectory", "Waveform", "as_waveform",
-    "build_model", "build_spec", "discretize", "mujoco_equilibrium", "mujoco_path",
+    "build_model", "build_spec", "rod_backend", "discretize", "mujoco_equilibrium", "mujoco_path",
 ]

@@ -30,7 +30,8 @@ from .model import (
 
 
 class PlanarRod:
-    """A beam as a planar hinge chain (:func:`~magsoft_env.sim.model.build_model`) with native magnetics.
+    """A beam as a planar hinge chain (:func:`~magsoft_env.sim.model.build_model`) with native magnetics: a
+    :class:`~magsoft_env.sim.backend.RodBackend`.
 
     The pieces are numbered base half-cell first, tip last; the MuJoCo bodies of the pieces have
     consecutive ids (rows ``b0:b1`` of ``xmat``, ``xpos``, ``xfrc_applied``), in :attr:`order`.
@@ -60,6 +61,7 @@ class PlanarRod:
         disc = rod.disc
         self.disc = disc
         self.bodies = rod.body_ids
+        self.npieces = len(self.bodies)
         #: body-frame magnetic moments of the pieces (A m^2), shape (N + 1, 3)
         self.m_body = magnetics.body_moments_3d(disc.moment)
         #: hinge stiffnesses (N m / rad) and their dof / qpos addresses
@@ -155,6 +157,12 @@ class PlanarRod:
         """Per-step inputs of the fields ``(k, 2)`` (B_x, B_z; T), rows for ``mujoco.rollout`` with
         :attr:`control_spec`."""
         return native_controls(self.rod, fields)
+
+    def apply_external(self, data: mujoco.MjData, wrench: np.ndarray | None) -> None:
+        """Write a constant world-frame wrench per piece ``(N + 1, 6)`` (force at the piece's centre of mass,
+        then couple), or none, into ``xfrc_applied``; clear ``qfrc_applied`` (the couples are actuator forces)."""
+        data.qfrc_applied[:] = 0.0
+        data.xfrc_applied[self.b0:self.b1] = 0.0 if wrench is None else wrench[self.order]
 
     # ------------------------------------------------------------------ energies
     def net_moment(self, data: mujoco.MjData) -> np.ndarray:

@@ -18,6 +18,7 @@ import numpy as np
 from ..spec import Beam, Field, as_field
 from ..spec.field import MAX_FIELD
 from ..validate import finite_number, positive
+from .backend import RodBackend, rod_backend
 from .health import (
     FIELD_FLOOR,
     MAX_STEPS,
@@ -28,7 +29,6 @@ from .health import (
     check_steps,
 )
 from .model import CONTACT_HISTORY, RodModel, RodOptions, contact_timeconst
-from .planar import PlanarRod
 from .waveforms import Waveform, as_waveform
 
 #: Scalar types :meth:`Simulator.set_field` accepts without building a Field.
@@ -150,8 +150,8 @@ class Simulator:
     ----------
     rod : RodModel
         The compiled model and its addresses (:func:`~magsoft_env.sim.model.build_model`).
-    backend : PlanarRod
-        The rod backend: field inputs and physical readouts.
+    backend : RodBackend
+        The rod backend (:class:`~magsoft_env.sim.planar.PlanarRod`): field inputs and physical readouts.
     model, data : mujoco.MjModel, mujoco.MjData
     external_wrench : ndarray, shape (N + 1, 6)
         Extra constant wrench per piece, world frame: force (N) at the piece's centre of mass, then couple
@@ -183,7 +183,7 @@ class Simulator:
             positive("penetration_limit", penetration_limit, unit="beam thicknesses")
         as_field(field, "field")  # checked before the model is built
         options = RodOptions() if options is None else options
-        self.backend = PlanarRod(beam, options)
+        self.backend: RodBackend = rod_backend(beam, options)
         self.rod: RodModel = self.backend.rod
         self.model = self.backend.model
         self.data = mujoco.MjData(self.model)
@@ -198,7 +198,7 @@ class Simulator:
         # the longest native block: the contact history (every step of a block is checked from it)
         hist = self._health.hist
         self._block = min(hist.nsample, CONTACT_HISTORY) if hist is not None else MAX_STEPS
-        self.external_wrench = np.zeros((len(self.backend.bodies), 6))
+        self.external_wrench = np.zeros((self.backend.npieces, 6))
         self._B3 = np.zeros(3)  # the applied field now (T)
         self._inputs = np.zeros(2)  # the field (B_x, B_z) whose inputs are in data now (T)
         self._waveform: Waveform | None = None
@@ -369,7 +369,6 @@ class Simulator:
             raise ValueError(f"block must be None or a positive integer number of steps, got {block!r}.")
         block = self._block if block is None else min(int(block), self._block)
         d = self.data
-        b0, b1 = self.backend.b0, self.backend.b1
         external = bool(np.any(self.external_wrench))
         if external and not np.isfinite(self.external_wrench).all():
             raise ValueError("external_wrench must be finite (N, N m), got non-finite entries at pieces "
@@ -381,8 +380,7 @@ class Simulator:
         if health.begin_call(self.nstep, None if fields is not None else self._B3[[0, 2]], external=external,
                              stale=self._stale):
             self._stale = False
-        d.qfrc_applied[:] = 0.0
-        d.xfrc_applied[b0:b1] = self.external_wrench[self.backend.order] if external else 0.0
+        self.backend.apply_external(d, self.external_wrench if external else None)
         # MuJoCo's own warning text is captured (not printed or logged to MUJOCO_LOG.TXT), with the time of
         # the step that raised it; between blocks the caller's handler is back (it may step another simulator)
         prev = mujoco.get_mju_user_warning()
@@ -508,10 +506,8 @@ class Simulator:
         m, d = self.model, self.data
         qvel = d.qvel.copy()
         d.qvel[:] = 0.0
-        d.qfrc_applied[:] = 0.0  # the magnetic couples are actuator forces, part of qfrc_smooth
-        b0, b1 = self.backend.b0, self.backend.b1
-        external = bool(np.any(self.external_wrench))
-        d.xfrc_applied[b0:b1] = self.external_wrench[self.backend.order] if external else 0.0
+        # the magnetic couples are actuator forces, part of qfrc_smooth
+        self.backend.apply_external(d, self.external_wrench if np.any(self.external_wrench) else None)
         mujoco.mj_forward(m, d)
         dofs = self.backend.hinge_dof
         q = d.qfrc_smooth[dofs] + d.qfrc_constraint[dofs]
