@@ -22,7 +22,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
             "Simulate an open-loop crawling gait (a robot of the paper's Fig. 5, or your own robot file with a drive) "
             "on a floor (MuJoCo rod) and print the centre-of-mass displacement (mm) and speed (mm/s, signed along "
             "+x), the direction, and the paper's value. The speed is measured over whole field periods after the "
-            "first one (start-up transient); a run shorter than that warm-up plus one period gets a warning (its "
+            "first one (start-up transient). A robot whose body turns past vertical (end over end) is reported as a "
+            "tumble, without a crawl speed. A run shorter than that warm-up plus one period gets a warning (its "
             "speed is not over whole periods). --out writes the result as JSON."
         ),
     )
@@ -134,12 +135,17 @@ def run(args) -> int:
             print(f"field replaced: {preset.wave.describe()}")
         if args.face_down or args.friction is not None:
             print(f"robot: {'face down' if args.face_down else 'face up'}, friction {preset.friction:g}")
-        print(f"displacement {out['displacement_mm']:+.3f} mm in {out['seconds']:.2f} s; "
-              f"speed {out['speed_mm_s']:+.3f} mm/s (over {out['speed_window_s']:.2f} s after {out['warmup_s']:.2f} "
-              "s warm-up), "
-              f"direction {out['direction']}")
+        if res.flipped:  # the displacement of a tumble is not a crawl: no speed, and say so first
+            print(f"TUMBLE: the robot flipped end over end (body orientation up to {out['max_orientation_deg']:.0f} "
+                  f"deg, past vertical first at t = {res.flip_time:.2f} s); no crawl speed")
+            print(f"displacement {out['displacement_mm']:+.3f} mm in {out['seconds']:.2f} s (tumbling, not crawling)")
+        else:
+            print(f"displacement {out['displacement_mm']:+.3f} mm in {out['seconds']:.2f} s; "
+                  f"speed {out['speed_mm_s']:+.3f} mm/s (over {out['speed_window_s']:.2f} s after "
+                  f"{out['warmup_s']:.2f} s warm-up), direction {out['direction']}")
         print(f"paper: {_paper_values(preset)}; max height {out['max_height_mm']:.2f} mm, "
-              f"max link rotation {out['max_link_rotation_deg']:.0f} deg; {out['wall_time_s']:.1f} s wall")
+              f"max link rotation {out['max_link_rotation_deg']:.0f} deg, body orientation up to "
+              f"{out['max_orientation_deg']:.0f} deg ({out['locomotion']}); {out['wall_time_s']:.1f} s wall")
         given = (f"fidelity {args.fidelity}" if args.fidelity else "the robot's own"
                  if args.segments is None and args.timestep_ms is None else "as given")
         print(f"numerics: {res.segments} segments, {res.timestep * 1e3:g} ms ({given}; docs/convergence.md)")

@@ -15,6 +15,7 @@ from ..sim import PhaseShifted, Ramp, SimulationError, Simulator
 from ..sim.gait import gait_rod_options
 from ..sim.health import UnphysicalError, check_steps
 from ..sim.model import CONTACT_HISTORY, MAX_TIMESTEP
+from ..sim.readouts import is_flipped, orientation
 from ..spec.drive import Waveparams
 from ..validate import choice, finite_number, nonnegative, positive
 from . import refuse_unknown_kwargs
@@ -131,7 +132,10 @@ class MagSoftCrawlEnv(gym.Env):
       floor, a launch the field cannot power; docs/sim.md, "Physical checks") truncates the same
       way, with ``info["unphysical"]`` = the reason and its figures in ``info``
       (``penetration_m``, ``penetration_h``, ``step``, ``time_s``, ...). Every ``info`` carries
-      ``max_penetration`` (m), the deepest contact of the episode so far.
+      ``max_penetration`` (m), the deepest contact of the episode so far, ``orientation`` (rad), the body's
+      length-weighted mean tangent angle, continuous in time (+-pi after one turn end over end;
+      :mod:`magsoft_env.sim.readouts`), and ``flipped``, True once it has been past vertical (|orientation| >
+      pi / 2) at the end of a step of this episode (a tumble; crawl mode "none" lets the episode go on).
 
     ## Arguments
 
@@ -313,6 +317,7 @@ class MagSoftCrawlEnv(gym.Env):
         self._com_vel = np.zeros(2)
         self._broken = False
         self._episode_forward = 0.0
+        self._flipped = False
 
     # ------------------------------------------------------------------ physics readouts
     def com_position(self) -> np.ndarray:
@@ -370,6 +375,7 @@ class MagSoftCrawlEnv(gym.Env):
         self._com_vel = np.zeros(2)
         self._broken = False
         self._episode_forward = 0.0
+        self._flipped = False
         self._last_obs = self._get_obs()
         return self._last_obs, self._info(0.0)
 
@@ -478,7 +484,12 @@ class MagSoftCrawlEnv(gym.Env):
 
     def _info(self, reward: float, *, forward: float = 0.0, field: float = 0.0, crawl: float = 0.0,
               success: float = 0.0) -> dict:
+        # the body's orientation (length-weighted mean tangent angle, continuous; sim.readouts) and whether
+        # it has been past vertical at the end of any step of this episode: a tumble, not a crawl
+        turn = orientation(self.sim)
+        self._flipped = self._flipped or is_flipped(turn)
         return {
+            "orientation": turn, "flipped": self._flipped,
             "reward_forward": float(forward), "reward_field": float(field), "reward_crawl": float(crawl),
             "reward_success": float(success), "reward": float(reward),
             "x_position": float(self._com[0]), "z_position": float(self._com[1]),

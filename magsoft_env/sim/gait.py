@@ -22,6 +22,7 @@ from ..units import MM
 from ..validate import nonnegative, positive
 from .health import UnphysicalError, check_steps
 from .model import RodOptions, material_contact_timeconst
+from .readouts import is_flipped, orientation
 from .simulator import SimulationError, Simulator
 from .waveforms import as_waveform
 
@@ -65,9 +66,10 @@ class GaitResult:
     displacement : float
         Centre-of-mass travel along +x over the whole run (m).
     speed : float
-        Mean centre-of-mass speed along +x after the warm-up (m/s).
+        Mean centre-of-mass speed along +x after the warm-up (m/s); NaN when the body flipped
+        (``locomotion == "tumble"``: the centre of mass moved, but not by crawling).
     direction : str
-        ``"left"``, ``"right"`` or ``"none"`` (|speed| below 0.01 mm/s).
+        ``"left"``, ``"right"`` or ``"none"`` (|speed| below 0.01 mm/s); ``"tumble"`` when the body flipped.
     max_height : float
         Highest centerline point over the run (m): crawling stays low, tumbling does not.
     max_link_rotation : float
@@ -85,7 +87,8 @@ class GaitResult:
     success : bool
         False when the simulation became unstable or unphysical (then ``message`` says why).
     message : str
-        ``"ok"``, or the instability that stopped the run early.
+        ``"ok"``, the instability that stopped the run early, or (a stable run whose body flipped) a
+        line starting ``"tumbled:"``.
     max_penetration : float
         Deepest rod contact over the run (m), every step (:attr:`Simulator.max_penetration`);
         the run stops above 1 h (docs/sim.md, "Physical checks"). The paper gaits stay below
@@ -99,6 +102,18 @@ class GaitResult:
         ``""``, or the reason an unphysical motion (penetration, tunnelling, launch) stopped the run.
     segments, timestep : int, float
         The numerics the run used: rod segments and MuJoCo timestep (s).
+    locomotion : str
+        ``"crawl"``, or ``"tumble"`` when the body flipped: its orientation (the length-weighted mean
+        tangent angle of the pieces, continuous in time; :func:`~magsoft_env.sim.readouts.orientation`)
+        went past vertical (``|orientation| > pi / 2``) at a recorded sample.
+    flipped : bool
+        ``locomotion == "tumble"``.
+    max_orientation : float
+        Largest |orientation| of the body over the run (rad), at the recorded samples.
+    final_orientation : float
+        The body's orientation at the end (rad); about +-pi after one flip end over end.
+    flip_time : float
+        Time (s) of the first sample past vertical; NaN when the body did not flip.
     """
 
     name: str
@@ -124,6 +139,15 @@ class GaitResult:
     segments: int = 0
     timestep: float = math.nan
     whole_periods: bool = True
+    locomotion: str = "crawl"
+    max_orientation: float = math.nan
+    final_orientation: float = math.nan
+    flip_time: float = math.nan
+
+    @property
+    def flipped(self) -> bool:
+        """True when the body turned past vertical during the run (``locomotion == "tumble"``)."""
+        return self.locomotion == "tumble"
 
     def to_dict(self) -> dict:
         """JSON-ready summary with units in the keys (mm, mm/s, deg)."""
@@ -134,7 +158,7 @@ class GaitResult:
             "speed_window_s": self.window,
             "whole_periods": self.whole_periods,
             "displacement_mm": self.displacement / MM,
-            "speed_mm_s": self.speed / MM,
+            "speed_mm_s": None if math.isnan(self.speed) else self.speed / MM,
             "direction": self.direction,
             "max_height_mm": self.max_height / MM,
             "max_link_rotation_deg": math.degrees(self.max_link_rotation),
@@ -149,6 +173,11 @@ class GaitResult:
             "max_penetration_h": self.max_penetration_h,
             "energy_drift": self.energy_drift,
             "unphysical": self.unphysical,
+            "locomotion": self.locomotion,
+            "flipped": self.flipped,
+            "max_orientation_deg": math.degrees(self.max_orientation),
+            "final_orientation_deg": math.degrees(self.final_orientation),
+            "flip_time_s": None if math.isnan(self.flip_time) else self.flip_time,
         }
 
 
@@ -199,7 +228,10 @@ def run_gait(
     Returns
     -------
     GaitResult
-        ``success`` False (and the partial record) when the rod became unstable.
+        ``success`` False (and the partial record) when the rod became unstable. A robot whose body
+        flipped (turned past vertical, end over end; :mod:`magsoft_env.sim.readouts`) gets
+        ``locomotion="tumble"``, ``speed`` NaN, ``direction="tumble"`` and a ``message`` that says so: its
+        displacement is that of a tumble, not a crawl.
     """
     preset = gait_preset(preset)  # a name or a path loads; a robot without a drive is refused
     segments, timestep = numerics(preset, fidelity=fidelity, segments=segments, timestep=timestep)
@@ -219,6 +251,8 @@ def run_gait(
     ts, xs = [0.0], [sim.center_of_mass()[0]]
     z = sim.centerline()[1]
     zmax, rot = float(np.max(z)), float(np.max(np.abs(sim.angles())))
+    turn = orientation(sim)
+    max_turn, flip_time = abs(turn), math.nan
     lift_l, lift_r = float(np.max(z[left])) - z_rest, float(np.max(z[right])) - z_rest
     ok, msg, done, unphysical = True, "ok", 0, ""
     bar = None
@@ -245,19 +279,31 @@ def run_gait(
         zmax = max(zmax, float(np.max(z)))
         lift_l, lift_r = max(lift_l, float(np.max(z[left])) - z_rest), max(lift_r, float(np.max(z[right])) - z_rest)
         rot = max(rot, float(np.max(np.abs(sim.angles()))))
+        turn = orientation(sim)
+        max_turn = max(max_turn, abs(turn))
+        if math.isnan(flip_time) and is_flipped(turn):
+            flip_time = sim.time
     if bar is not None:
         bar.close()
     t, x = np.asarray(ts), np.asarray(xs)
     i0, i1, whole = speed_window(t, preset.wave.frequency, warmup_cycles)
     speed = (x[i1] - x[i0]) / (t[i1] - t[i0]) if t[i1] > t[i0] else 0.0
+    direction, locomotion = direction_of(speed), "crawl"
+    if not math.isnan(flip_time):
+        speed, direction, locomotion = math.nan, "tumble", "tumble"
+        if ok:
+            msg = (f"tumbled: the body turned past vertical (orientation {math.degrees(max_turn):.0f} deg at most, "
+                   f"{math.degrees(turn):+.0f} deg at the end; first past 90 deg at t = {flip_time:.2f} s), end over "
+                   "end: no crawl speed")
     return GaitResult(
         name=preset.name + (" (reverse)" if preset.reverse else ""), seconds=float(t[-1]), warmup=float(t[i0]),
-        displacement=float(x[-1] - x[0]), speed=float(speed), direction=direction_of(speed),
+        displacement=float(x[-1] - x[0]), speed=float(speed), direction=direction,
         max_height=zmax, max_link_rotation=rot, wall_time=_time.perf_counter() - t0, time=t, com_x=x,
         success=ok, message=msg, max_lift_left=lift_l, max_lift_right=lift_r,
         max_penetration=sim.max_penetration, max_penetration_h=sim.max_penetration / preset.beam.thickness,
         energy_drift=sim.energy_drift, unphysical=unphysical, window=float(t[i1] - t[i0]), whole_periods=whole,
-        segments=options.segments, timestep=options.timestep,
+        segments=options.segments, timestep=options.timestep, locomotion=locomotion, max_orientation=max_turn,
+        final_orientation=turn, flip_time=flip_time,
     )
 
 
