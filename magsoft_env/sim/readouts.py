@@ -16,7 +16,7 @@ tumble turns the whole body past vertical.
 Examples
 --------
 >>> import numpy as np
->>> body_orientation(np.array([0.1, 0.3]), np.array([1.0, 3.0]))   # (0.1 + 0.9) / 4
+>>> round(body_orientation(np.array([0.1, 0.3]), np.array([1.0, 3.0])), 12)   # (0.1 + 0.9) / 4
 0.25
 >>> round(body_orientation(np.array([3.1, -3.1]), np.array([1.0, 1.0])), 6)   # across +-pi: unwrapped
 3.141593
