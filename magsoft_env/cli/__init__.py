@@ -21,6 +21,7 @@ COMMANDS = {
     "gait": "magsoft_env.cli.gait",
     "video": "magsoft_env.cli.video",
     "design": "magsoft_env.cli.design",
+    "export": "magsoft_env.cli.export",
 }
 
 
