@@ -289,3 +289,73 @@ def test_figures_share_the_palette_and_font():
     before = dict(matplotlib.rcParams)
     assert inside() == (["DejaVu Sans"], PALETTE["text"])
     assert dict(matplotlib.rcParams) == before  # the global settings are left alone
+
+
+def _rod_left_edge(img: np.ndarray, row: int) -> int:
+    """Column of the leftmost robot-coloured pixel of ``row``."""
+    cols = np.nonzero(_near(img[row], "robot", tol=20))[0]
+    assert cols.size, "no rod in this row"
+    return int(cols[0])
+
+
+def test_zoom_inset_shows_a_1_mm_crawl_of_the_rods_end(paper_5c):
+    import mujoco
+
+    sim = _sim(paper_5c)
+    r = _renderer(sim, width=480, height=270)
+    assert r.zoom and r.zoom_span == pytest.approx(0.25 * paper_5c.beam.length)
+    a = r.render()
+    ox, oy, zw, zh = r.zoom_box
+    x_lo, x_hi, z_lo, z_hi = r.zoom_view
+    row = oy + int(round((z_hi - 0.5 * paper_5c.beam.thickness) / (z_hi - z_lo) * zh))  # the rod's mid-plane
+    edge_a = _rod_left_edge(a[:, ox:ox + zw], row)
+    sim.data.qpos[sim.rod.base_qpos[0]] -= 1.0 * MM  # the whole rod 1 mm to the left, as a crawl would
+    mujoco.mj_forward(sim.model, sim.data)
+    b = r.render()
+    r.close()
+    assert r.zoom_box == (ox, oy, zw, zh) and r.zoom_view == (x_lo, x_hi, z_lo, z_hi)  # the window stays put
+    assert r.end_displacement == pytest.approx(-1.0 * MM)
+    px_per_mm = zw / ((x_hi - x_lo) / MM)
+    assert px_per_mm > 3.0 * 480 / (r.span / MM)  # magnified: over 3 x the scene's mm
+    # in the inset the end moves a millimetre's worth of zoomed pixels (about 30 px at this size)
+    assert edge_a - _rod_left_edge(b[:, ox:ox + zw], row) == pytest.approx(px_per_mm, abs=2.0)
+    # the ruler: 0.1 mm ticks (a tick every px_per_mm / 10 pixels) in ink under the floor line
+    floor_row = oy + int(round(z_hi / (z_hi - z_lo) * zh)) + 1  # just under the floor line, in the floor band
+    ticks = b[floor_row, ox + 2:ox + zw - 2].mean(axis=-1) < 0.8 * _rgb("floor").mean()
+    starts = np.count_nonzero(ticks[1:] & ~ticks[:-1])
+    assert starts >= 0.8 * 10 * (x_hi - x_lo) / MM  # about one per 0.1 mm across the window
+
+
+def test_zoom_defaults_and_refusals(paper_5c):
+    r = _renderer(_sim(paper_5c, scene="channel"), width=320, height=180)
+    assert not r.zoom and r.render().shape == (180, 320, 3) and r.zoom_box is None
+    r.close()
+    from magsoft_env.render.frames import RodRenderer
+    from magsoft_env.spec import Beam
+    from magsoft_env.sim import RodOptions, Simulator
+
+    cantilever = Simulator(Beam(length=20e-3, width=5e-3, thickness=1e-3), RodOptions(segments=4, render=True))
+    with pytest.raises(ValueError, match="zoom needs a floor scene"):
+        RodRenderer(cantilever, zoom=True)
+    with pytest.raises(ValueError, match="zoom_span must be"):
+        RodRenderer(_sim(paper_5c), zoom_span=-1.0)
+
+
+def test_render_gait_draws_the_zoom_inset_unless_told_not_to(paper_5c, tmp_path):
+    from magsoft_env.cli import main
+    from magsoft_env.gl import RenderBackendError
+    from magsoft_env.render.video import render_gait
+
+    try:
+        zoomed, _ = render_gait(paper_5c, 0.04, fps=25, width=320, height=180, segments=8, timestep=5e-4)
+    except RenderBackendError as err:
+        pytest.skip(f"no headless OpenGL here: {str(err).splitlines()[0]}")
+    plain, _ = render_gait(paper_5c, 0.04, fps=25, width=320, height=180, segments=8, timestep=5e-4, zoom=False)
+    w = int(round(0.36 * 320))
+    box = (slice(5, 5 + int(round(w * 180 / 320))), slice(int(round(0.46 * 320 - 0.5 * w)), int(round(0.46 * 320 + 0.5 * w))))
+    # the inset's magnified rod end: robot-coloured pixels where the plain frame has only backdrop and grid
+    assert _near(zoomed[-1][box], "robot", tol=20).sum() > 200
+    assert _near(plain[-1][box], "robot", tol=20).sum() == 0
+    out = tmp_path / "v.gif"
+    assert main(["video", "--preset", "paper-5c", "--seconds", "0.04", "--width", "160", "--height", "90",
+                 "--no-zoom", "--out", str(out)]) == 0 and out.stat().st_size > 0

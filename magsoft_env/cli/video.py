@@ -21,7 +21,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         help="render a gait (--preset, --robot), or an environment with a policy (--env, --policy), to MP4/GIF",
         description=(
             "Render headless (MUJOCO_GL=egl or osmesa) with an orthographic side camera: mm grid and scale bar, "
-            "the field dial with its value, the centre-of-mass path and the start line. --preset NAME (or --robot "
+            "the field dial with its value, the centre-of-mass path and the start line, and in the floor scene a zoom "
+            "inset of the rod's end over a 0.1 mm ruler (--no-zoom leaves it out). --preset NAME (or --robot "
             "FILE) renders a gait on the floor; --env ID renders a Gymnasium environment driven by a "
             "Stable-Baselines3 model (--policy model.zip) or, without one, by the robot's open-loop gait "
             "(--robot FILE: that robot in the environment). --panel adds plots of x(t) and B(t) beside the frames."
@@ -42,6 +43,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--height", type=int, default=540, help="pixels (default 540)")
     p.add_argument("--panel", action="store_true",
                    help="add a panel of x(t) and B(t) to the right (the frame grows by 0.9 x --height)")
+    p.add_argument("--no-zoom", action="store_true",
+                   help="leave out the zoom inset of the rod's end over a 0.1 mm ruler (default: on in the floor scene "
+                        "of a gait, so that a 1-2 mm crawl shows)")
     p.add_argument("--timestep-ms", type=float, default=None,
                    help="simulation step for --preset, ms (default: the robot's own, as magsoft gait)")
     p.add_argument("--out", type=Path, required=True, help="output file, .mp4 or .gif")
@@ -134,7 +138,7 @@ def run(args) -> int:
     if gait:
         _, summary = render_gait(preset, args.seconds, args.out, fps=args.fps, width=args.width, height=args.height,
                                  timestep=None if args.timestep_ms is None else args.timestep_ms * 1e-3,
-                                 scene=args.scene, panel=args.panel)
+                                 scene=args.scene, panel=args.panel, zoom=False if args.no_zoom else None)
     else:
         policy, env_kwargs = None, {}
         if args.policy is not None:

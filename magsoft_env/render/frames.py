@@ -30,6 +30,13 @@ _FIELD_STEPS = tuple(m * 10.0**e * MT for e in range(0, 4) for m in (1.0, 2.0, 5
 _ZERO_FIELD = 1e-9
 #: Trace points kept (older ones are thinned out to every second one).
 _MAX_TRACE = 4000
+#: The zoom inset (floor scene): its width as a fraction of the frame's (its aspect is the frame's), and its
+#: default view width as a fraction of the beam length (a quarter: 4 x the frame's 2.4 L view magnified 2.4 x ...
+#: about 4 x for the default view, so a 1.6 mm crawl moves the end about 100 px in a 960 px frame).
+_ZOOM_FRACTION = 0.36
+_ZOOM_SPAN = 0.25
+#: Ruler ticks of the zoom inset (m): every 0.1 mm, longer every 0.5 mm, labelled every 1 mm.
+_TICK_MINOR, _TICK_MID, _TICK_MAJOR = 0.1 * MM, 0.5 * MM, 1.0 * MM
 
 
 def _rgb(name: str) -> tuple[int, int, int]:
@@ -220,6 +227,16 @@ class RodRenderer:
         above the largest |B| drawn so far (it only grows).
     trace : bool
         Draw the path and the start marker.
+    zoom : bool or None
+        Draw a zoom inset (top centre) of the rod's first end (s = 0) at the floor: a window
+        ``zoom_span`` wide, magnified about 4 x for the default view, with a ruler along the floor ticked
+        every 0.1 mm (0.5 mm, 1 mm) from that end's start position, a dashed start line and the end's
+        displacement; the window's outline is drawn in the scene. The window stays put while the end is in
+        its middle 80 % and re-centres on it otherwise, so a 1-2 mm crawl shows as the end stepping away
+        from its start line (about 100 px at 960 x 540). None: on for the ``floor`` scene (channel and
+        obstacle scenes fill the top of the frame), off otherwise.
+    zoom_span : float or None
+        Width (m) of the zoom window; None: a quarter of the beam length.
     panel : bool
         Put a :class:`TimePanel` (x(t) and B(t)) to the right of each frame; the frame grows by
         the panel's width (about half the height's 16:9 width, even).
@@ -234,6 +251,11 @@ class RodRenderer:
         The last frame's scale bar: length (m) and pixels.
     displacement : float
         x displacement (m) of the centre of mass since the path started.
+    end_displacement : float
+        x displacement (m) of the rod's first end (s = 0) since the path started: the zoom inset's reading.
+    zoom_view, zoom_box : tuple or None
+        The last frame's zoom window ``(x_lo, x_hi, z_lo, z_hi)`` (m) and the inset's place in the frame
+        ``(left, top, width, height)`` (pixels); None without the zoom.
 
     Raises
     ------
@@ -245,7 +267,8 @@ class RodRenderer:
 
     def __init__(self, sim, *, width: int = 960, height: int = 540, follow: bool = True, span: float | None = None,
                  minor: float = 1 * MM, major: float = 5 * MM, field_scale: float | None = None, trace: bool = True,
-                 panel: bool = False, panel_seconds: float | None = None):
+                 panel: bool = False, panel_seconds: float | None = None, zoom: bool | None = None,
+                 zoom_span: float | None = None):
         for name, v in (("width", width), ("height", height)):
             if int(v) != v or not 16 <= v <= 8192:
                 raise ValueError(f"{name} must be an integer in [16, 8192] pixels, got {v!r}.")
@@ -256,6 +279,10 @@ class RodRenderer:
             raise ValueError(f"span must be a view width > 0 (m) or None, got {span!r}.")
         if field_scale is not None and not (field_scale > 0 and math.isfinite(field_scale)):
             raise ValueError(f"field_scale must be a field > 0 (T) or None, got {field_scale!r}.")
+        if zoom_span is not None and not (zoom_span > 0 and math.isfinite(zoom_span)):
+            raise ValueError(f"zoom_span must be a window width > 0 (m) or None, got {zoom_span!r}.")
+        if zoom is not None and not isinstance(zoom, (bool, np.bool_)):
+            raise ValueError(f"zoom must be True, False or None, got {zoom!r}.")
         self.sim = sim
         self.width, self.height = int(width), int(height)
         self.follow = bool(follow)
@@ -264,6 +291,14 @@ class RodRenderer:
         self._field_scale_fixed = field_scale is not None
         self.field_scale = float(field_scale) if field_scale is not None else _FIELD_STEPS[0]
         self._floor = bool(sim.options.has_contact)
+        self.zoom = bool(zoom) if zoom is not None else sim.options.scene == "floor"
+        if self.zoom and not self._floor:
+            raise ValueError("zoom needs a floor scene (it magnifies the rod's end at the floor), got a cantilever.")
+        self.zoom_span = float(zoom_span) if zoom_span is not None else _ZOOM_SPAN * float(sim.beam.length)
+        zw = max(16, int(round(_ZOOM_FRACTION * self.width)))
+        self._zoom_size = (zw, max(16, int(round(zw * self.height / self.width))))
+        self.zoom_view: tuple[float, float, float, float] | None = None
+        self.zoom_box: tuple[int, int, int, int] | None = None
         self._static = self._static_geoms()
         self._pieces = self._piece_boxes()
         self._frame_view(span)
@@ -273,6 +308,9 @@ class RodRenderer:
         try:
             bind_headless_context()  # EGL or OSMesa when mujoco was imported without MUJOCO_GL
             self._renderer = mujoco.Renderer(sim.model, self.height, self.width)
+            self._zoom_renderer = None
+            if self.zoom:
+                self._zoom_renderer = mujoco.Renderer(sim.model, self._zoom_size[1], self._zoom_size[0])
         except Exception as exc:  # noqa: BLE001  (any GL failure gets the same explanation)
             raise context_error(exc) from exc
         flags = self._renderer.scene.flags
@@ -353,6 +391,8 @@ class RodRenderer:
         self._path: list[tuple[float, float]] = []
         self._start: tuple[float, float] | None = None
         self._tip0: tuple[float, float] | None = None
+        self._end0: float | None = None  # x (m) of the rod's first end at the first frame (the zoom's ruler)
+        self._zx: float | None = None  # centre x (m) of the zoom window
 
     def _record(self) -> None:
         sim = self.sim
@@ -367,6 +407,8 @@ class RodRenderer:
         if self._start is None:
             self._start = (float(com[0]), float(com[1]))
             self._tip0 = sim.tip_position()
+            if self._floor:
+                self._end0 = float(sim.centerline()[0][0])
         if self._t and t == self._t[-1]:
             self._path[-1] = p
             return
@@ -451,13 +493,13 @@ class RodRenderer:
             g.size[0] += 0.5 * (left + right)
             g.pos[:] += a * 0.5 * (right - left)
 
-    def _grid_lines(self, scn, view) -> None:
+    def _grid_lines(self, scn, view, px_width: int, minor: float, major: float) -> None:
         x_lo, x_hi, z_lo, z_hi = view
-        px_per_m = self.width / (x_hi - x_lo)
+        px_per_m = px_width / (x_hi - x_lo)
         lw = max(1.0, round(self.height / 540.0))
         if self._floor:
             z_lo = 0.0  # no grid below the floor
-        for step, colour, width in ((self.minor, "grid_minor", lw), (self.major, "grid_major", 1.5 * lw)):
+        for step, colour, width in ((minor, "grid_minor", lw), (major, "grid_major", 1.5 * lw)):
             if step * px_per_m < 8 or (x_hi - x_lo) / step > 600:
                 continue
             rgba = _rgba32(colour)
@@ -466,20 +508,23 @@ class RodRenderer:
             for gz in np.arange(math.ceil(z_lo / step) * step, z_hi, step):
                 self._connector(scn, mujoco.mjtGeom.mjGEOM_LINE, (x_lo, _Y_GRID, gz), (x_hi, _Y_GRID, gz), rgba, width)
 
-    def _scene(self, view) -> None:
+    def _scene(self, view, renderer=None, px_width: int | None = None, minor: float | None = None,
+               major: float | None = None) -> None:
+        """Pose the scene of ``view`` in ``renderer`` (default the frame's): the rod, backdrop, grid, floor."""
         sim = self.sim
         x_lo, x_hi, z_lo, z_hi = view
         cam = self._cam
-        cam.lookat[:] = (self._cx, 0.0, self._cz)
+        cam.lookat[:] = (0.5 * (x_lo + x_hi), 0.0, 0.5 * (z_lo + z_hi))
         cam.distance = 10.0 * self.span
         sim.model.vis.global_.fovy = z_hi - z_lo
-        r = self._renderer
+        r = self._renderer if renderer is None else renderer
         r.update_scene(sim.data, camera=cam, scene_option=self._opt)
         scn = r.scene
         self._restyle(scn)
         cx, cz, w, h = 0.5 * (x_lo + x_hi), 0.5 * (z_lo + z_hi), x_hi - x_lo, z_hi - z_lo
         self._box(scn, (cx, _Y_BACKDROP, cz), (w, 1e-4, h), _rgba32("background"))
-        self._grid_lines(scn, view)
+        self._grid_lines(scn, view, self.width if px_width is None else px_width,
+                         self.minor if minor is None else minor, self.major if major is None else major)
         if self._floor:
             depth = max(-z_lo, 0.0) + h
             self._box(scn, (cx, _Y_FLOOR, -0.5 * depth), (w, 1e-4, 0.5 * depth), _rgba32("floor"))
@@ -505,6 +550,8 @@ class RodRenderer:
         if self._floor and self._start is not None:
             u0, v0 = self._to_px(view, self._start[0], 0.0)
             top = self.height * 0.30
+            if self.zoom:  # the start label under the zoom inset
+                top = max(top, self._zoom_origin(cv.unit)[1] + self._zoom_size[1] + 24 * cv.unit)
             cv.line([(u0, v0), (u0, top)], start + (255,), 1.6, dash=6.0)
             cv.polygon([(u0, v0 - 1), (u0 - 6 * cv.unit, v0 + 9 * cv.unit), (u0 + 6 * cv.unit, v0 + 9 * cv.unit)],
                        start + (255,))
@@ -635,6 +682,83 @@ class RodRenderer:
         grid = f"grid {self.minor / MM:g} mm, bold {self.major / MM:g} mm"
         cv.text((self.width - 16 * u, y), grid, _rgb("muted"), px=12, anchor="rm")
 
+    # ------------------------------------------------------------------ zoom inset
+    @property
+    def end_displacement(self) -> float:
+        """x displacement (m) of the rod's first end (s = 0) since the path started (0 before any frame)."""
+        if self._end0 is None:
+            return 0.0
+        return float(self.sim.centerline()[0][0] - self._end0)
+
+    def _zoom_window(self) -> tuple[float, float, float, float]:
+        """The zoom window (x_lo, x_hi, z_lo, z_hi) in m: the floor 18 % from its bottom, centred on the
+        rod's first end, re-centred only when the end leaves its middle 80 %."""
+        x_end = float(self.sim.centerline()[0][0])
+        w = self.zoom_span
+        if self._zx is None or abs(x_end - self._zx) > 0.4 * w:
+            self._zx = x_end
+        h = w * self._zoom_size[1] / self._zoom_size[0]
+        return self._zx - 0.5 * w, self._zx + 0.5 * w, -0.18 * h, 0.82 * h
+
+    def _zoom_origin(self, unit: float) -> tuple[int, int]:
+        """Top-left pixel of the inset in the frame: top centre, between the header and the field dial."""
+        zw = self._zoom_size[0]
+        return int(round(0.46 * self.width - 0.5 * zw)), int(round(14 * unit))
+
+    def _draw_zoom_outline(self, cv: _Canvas, view, zview) -> None:
+        """The zoom window's outline in the scene, and a leader line to the inset."""
+        x_lo, x_hi, z_lo, z_hi = zview
+        u0, v0 = self._to_px(view, x_lo, z_hi)
+        u1, v1 = self._to_px(view, x_hi, z_lo)
+        col = _rgb("muted") + (255,)
+        cv.line([(u0, v0), (u1, v0), (u1, v1), (u0, v1), (u0, v0)], col, 1.2)
+        ox, oy = self._zoom_origin(cv.unit)
+        zw, zh = self._zoom_size
+        cv.line([(0.5 * (u0 + u1), v0), (ox + 0.5 * zw, oy + zh)], col, 1.0, dash=4.0)
+
+    def _zoom_image(self, unit: float) -> np.ndarray:
+        """The inset: the zoomed scene, the ruler from the end's start, the start line and the end's marker."""
+        zview = self.zoom_view
+        zw, zh = self._zoom_size
+        self._scene(zview, self._zoom_renderer, zw, _TICK_MID, _TICK_MAJOR)
+        img = self._zoom_renderer.render()
+        cv = _Canvas(img)
+        cv.unit = unit
+        x_lo, x_hi, z_lo, z_hi = zview
+
+        def px(x, z):
+            return (x - x_lo) / (x_hi - x_lo) * zw, (z_hi - z) / (z_hi - z_lo) * zh
+
+        ink, muted = _rgb("text") + (255,), _rgb("muted")
+        v_floor = px(0.0, 0.0)[1]
+        x0 = self._end0 if self._end0 is not None else 0.5 * (x_lo + x_hi)
+        k_lo, k_hi = math.ceil((x_lo - x0) / _TICK_MINOR - 1e-9), math.floor((x_hi - x0) / _TICK_MINOR + 1e-9)
+        for k in range(k_lo, k_hi + 1):  # the ruler, counted from the end's start position
+            u = px(x0 + k * _TICK_MINOR, 0.0)[0]
+            major, mid = k % 10 == 0, k % 5 == 0
+            length = (13 if major else 9 if mid else 5) * unit
+            cv.line([(u, v_floor), (u, v_floor + length)], ink, 1.4 if major else 1.0)
+            if major:
+                label = "0" if k == 0 else f"{_signed(k / 10, '+.0f')} mm"
+                cv.text((u, v_floor + length + 2 * unit), label, ink, px=11, anchor="ma")
+        start, robot = _rgb("start") + (255,), _rgb("robot") + (255,)
+        if x_lo <= x0 <= x_hi:
+            u = px(x0, 0.0)[0]
+            cv.line([(u, v_floor), (u, 0.0)], start, 1.4, dash=5.0)
+        x_end = float(self.sim.centerline()[0][0])
+        u = px(x_end, 0.0)[0]
+        s = 6 * unit
+        cv.polygon([(u, v_floor + 1), (u - s, v_floor + 1 + 1.6 * s), (u + s, v_floor + 1 + 1.6 * s)], robot)
+        mag = self.span / self.zoom_span * zw / self.width
+        cv.text((6 * unit, 5 * unit), f"zoom \u00d7{mag:.1f}: rod end s = 0", ink, px=12.5, bold=True, box=True)
+        cv.text((6 * unit, 24 * unit), f"end \u0394x = {_signed(self.end_displacement / MM)} mm; ticks 0.1 mm", muted,
+                px=11.5, box=True)
+        out = cv.result().copy()
+        edge = np.array(_rgb("grid_major"), dtype=np.uint8)
+        b = max(1, int(round(1.5 * unit)))
+        out[:b], out[-b:], out[:, :b], out[:, -b:] = edge, edge, edge, edge
+        return out
+
     # ------------------------------------------------------------------ public
     def render(self, *, field=None, overlay=None, target=None, label: str = "") -> np.ndarray:
         """One frame, shape ``(height, width, 3)`` uint8 (``width`` plus the panel's with ``panel``).
@@ -655,9 +779,13 @@ class RodRenderer:
         b = np.array([f.Bx, f.Bz] if hasattr(f, "Bx") else f, dtype=float).ravel()[:2]
         self._record()
         view = self.view = self._view()
+        if self.zoom:
+            self.zoom_view = self._zoom_window()
         self._scene(view)
         img = self._renderer.render()
         cv = _Canvas(img)
+        if self.zoom:
+            self._draw_zoom_outline(cv, view, self.zoom_view)
         if self.trace:
             self._draw_path(cv, view)
         self._draw_overlay(cv, view, overlay, target)
@@ -666,6 +794,12 @@ class RodRenderer:
         self._draw_header(cv, str(label), target)
         self._draw_legend(cv, overlay, target)
         frame = cv.result()
+        if self.zoom:
+            inset = self._zoom_image(cv.unit)
+            ox, oy = self._zoom_origin(cv.unit)
+            frame = frame.copy()
+            frame[oy:oy + inset.shape[0], ox:ox + inset.shape[1]] = inset
+            self.zoom_box = (ox, oy, inset.shape[1], inset.shape[0])
         if self.panel is not None:
             x = self.displacement if self._floor else self.sim.tip_position()[0]
             frame = np.concatenate([frame, self.panel.update(sim.time, x, b)], axis=1)
@@ -673,6 +807,8 @@ class RodRenderer:
 
     def close(self) -> None:
         self._renderer.close()
+        if self._zoom_renderer is not None:
+            self._zoom_renderer.close()
         if self.panel is not None:
             self.panel.close()
 

@@ -49,13 +49,14 @@ def _check_size(width, height) -> tuple[int, int]:
 def render_gait(
     preset, seconds: float, path=None, *, fps: float = 25.0, width: int = 960, height: int = 540,
     timestep: float | None = None, segments: int | None = None, scene: str = "floor", panel: bool = False,
-    overlay=None,
+    overlay=None, zoom: bool | None = None,
 ) -> tuple[list[np.ndarray], dict]:
     """Frames of an open-loop gait (a :class:`~magsoft_env.cases.robots.Robot` with a drive), optionally written.
 
     Each frame is a :class:`~magsoft_env.render.frames.RodRenderer` side view: the robot on the
     floor, grid and scale bar, the field dial (full scale: the drive's peak |B| rounded up to 1-2-5
-    mT), the centre-of-mass path and the start line, ``Δx`` since the start.
+    mT), the centre-of-mass path and the start line, ``Δx`` since the start and (floor scene) a zoom
+    inset of the rod's end over a 0.1 mm ruler.
 
     Parameters
     ----------
@@ -79,6 +80,9 @@ def render_gait(
         Add a :class:`~magsoft_env.render.frames.TimePanel` (Δx(t), B(t) over ``[0, seconds]``).
     overlay : callable, optional
         ``overlay(sim) -> (x, z)`` arrays (m), drawn dashed on each frame (e.g. an analytical shape).
+    zoom : bool or None
+        The zoom inset of the rod's end with its 0.1 mm ruler (:class:`~magsoft_env.render.frames.RodRenderer`),
+        so that a 1-2 mm crawl shows; None: on for the ``floor`` scene.
 
     Returns
     -------
@@ -110,7 +114,7 @@ def render_gait(
     sim.set_waveform(wave)
     peak = float(np.max(np.hypot(*wave.sample(np.linspace(0.0, seconds, 1001)).T)))
     renderer = RodRenderer(sim, width=width, height=height, field_scale=dial_scale(peak), panel=panel,
-                           panel_seconds=seconds)
+                           panel_seconds=seconds, zoom=zoom)
     n_frames = int(round(seconds * fps))
     per_frame = max(1, int(round(1.0 / (fps * sim.timestep))))
     x0 = sim.center_of_mass()[0]
