@@ -23,7 +23,8 @@ def _drive_plain(path, wave, seconds):
     m = mujoco.MjModel.from_xml_path(str(path))
     d = mujoco.MjData(m)
     P = m.nu // 2
-    pieces = [b for b in range(m.nbody) if (mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or "").startswith("piece")]
+    names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or "" for b in range(m.nbody)]
+    pieces = [b for b, name in enumerate(names) if name.startswith("piece")]
     mass = m.body_mass[pieces]
 
     def com_x():

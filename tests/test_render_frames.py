@@ -331,8 +331,8 @@ def test_zoom_defaults_and_refusals(paper_5c):
     assert not r.zoom and r.render().shape == (180, 320, 3) and r.zoom_box is None
     r.close()
     from magsoft_env.render.frames import RodRenderer
-    from magsoft_env.spec import Beam
     from magsoft_env.sim import RodOptions, Simulator
+    from magsoft_env.spec import Beam
 
     cantilever = Simulator(Beam(length=20e-3, width=5e-3, thickness=1e-3), RodOptions(segments=4, render=True))
     with pytest.raises(ValueError, match="zoom needs a floor scene"):
@@ -352,7 +352,8 @@ def test_render_gait_draws_the_zoom_inset_unless_told_not_to(paper_5c, tmp_path)
         pytest.skip(f"no headless OpenGL here: {str(err).splitlines()[0]}")
     plain, _ = render_gait(paper_5c, 0.04, fps=25, width=320, height=180, segments=8, timestep=5e-4, zoom=False)
     w = int(round(0.36 * 320))
-    box = (slice(5, 5 + int(round(w * 180 / 320))), slice(int(round(0.46 * 320 - 0.5 * w)), int(round(0.46 * 320 + 0.5 * w))))
+    left = int(round(0.46 * 320 - 0.5 * w))
+    box = (slice(5, 5 + int(round(w * 180 / 320))), slice(left, left + w))  # the inset, top centre
     # the inset's magnified rod end: robot-coloured pixels where the plain frame has only backdrop and grid
     assert _near(zoomed[-1][box], "robot", tol=20).sum() > 200
     assert _near(plain[-1][box], "robot", tol=20).sum() == 0

@@ -1,4 +1,7 @@
-"""``magsoft export``: write a robot's MuJoCo model in a scene as MJCF, with its field convention (docs/export.md)."""
+"""``magsoft export``: write a robot's MuJoCo model in a scene as MJCF, with its field convention.
+
+The convention and an example script: docs/sim.md, "Export to MJCF".
+"""
 
 from __future__ import annotations
 
@@ -17,7 +20,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
             "Write the MuJoCo model the package simulates for a robot (its segments, timestep, friction, damping "
             "and contact) in a scene as an MJCF file that plain mujoco.MjModel.from_xml_path loads. The magnetic "
             "couples are actuators: for P poles, ctrl[:P] = B_x and ctrl[P:] = B_z (tesla), written before every "
-            "mj_step with the field at data.time (a comment at the top of the file says so; docs/export.md)."
+            "mj_step with the field at data.time (a comment at the top of the file says so; docs/sim.md, "
+            "'Export to MJCF')."
         ),
     )
     p.add_argument("--robot", required=True,
@@ -61,5 +65,5 @@ def run(args) -> int:
     print(f"wrote {info['path']}: {robot.name} in the {info['scene']} scene, {info['segments']} segments, "
           f"timestep {info['timestep_s'] * 1e3:g} ms, {info['nq']} qpos, {info['nu']} actuators")
     print(f"field convention: before every mj_step set data.ctrl[:{p}] = B_x(t) and data.ctrl[{p}:{2 * p}] = B_z(t), "
-          "in tesla, with t = data.time (docs/export.md)")
+          "in tesla, with t = data.time (docs/sim.md, 'Export to MJCF')")
     return 0

@@ -1,4 +1,4 @@
-"""Export a robot's MuJoCo model in a scene as MJCF, for one's own MuJoCo scripts (docs/export.md).
+"""Export a robot's MuJoCo model in a scene as MJCF, for one's own MuJoCo scripts (docs/sim.md, "Export to MJCF").
 
 The exported model is the rod the package simulates (:func:`~magsoft_env.sim.gait.gait_rod_options`: the
 robot's segments, timestep, friction, damping and contact), with the magnetic couples as MuJoCo actuators
