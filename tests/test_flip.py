@@ -116,3 +116,16 @@ def test_readouts_examples_run():
 
     result = doctest.testmod(readouts, optionflags=doctest.NORMALIZE_WHITESPACE)
     assert result.failed == 0 and result.attempted > 0
+
+
+def test_body_orientation_matches_numpy_unwrap_on_random_chains():
+    rng = np.random.default_rng(0)
+    for _ in range(500):
+        n = int(rng.integers(1, 30))
+        true = np.cumsum(rng.uniform(-3.0, 3.0, n))  # neighbours differ by less than pi
+        w = rng.uniform(0.0, 1.0, n) + 1e-3
+        wrapped = np.angle(np.exp(1j * true))
+        unwrapped = np.unwrap(wrapped)
+        assert body_orientation(wrapped, w) == pytest.approx(w @ unwrapped / w.sum(), abs=1e-12)
+        anchor = true[-1]
+        assert body_orientation(wrapped, w, anchor=anchor) == pytest.approx(w @ true / w.sum(), abs=1e-9)
