@@ -2,8 +2,9 @@
 
 Every file the package writes goes through :func:`atomic_path`: the content is written to a
 temporary file in the target folder and moved into place, so a file is either complete or
-absent (an interrupted run never leaves half a CSV or a truncated figure). Imports nothing from
-the package.
+absent (an interrupted run never leaves half a CSV or a truncated figure). The file gets the
+permissions any new file gets (``0o666`` less the umask, as ``open()`` gives), not the private
+``0o600`` of :func:`tempfile.mkstemp`. Imports nothing from the package.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import io
 import json
 import math
 import os
-import tempfile
+import secrets
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -41,14 +42,30 @@ def atomic_path(path) -> Iterator[Path]:
     On an exception the temporary file is removed and ``path`` is left as it was."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
+    tmp = _new_file(path)
     try:
         yield Path(tmp)
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+def _new_file(path: Path) -> Path:
+    """Create an empty, unique hidden file beside ``path`` with mode ``0o666`` less the umask.
+
+    Created with ``os.open(..., 0o666)`` so that the kernel applies the umask (and any default ACL)
+    as for any new file; :func:`tempfile.mkstemp` would make it ``0o600``, unreadable to colleagues."""
+    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0)
+    for _ in range(100):
+        tmp = path.parent / f".{path.stem}-{secrets.token_hex(6)}{path.suffix}"
+        try:
+            fd = os.open(tmp, flags, 0o666)
+        except FileExistsError:
+            continue
+        os.close(fd)
+        return tmp
+    raise FileExistsError(f"could not create a temporary file beside {str(path)!r}")
 
 
 def write_text_atomic(path, text: str) -> Path:
