@@ -201,8 +201,8 @@ def test_gait_out_writes_json_and_warns_on_a_short_run(tmp_path, capsys):
     assert written["short_run"] is True and written["speed_window_periods"] < 1.0
     assert len(written["warnings"]) == 1 and "not over whole periods" in written["warnings"][0]
     assert "magsoft gait: warning:" in captured.err and "not over whole periods" in captured.err
-    # the paper values follow the case data: paper-5c has no paper_speed (its 3 mm/s is in the description)
-    assert written["paper_speed_mm_s"] is None and written["paper_direction"] == "reversible"
+    # the paper values follow the case data: paper-5c crawls 3 mm/s either way
+    assert written["paper_speed_mm_s"] == 3.0 and written["paper_direction"] == "reversible"
     # rounded: 90 deg, not 90.00000000000001
     assert written["field_mT"]["phase_x_deg"] == 90.0
     assert not list(path.parent.glob(".*"))  # written atomically: no temporary file left
@@ -214,7 +214,7 @@ def test_gait_text_short_warning_and_paper_line(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "warning: the run (0.2 s) is shorter than the warm-up plus one field period (1 s at 2 Hz)" in text
     assert "no speed given" not in text  # the description quotes the paper's 3 mm/s
-    assert "paper: reversible, no speed to compare with in the case data" in text
+    assert "paper: reversible, 3.00 mm/s either way" in text
     assert f"wrote {path}" in text
     assert json.loads(path.read_text())["short_run"] is True
 

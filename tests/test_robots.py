@@ -104,6 +104,21 @@ def test_built_in_robot_files_are_the_paper_robots():
     assert numerics == {"paper-5a": (80, 1e-4), "paper-5b": (80, 2.5e-5), "paper-5c": (20, 2e-4)}
 
 
+def test_built_in_robots_carry_the_papers_speeds():
+    # paper Fig. 5: 5a crawls left at 0.85 mm/s, 5b gives no speed, 5c crawls both ways at 3 mm/s
+    paper = {name: (load_robot(name).paper_speed, load_robot(name).paper_direction) for name in ms.list_robots()}
+    assert paper == {"paper-5a": (-0.85e-3, "left"), "paper-5b": (None, "left"), "paper-5c": (3e-3, "reversible")}
+    assert ms.gait_preset("paper-5c", reverse=True).paper_speed == 3e-3  # a magnitude: the same either way
+
+
+@pytest.mark.parametrize("speed, direction, want", [(1e-3, "left", "< 0"), (-1e-3, "right", "> 0"),
+                                                    (-3e-3, "reversible", ">= 0")])
+def test_paper_speed_sign_must_agree_with_the_direction(speed, direction, want):
+    beam = ms.Beam(25e-3, 5e-3, 1.13e-3)
+    with pytest.raises(ValueError, match=f"Robot.paper_speed must be {want}.*{direction!r}, got {speed!r}"):
+        ms.Robot("x", beam, paper_speed=speed, paper_direction=direction)
+
+
 def test_robot_numerics_round_trip_and_default(tmp_path):
     text = "name: x\nbeam: {width_mm: 5, thickness_mm: 1, length_mm: 20}\n"
     (tmp_path / "plain.yml").write_text(text)

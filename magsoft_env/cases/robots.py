@@ -17,7 +17,8 @@ File format (YAML or JSON by the extension; units in the key names; every key ch
     drive: {shape: sine, amplitude_x_mT: 0, amplitude_z_mT: 2, frequency_Hz: 2, phase_deg: 0}
     simulation: {segments: 20, timestep_ms: 0.2,   # optional: the robot's own numerics (default 20, 0.2 ms),
                  scenes: {channel: {segments: 40, timestep_ms: 0.1}}}   # and a scene's, where they differ
-    paper: {speed_mm_per_s: -0.85, direction: left}    # optional: what a reference reports
+    paper: {speed_mm_per_s: -0.85, direction: left}    # optional: what a reference reports (signed along +x;
+                                                       # direction reversible: the speed either way, >= 0)
 
 The beam block and its profile kinds are those of :mod:`magsoft_env.cases.beamfile`.
 
@@ -114,7 +115,8 @@ class Robot:
         the floor environments and videos of that scene use them instead of ``segments`` and ``timestep``. At
         most one entry per scene.
     paper_speed : float or None
-        Speed a reference reports (m/s, signed along +x), for comparison only.
+        Speed a reference reports (m/s, signed along +x: < 0 for ``"left"``, > 0 for ``"right"``), for comparison
+        only. For a ``"reversible"`` robot it is the speed in either direction (>= 0).
     paper_direction : str
         ``""``, ``"left"``, ``"right"`` or ``"reversible"``: what a reference reports.
     reverse : bool
@@ -159,6 +161,7 @@ class Robot:
         if self.paper_speed is not None:
             object.__setattr__(self, "paper_speed", finite_number("Robot.paper_speed", self.paper_speed, unit="m/s"))
         choice("Robot.paper_direction", self.paper_direction, DIRECTIONS)
+        _check_paper_sign(self.paper_speed, self.paper_direction)
         if not isinstance(self.reverse, bool):
             raise ValueError(f"Robot.reverse must be True or False, got {self.reverse!r}.")
 
@@ -273,6 +276,17 @@ class Robot:
         if self.drive is not None:
             out["drive"] = self.drive.describe()
         return out
+
+
+def _check_paper_sign(speed, direction: str) -> None:
+    """The paper speed's sign agrees with the paper direction (a reversible robot's speed is a magnitude)."""
+    if speed is None or speed == 0.0:
+        return
+    want = {"left": (speed < 0.0, "< 0 (signed along +x)"), "right": (speed > 0.0, "> 0 (signed along +x)"),
+            "reversible": (speed > 0.0, ">= 0 (the speed in either direction)")}.get(direction)
+    if want is not None and not want[0]:
+        raise ValueError(f"Robot.paper_speed must be {want[1]} for paper_direction {direction!r}, got "
+                         f"{speed!r} m/s.")
 
 
 def _timestep(name: str, value) -> float:

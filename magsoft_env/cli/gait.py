@@ -161,6 +161,8 @@ def run(args) -> int:
 def _paper_values(preset) -> str:
     """The paper's direction and speed as the case data holds them (``paper_speed`` None: no speed to
     compare with; any figure the paper's text gives is quoted in the case's description)."""
+    if preset.paper_speed is not None and preset.paper_direction == "reversible":
+        return f"reversible, {preset.paper_speed * 1e3:.2f} mm/s either way"
     if preset.paper_speed is not None:
         return f"{preset.paper_direction}, {preset.paper_speed * 1e3:+.2f} mm/s"
     return f"{preset.paper_direction}, no speed to compare with in the case data (see the description)"
