@@ -82,3 +82,46 @@ def test_design_letter_j(tmp_path, capsys):
     assert main(["design", "--letters", "J", "--out", str(out), "--quiet"]) == 0
     assert (out / "letters.png").is_file() and (out / "J" / "jig.svg").is_file()
     assert "J: L 26.57 mm" in capsys.readouterr().out
+
+
+def test_designed_robot_keeps_its_field_and_solve_ramps_to_it(tmp_path, capsys):
+    from magsoft_env.cases.robots import load_robot
+    from magsoft_env.units import MT
+
+    out = tmp_path / "ball"
+    rc = main(["design", "--target", "ball", "--out", str(out), "--starts", "1", "--max-nfev", "4", "--points", "20",
+               "--quiet", "--size", "5", "--no-figures"])
+    assert rc in (0, 1)
+    summary = json.loads((out / "summary.json").read_text())
+    robot = load_robot(out / "robot.yml")
+    assert robot.design_field is not None
+    assert robot.design_field.Bx == 0.0
+    assert robot.design_field.Bz / MT == pytest.approx(summary["field_Bz_mT"], rel=1e-15)
+    # exact round trip: saved again, the file reads back the same field to the bit
+    again = load_robot(robot.save(tmp_path / "again.json"))
+    assert again.design_field == robot.design_field and again == robot
+    capsys.readouterr()
+    assert main(["solve", "--robot", str(out / "robot.yml"), "--out", str(tmp_path / "s"), "--no-plot"]) == 0
+    solved = json.loads((tmp_path / "s" / "solve_design-ball.json").read_text())
+    assert solved["config"]["field_mT"] == pytest.approx([0.0, robot.design_field.Bz / MT], rel=1e-12)  # not 13 mT
+    pred = _rows(out / "prediction.csv")[-1]
+    shape = solved["final"]["shape"]
+    assert shape["x_m"][-1] * 1e3 == pytest.approx(float(pred["x_mm"]), abs=1e-6)
+    assert shape["z_m"][-1] * 1e3 == pytest.approx(float(pred["z_mm"]), abs=1e-6)
+    # an explicit field still wins
+    assert main(["solve", "--robot", str(out / "robot.yml"), "--field-mT", "0", "5", "--out", str(tmp_path / "t"),
+                 "--no-plot"]) == 0
+    assert json.loads((tmp_path / "t" / "solve_design-ball.json").read_text())["config"]["field_mT"] == [0.0, 5.0]
+
+
+def test_robot_design_field_is_checked():
+    import magsoft_env as ms
+    from magsoft_env.cases.robots import Robot
+
+    beam = ms.Beam(25e-3, 5e-3, 1.13e-3)
+    assert Robot("x", beam, design_field=(0.0, 0.02)).design_field == ms.Field(0.0, 0.02)
+    with pytest.raises(ValueError, match="Robot.design_field must be a Field or a pair"):
+        Robot("x", beam, design_field="20 mT")
+    with pytest.raises(ValueError, match=r"design_field_mT must be a pair \[B_x, B_z\] in mT"):
+        Robot.from_dict({"name": "x", "beam": {"length_mm": 25, "width_mm": 5, "thickness_mm": 1.13},
+                         "design_field_mT": [0, 20, 1]})

@@ -17,6 +17,7 @@ File format (YAML or JSON by the extension; units in the key names; every key ch
     drive: {shape: sine, amplitude_x_mT: 0, amplitude_z_mT: 2, frequency_Hz: 2, phase_deg: 0}
     simulation: {segments: 20, timestep_ms: 0.2,   # optional: the robot's own numerics (default 20, 0.2 ms),
                  scenes: {channel: {segments: 40, timestep_ms: 0.1}}}   # and a scene's, where they differ
+    design_field_mT: [0.0, 19.99]    # optional: the held field a design found (magsoft design), [B_x, B_z]
     paper: {speed_mm_per_s: -0.85, direction: left}    # optional: what a reference reports (signed along +x;
                                                        # direction reversible: the speed either way, >= 0)
 
@@ -42,7 +43,7 @@ import yaml
 
 from ..assets import assets_dir
 from ..io import write_text_atomic
-from ..spec import Beam
+from ..spec import Beam, Field, as_field
 from ..spec.drive import WAVE_SHAPES, Waveparams
 from ..units import MM
 from ..validate import checked_replace, choice, finite_number, in_range, integer, nonnegative
@@ -77,8 +78,8 @@ DIRECTIONS = ("", "left", "right", "reversible")
 #: Largest robot file read (bytes): a beam with 100,000 samples is about 4 MB.
 MAX_FILE_BYTES = 50 * 2**20
 
-_TOP_KEYS = ("magsoft_robot", "name", "description", "source", "beam", "contact", "drive", "simulation", "paper",
-             "reverse")
+_TOP_KEYS = ("magsoft_robot", "name", "description", "source", "beam", "contact", "drive", "design_field_mT",
+             "simulation", "paper", "reverse")
 _CONTACT_KEYS = ("friction", "retardation_time_ms")
 _DRIVE_KEYS = ("shape", "amplitude_x_mT", "amplitude_z_mT", "frequency_Hz", "phase_deg", "coil_time_ms")
 _PAPER_KEYS = ("speed_mm_per_s", "direction")
@@ -103,6 +104,9 @@ class Robot:
         ``retardation_time x`` its bending stiffness.
     drive : Waveparams or None
         The default periodic field (open-loop gait), or None.
+    design_field : Field or None
+        The held field (T) the robot was designed for (``magsoft design`` finds it with the profile), or None:
+        ``magsoft solve --robot`` ramps to it when no ``--field-mT`` is given. A ``(B_x, B_z)`` pair is accepted.
     segments : int
         Rod segments the simulator uses by default, in [2, 1000].
     timestep : float
@@ -131,6 +135,7 @@ class Robot:
     friction: float = DEFAULT_FRICTION
     retardation_time: float = DEFAULT_RETARDATION_TIME
     drive: Waveparams | None = None
+    design_field: Field | None = None
     segments: int = DEFAULT_SEGMENTS
     timestep: float = DEFAULT_TIMESTEP
     scene_numerics: tuple = ()
@@ -155,6 +160,8 @@ class Robot:
         object.__setattr__(self, "retardation_time", rt)
         if self.drive is not None and not isinstance(self.drive, Waveparams):
             raise ValueError(f"Robot.drive must be a Waveparams or None, got {type(self.drive).__name__}.")
+        if self.design_field is not None:
+            object.__setattr__(self, "design_field", as_field(self.design_field, "Robot.design_field"))
         object.__setattr__(self, "segments", integer("Robot.segments", self.segments, *SEGMENTS_RANGE))
         object.__setattr__(self, "timestep", _timestep("Robot.timestep", self.timestep))
         object.__setattr__(self, "scene_numerics", _scene_numerics(self.scene_numerics))
@@ -199,6 +206,8 @@ class Robot:
                             "phase_deg": to_degrees(d.phase)}
             if d.coil_time:
                 out["drive"]["coil_time_ms"] = to_milli(d.coil_time)
+        if self.design_field is not None:
+            out["design_field_mT"] = [to_milli(self.design_field.Bx), to_milli(self.design_field.Bz)]
         out["simulation"] = {"segments": self.segments, "timestep_ms": to_milli(self.timestep)}
         if self.scene_numerics:
             out["simulation"]["scenes"] = {sc: {"segments": n, "timestep_ms": to_milli(dt)}
@@ -253,13 +262,16 @@ class Robot:
         if data.get("drive") is not None:
             drive = _drive_from_dict(data["drive"], where=f"{where} drive")
         speed = paper.get("speed_mm_per_s")
+        design_field = None
+        if data.get("design_field_mT") is not None:
+            design_field = _field_mT(f"{where} design_field_mT", data["design_field_mT"])
         return cls(
             name=data["name"], beam=beam_from_dict(data["beam"], where=f"{where} beam"),
             description=data.get("description", ""), source=data.get("source", ""),
             friction=contact.get("friction", DEFAULT_FRICTION),
             retardation_time=_milli(f"{where} contact retardation_time_ms",
                                     contact.get("retardation_time_ms", DEFAULT_RETARDATION_TIME * 1e3), "ms"),
-            drive=drive, segments=sim.get("segments", DEFAULT_SEGMENTS),
+            drive=drive, design_field=design_field, segments=sim.get("segments", DEFAULT_SEGMENTS),
             timestep=_milli(f"{where} simulation timestep_ms", sim.get("timestep_ms", DEFAULT_TIMESTEP * 1e3), "ms"),
             scene_numerics=tuple(scene_numerics),
             paper_speed=None if speed is None else _milli(f"{where} paper speed_mm_per_s", speed, "mm/s"),
@@ -319,6 +331,13 @@ def _milli(name: str, raw, unit: str) -> float:
     """A milli-unit number of the file checked (in its unit, for the message), then in SI from its digits."""
     finite_number(name, raw, unit=unit)
     return milli(raw)
+
+
+def _field_mT(name: str, raw) -> Field:
+    """A ``[B_x, B_z]`` pair in mT of the file, in T from its digits (reads back exactly what was written)."""
+    if isinstance(raw, (str, bytes, dict)) or not isinstance(raw, (list, tuple)) or len(raw) != 2:
+        raise ValueError(f"{name} must be a pair [B_x, B_z] in mT, got {raw!r}.")
+    return Field(_milli(f"{name} B_x", raw[0], "mT"), _milli(f"{name} B_z", raw[1], "mT"))
 
 
 def _degrees(name: str, raw) -> float:

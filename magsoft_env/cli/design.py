@@ -119,14 +119,17 @@ def write_robot(res, path, name: str):
 
     f, st = res.field, res.settings
     robot = Robot(
-        name=f"design-{name}", beam=res.beam, source="magsoft design",
+        name=f"design-{name}", beam=res.beam, source="magsoft design", design_field=f,
         description=(f"Designed by magsoft design for the target {name!r}: {res.family.kind} magnetization profile "
                      f"with {res.family.size} parameters, beam length {res.beam.length / MM:.3f} mm (the curve's), "
                      f"held field Bx = {f.Bx / MT:.4g} mT, Bz = {f.Bz / MT:.4g} mT (field.csv), fit RMS "
-                     f"{res.rms_error_percent:.3f} % of L. No drive: the design field is static."),
+                     f"{res.rms_error_percent:.3f} % of L. No drive: the design field is static (design_field_mT; "
+                     "magsoft solve --robot ramps to it)."),
     )
     written = robot.save(path, sample_functions=True)  # a polynomial or Fourier profile is stored as samples
     back = load_robot(written)
+    if back.design_field != f:
+        raise RuntimeError(f"the robot file {written} does not keep the design field: {back.design_field} != {f}")
     fields = [(f.Bx * t, f.Bz * t) for t in np.linspace(0.0, 1.0, 9)[1:]]
     last = solve_path(back.beam, fields, gravity=st["gravity_m_s2"], coupling=st["coupling"],
                       extensible=st["extensible"], clamp_angle=st["clamp_angle_rad"])[-1]

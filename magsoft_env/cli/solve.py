@@ -231,7 +231,8 @@ def add_parser(subparsers) -> None:
     src.add_argument("--preset", metavar="NAME", help="a shipped preset (or a path to a preset .json file)")
     src.add_argument("--robot", metavar="PATH",
                      help="a robot (file .yml/.yaml/.json or built-in name): its beam as a cantilever, field ramped "
-                          "from zero to --field-mT (default 0 13)")
+                          "from zero to --field-mT (default: the robot's design field, as magsoft design writes it, "
+                          "else 0 13)")
     src.add_argument("--list", action="store_true", help="list the presets and exit")
     for flag, default, text in BEAM_FLAGS:
         src.add_argument(flag, type=float, default=None, help=f"{text} (default {default:g})")
@@ -310,13 +311,15 @@ ROBOT_FIELD_MT = (0.0, 13.0)
 
 def robot_preset(source, field=None, steps: int | None = None):
     """A cantilever :class:`~magsoft_env.cases.Preset` of a robot's beam (a robot file, name or Robot): the field
-    ramped from zero to ``field`` (default :data:`ROBOT_FIELD_MT`) in ``steps`` states (default 14)."""
+    ramped from zero to ``field`` in ``steps`` states (default 14). Without ``field``: the robot's design field
+    (``design_field_mT`` in its file, written by ``magsoft design``), else :data:`ROBOT_FIELD_MT`."""
     from magsoft_env.cases import PathSegment, Preset
     from magsoft_env.cases.robots import load_robot
     from magsoft_env.spec import Field
 
     robot = load_robot(source)
-    field = Field.from_mT(*ROBOT_FIELD_MT) if field is None else field
+    if field is None:
+        field = robot.design_field if robot.design_field is not None else Field.from_mT(*ROBOT_FIELD_MT)
     return Preset(name=robot.name, description=robot.description or f"robot {robot.name}", beam=robot.beam,
                   path=(PathSegment(Field(), field, steps or 14),), source=str(source),
                   config={"robot": str(source), "field_mT": [field.Bx / MT, field.Bz / MT]})
