@@ -48,6 +48,27 @@ def in_range(name: str, value, lo: float, hi: float, *, unit: str = "") -> float
     return x
 
 
+#: Largest magnitude of an angle given in radians (rad): a larger one looks like degrees.
+MAX_ANGLE = 2 * math.pi
+
+
+def degrees_message(name: str, got: str, largest: float) -> str:
+    """The message for an angle (rad) whose magnitude ``largest`` exceeds :data:`MAX_ANGLE` (``got``: the value
+    received, as the message shows it)."""
+    return (f"{name} must be an angle in radians, |beta| <= 2 pi (6.283), got {got}: this looks like degrees. "
+            f"Angles are in radians: convert with math.radians (math.radians({largest:g}) = "
+            f"{math.radians(largest):.6g}) or np.radians for arrays.")
+
+
+def angle(name: str, value) -> float:
+    """Return ``value`` as an angle (rad) in [-2 pi, 2 pi], or a ValueError naming ``name`` (one that says a larger
+    number looks like degrees and how to convert it)."""
+    x = finite_number(name, value, unit="rad")
+    if abs(x) > MAX_ANGLE:
+        raise ValueError(degrees_message(name, repr(value), abs(x)))
+    return x
+
+
 def integer(name: str, value, lo: int | None = None, hi: int | None = None) -> int:
     """Return ``value`` as an int in ``[lo, hi]`` (either bound may be None) or raise a ValueError naming ``name``.
 
@@ -69,6 +90,21 @@ def integer(name: str, value, lo: int | None = None, hi: int | None = None) -> i
     if (lo is not None and n < lo) or (hi is not None and n > hi):
         raise ValueError(f"{name} must be {what}, got {value!r}.")
     return int(n)
+
+
+def pair(name: str, value, what: str, *, note: str = "") -> tuple:
+    """``value`` unpacked into its two items, or a ValueError: ``{name} must be a pair {what}, got {value!r}.``
+
+    The items are returned as they are (the caller checks each). Strings, bytes, dicts and sets are
+    refused: they unpack, but not into two values. ``note`` is appended to the message (a hint)."""
+    msg = f"{name} must be a pair {what}, got {value!r}.{' ' + note if note else ''}"
+    if isinstance(value, (str, bytes, dict, set, frozenset)):
+        raise ValueError(msg)
+    try:
+        a, b = value
+    except (TypeError, ValueError):
+        raise ValueError(msg) from None
+    return a, b
 
 
 def boolean(name: str, value) -> bool:

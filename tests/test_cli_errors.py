@@ -41,7 +41,7 @@ CASES = [
     ("gait", ["--robot", "{never}/robot.yml"], None, "does not exist"),
     ("gait", ["--robot", "robot.txt"], None, "must end in one of ['.yml', '.yaml', '.json']"),
     ("solve", ["--robot", "paper5c"], "{never}", "Did you mean 'paper-5c'?"),
-    ("crosscheck", ["--robot", "paper-5c", "--field-mT", "0", "1e9"], "{never}", "--field-mT must lie in"),
+    ("crosscheck", ["--robot", "paper-5c", "--field-mT", "0", "1e9"], "{never}", "--field-mT BZ must lie in"),
     ("video", [], "{never}/x.gif", "one of the arguments --preset --env is required"),
     # out-of-range values
     ("solve", ["--steps", "1"], "{never}", "--steps must lie in [2, 10000]"),

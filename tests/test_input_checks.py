@@ -673,3 +673,94 @@ def test_cli_directory_named_like_a_preset_file(tmp_path, capsys):
 def test_cli_help_returns_0(capsys):
     assert main(["solve", "--help"]) == 0
     assert "--preset" in capsys.readouterr().out
+
+
+# ------------------------------------------------------- angles that look like degrees, 3D fields, pairs
+
+
+@pytest.mark.parametrize("beta, got", [
+    (90, "90.0"), (-180.0, "-180.0"), (ms.PiecewiseConstant([0.0, 180.0]), "PiecewiseConstant with |beta| up to 180"),
+    (ms.PiecewiseLinear([0.0, 0.02], [0.0, 45.0]), "PiecewiseLinear with |beta| up to 45"),
+    (ms.Sampled([0.0, 0.01, 0.02], [0.0, 30.0, 60.0]), "Sampled with |beta| up to 60"),
+    (lambda s: 30.0 + 0.0 * s, "Function with |beta| up to 30"),
+])
+def test_magnetization_in_degrees_is_refused(beta, got):
+    with pytest.raises(ValueError, match=r"Beam.magnetization must be an angle in radians, \|beta\| <= 2 pi") as e:
+        ms.Beam(**BEAM_KW, magnetization=beta)
+    assert got in str(e.value) and "looks like degrees" in str(e.value) and "math.radians" in str(e.value)
+
+
+def test_magnetization_up_to_a_full_turn_is_accepted():
+    for beta in (2 * math.pi, -2 * math.pi, 6.0, ms.PiecewiseConstant([-math.pi, math.pi])):
+        ms.Beam(**BEAM_KW, magnetization=beta)
+    # a jig's tangent angle may wind past a turn (a spiral jig): it is geometry, not a typed angle
+    t = np.linspace(0.0, 3.0 * math.pi, 60)
+    jig = jig_from_points(1e-3 * (1 + t) * np.cos(t), 1e-3 * (1 + t) * np.sin(t))
+    ms.Beam(length=jig.length, width=5e-3, thickness=1e-3, magnetization=jig)
+
+
+def test_alternating_cells_angle_in_degrees_and_the_flip_stays_within_a_turn():
+    with pytest.raises(ValueError, match=r"alternating_cells angle must be an angle in radians.*got 90.*math.radians"):
+        ms.alternating_cells(2, angle=90)
+    levels = ms.alternating_cells(3, angle=4.0).levels
+    assert levels[0] == levels[2] == 4.0 and levels[1] == pytest.approx(4.0 - math.pi)
+    assert ms.alternating_cells(2, angle=0.3).levels == (0.3, 0.3 + math.pi)  # unchanged below pi
+    ms.Beam(**BEAM_KW, magnetization=ms.alternating_cells(2, angle=4.0))
+
+
+def test_design_beta_bounds_in_degrees_get_the_hint():
+    with pytest.raises(ValueError, match=r"beta_bounds must satisfy .*got \(-90.0, 90.0\).*looks like degrees"):
+        ms.design_profile(builtin_target("ball"), ms.Beam(**BEAM_KW), field_bounds=(1e-3, 2e-2),
+                          beta_bounds=(-90, 90))
+
+
+def _preset_with_field(field_mT) -> dict:
+    return {"description": "d", "beam": {"length_mm": 20, "width_mm": 5, "thickness_mm": 1},
+            "path": [{"field_mT": field_mT}]}
+
+
+@pytest.mark.parametrize("make", [
+    lambda: ms.Field(0, 5e-3, 10e-3), lambda: ms.Field.from_mT(0, 5, 10), lambda: as_field((0, 5e-3, 10e-3)),
+    lambda: as_fields([(0, 1e-3, 2e-3)]), lambda: ms.ramp((0, 0), (0, 5e-3, 10e-3)),
+    lambda: preset_from_dict(_preset_with_field([0, 5, 10]), name="x"),
+])
+def test_three_component_field_says_3d_is_not_supported(make):
+    with pytest.raises(ValueError, match=r"3D fields are not supported yet.*\(B_x, B_z\)"):
+        make()
+
+
+@pytest.mark.parametrize("cmd", [["solve", "--field-mT", "0", "5", "10"],
+                                 ["crosscheck", "--robot", "paper-5c", "--field-mT", "0", "5", "10"]])
+def test_cli_field_mT_with_three_numbers(cmd, tmp_path, capsys):
+    assert main([*cmd, "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "--field-mT takes two numbers, BX BZ in mT, got 3: 0 5 10" in err and "3D fields are not supported" in err
+    assert len(err.strip().splitlines()) == 1
+
+
+def test_cli_field_mT_with_one_number(tmp_path, capsys):
+    assert main(["solve", "--field-mT", "5", "--out", str(tmp_path)]) == 2
+    assert "--field-mT takes two numbers, BX BZ in mT, got 1: 5." in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda: as_field("ab"), r"field must be a pair \(B_x, B_z\) in tesla \(or a Field\), got 'ab'"),
+    (lambda: as_field(1.0), r"field must be a pair \(B_x, B_z\) in tesla"),
+    (lambda: preset_from_dict(_preset_with_field([13]), name="x"), r"must be a pair \[B_x, B_z\] in mT, got \[13\]"),
+    (lambda: ms.design_profile(builtin_target("ball"), ms.Beam(**BEAM_KW), field_bounds={1: 2}),
+     r"field_bounds must be a pair \(min, max\) in T, got \{1: 2\}"),
+    (lambda: JigProfile([(1.0, 2.0, 3.0)]), r"JigProfile pieces\[0\] must be a pair \(s, beta\) of sample sequences"),
+    (lambda: turtle_curve([(1.0,)]), r"turtle_curve pieces\[0\] must be a pair \(radius_mm or None, amount\)"),
+])
+def test_every_pair_check_has_one_message(make, message):
+    with pytest.raises(ValueError, match=message):
+        make()
+
+
+@pytest.mark.parametrize("value", ["ab", b"ab", {1: 2}, {1, 2}, 3, None, (1,), (1, 2, 3)])
+def test_validate_pair_refuses_what_is_not_two_items(value):
+    from magsoft_env.validate import pair
+
+    with pytest.raises(ValueError, match=r"^x must be a pair \(a, b\), got .*\.$"):
+        pair("x", value, "(a, b)")
+    assert pair("x", [1, "b"], "(a, b)") == (1, "b")

@@ -45,6 +45,7 @@ from ..assets import assets_dir
 from ..io import write_text_atomic
 from ..spec import Beam, Field, as_field
 from ..spec.drive import WAVE_SHAPES, Waveparams
+from ..spec.field import field_pair
 from ..units import MM
 from ..validate import checked_replace, choice, finite_number, in_range, integer, nonnegative
 from .beamfile import beam_from_dict, beam_to_dict, check_keys
@@ -335,9 +336,8 @@ def _milli(name: str, raw, unit: str) -> float:
 
 def _field_mT(name: str, raw) -> Field:
     """A ``[B_x, B_z]`` pair in mT of the file, in T from its digits (reads back exactly what was written)."""
-    if isinstance(raw, (str, bytes, dict)) or not isinstance(raw, (list, tuple)) or len(raw) != 2:
-        raise ValueError(f"{name} must be a pair [B_x, B_z] in mT, got {raw!r}.")
-    return Field(_milli(f"{name} B_x", raw[0], "mT"), _milli(f"{name} B_z", raw[1], "mT"))
+    bx, bz = field_pair(name, raw, "[B_x, B_z] in mT")
+    return Field(_milli(f"{name} B_x", bx, "mT"), _milli(f"{name} B_z", bz, "mT"))
 
 
 def _degrees(name: str, raw) -> float:

@@ -44,7 +44,7 @@ from pathlib import Path
 
 from ..assets import assets_dir
 from ..spec import Beam, Field, ramp
-from ..spec.field import as_field
+from ..spec.field import as_field, field_pair
 from ..spec.loading import check_loading
 from ..validate import checked_replace, choice, finite_number, integer
 from .beamfile import beam_from_dict, check_keys
@@ -286,10 +286,5 @@ def _path_from_list(items, *, where: str) -> tuple[PathSegment, ...]:
 
 
 def _field_mT(value, name: str) -> Field:
-    if isinstance(value, (str, bytes, dict)):
-        raise ValueError(f"{name} must be a pair [B_x, B_z] in mT, got {value!r}.")
-    try:
-        bx, bz = value
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a pair [B_x, B_z] in mT, got {value!r}.") from None
+    bx, bz = field_pair(name, value, "[B_x, B_z] in mT")
     return Field.from_mT(finite_number(f"{name} B_x", bx, unit="mT"), finite_number(f"{name} B_z", bz, unit="mT"))

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from ..io import write_text_atomic
-from .solve import _check_flag, out_dir, robot_preset
+from .solve import _check_flag, field_mT_flag, out_dir, robot_preset
 
 DEFAULT_PRESETS = (
     "fig3a_L20", "fig3a_L25", "fig3a_L30", "fig3b_L20", "fig3b_L25", "fig3b_L30",
@@ -32,7 +32,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--robot", nargs="+", metavar="PATH", default=None,
                    help="robot files (or built-in names): each beam as a cantilever, field ramped from zero to "
                         "--field-mT (instead of the default presets)")
-    p.add_argument("--field-mT", type=float, nargs=2, metavar=("BX", "BZ"), default=None,
+    p.add_argument("--field-mT", type=float, nargs="+", metavar=("BX", "BZ"), default=None,
                    help="final field for --robot, mT (default 0 13)")
     p.add_argument("--segments", type=int, nargs="+", default=[10, 20, 40], help="segment counts (default 10 20 40)")
     p.add_argument("--grading", type=float, default=None,
@@ -63,11 +63,7 @@ def run(args) -> int:
         raise ValueError("--field-mT applies to --robot (a preset has its own loading path).")
     field = None
     if args.field_mT is not None:
-        from magsoft_env.spec import Field
-
-        for v in args.field_mT:
-            _check_flag("--field-mT", v, lo=-1000.0, hi=1000.0)
-        field = Field.from_mT(*args.field_mT)
+        field = field_mT_flag(args.field_mT)
     cases = []
     for nm in names:
         cases.append(load_preset(nm))  # an unknown name: the closest one suggested

@@ -236,7 +236,7 @@ def add_parser(subparsers) -> None:
     src.add_argument("--list", action="store_true", help="list the presets and exit")
     for flag, default, text in BEAM_FLAGS:
         src.add_argument(flag, type=float, default=None, help=f"{text} (default {default:g})")
-    src.add_argument("--field-mT", type=float, nargs=2, metavar=("BX", "BZ"), default=None,
+    src.add_argument("--field-mT", type=float, nargs="+", metavar=("BX", "BZ"), default=None,
                      help="final applied field in mT (default 0 13); with --preset, replaces its path")
     src.add_argument("--steps", type=int, default=None,
                      help="states along each ramp of the path (default: the preset's; 14 for parameters)")
@@ -254,10 +254,7 @@ def build_case(args):
     _check_flag("--steps", args.steps, lo=2, hi=10_000, integer=True)
     field = None
     if args.field_mT is not None:
-        bx, bz = args.field_mT
-        _check_flag("--field-mT BX", bx, lo=-1000.0, hi=1000.0)
-        _check_flag("--field-mT BZ", bz, lo=-1000.0, hi=1000.0)
-        field = Field.from_mT(bx, bz)
+        field = field_mT_flag(args.field_mT)
     given = [flag for flag, _, _ in BEAM_FLAGS if getattr(args, _dest(flag)) is not None]
     if args.preset and given:
         raise ValueError(f"give --preset or beam parameters, not both: got --preset {args.preset} and {given}.")
@@ -323,6 +320,22 @@ def robot_preset(source, field=None, steps: int | None = None):
     return Preset(name=robot.name, description=robot.description or f"robot {robot.name}", beam=robot.beam,
                   path=(PathSegment(Field(), field, steps or 14),), source=str(source),
                   config={"robot": str(source), "field_mT": [field.Bx / MT, field.Bz / MT]})
+
+
+def field_mT_flag(values, flag: str = "--field-mT"):
+    """The Field of a ``--field-mT BX BZ`` flag (taken as ``nargs="+"`` so that three numbers get this message,
+    not argparse's "unrecognized arguments"), each component checked by name."""
+    from magsoft_env.spec import Field
+    from magsoft_env.spec.field import PLANAR_FIELD_NOTE
+
+    if len(values) != 2:
+        note = f" {PLANAR_FIELD_NOTE}" if len(values) == 3 else ""
+        raise ValueError(f"{flag} takes two numbers, BX BZ in mT, got {len(values)}: "
+                         f"{' '.join(f'{v:g}' for v in values)}.{note}")
+    bx, bz = values
+    _check_flag(f"{flag} BX", bx, lo=-1000.0, hi=1000.0)
+    _check_flag(f"{flag} BZ", bz, lo=-1000.0, hi=1000.0)
+    return Field.from_mT(bx, bz)
 
 
 def _dest(flag: str) -> str:

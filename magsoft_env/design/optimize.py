@@ -14,7 +14,7 @@ from ..spec.beam import MAX_SIZE, MIN_SLENDERNESS
 from ..spec.loading import check_loading
 from ..spec.material import MAX_VOLUME_FRACTION
 from ..threads import single_threaded_blas
-from ..validate import boolean, choice, finite_number, integer
+from ..validate import boolean, choice, finite_number, integer, pair
 from .distance import point_to_polyline
 from .families import FAMILIES, ProfileFamily
 from .targets import MAX_POINTS, MIN_POINTS, curve_length, prepare_target, tangent_angle
@@ -139,17 +139,14 @@ class DesignResult:
         }
 
 
-def _pair(name, value, lo, hi, unit):
-    if isinstance(value, (str, bytes, dict, set, frozenset)):
-        raise ValueError(f"{name} must be a pair (min, max) in {unit}, got {value!r}.")
-    try:
-        a, b = value
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a pair (min, max) in {unit}, got {value!r}.") from None
+def _bounds(name, value, lo, hi, unit):
+    a, b = pair(name, value, f"(min, max) in {unit}")
     a = finite_number(f"{name}[0]", a, unit=unit)
     b = finite_number(f"{name}[1]", b, unit=unit)
     if not (lo <= a < b <= hi):
-        raise ValueError(f"{name} must satisfy {lo:g} <= min < max <= {hi:g} ({unit}), got ({a!r}, {b!r}).")
+        hint = (" Angles are in radians: this looks like degrees; convert with math.radians."
+                if unit == "rad" and max(abs(a), abs(b)) > hi else "")
+        raise ValueError(f"{name} must satisfy {lo:g} <= min < max <= {hi:g} ({unit}), got ({a!r}, {b!r}).{hint}")
     return a, b
 
 
@@ -257,7 +254,7 @@ def design_profile(
     # ---- validation, all before any work
     if not isinstance(beam, Beam):
         raise ValueError(f"beam must be a magsoft_env.Beam, got {type(beam).__name__}.")
-    b_lo, b_hi = _pair("field_bounds", field_bounds, 0.0, MAX_FIELD, "T")
+    b_lo, b_hi = _bounds("field_bounds", field_bounds, 0.0, MAX_FIELD, "T")
     if isinstance(family, ProfileFamily):
         fam = family
         if size is not None and size != fam.size:
@@ -267,13 +264,13 @@ def design_profile(
             raise ValueError(f"family must be one of {list(FAMILIES)} or a ProfileFamily, got {family!r}.")
         kind = choice("family", family, ("spline", "polynomial", "fourier", "piecewise_linear"))
         fam = ProfileFamily(kind, _DEFAULT_SIZE[kind] if size is None else size)
-    p_lo, p_hi = _pair("beta_bounds", beta_bounds, -MAX_BETA_BOUND, MAX_BETA_BOUND, "rad")
+    p_lo, p_hi = _bounds("beta_bounds", beta_bounds, -MAX_BETA_BOUND, MAX_BETA_BOUND, "rad")
     if not isinstance(field_direction, str):
         raise ValueError(f"field_direction must be one of ['perpendicular', 'free'], got {field_direction!r}.")
     direction = choice("field_direction", field_direction, ("perpendicular", "free"))
     vf = None
     if volume_fraction_bounds is not None:
-        vf = _pair("volume_fraction_bounds", volume_fraction_bounds, 0.0, MAX_VOLUME_FRACTION, "1")
+        vf = _bounds("volume_fraction_bounds", volume_fraction_bounds, 0.0, MAX_VOLUME_FRACTION, "1")
         if vf[0] <= 0.0:
             raise ValueError(f"volume_fraction_bounds must have min > 0 (no particles, no actuation), got {vf!r}.")
     if not isinstance(match_length, (bool, np.bool_)):

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from ..units import MM
-from ..validate import finite_number, integer, positive
+from ..validate import finite_number, integer, pair, positive
 
 MIN_POINTS = 4  # fewest distinct points a target may have
 MAX_POINTS = 100_000  # most points a target may have (or be resampled to): the distance is O(points x 241)
@@ -57,12 +57,7 @@ def turtle_curve(pieces, *, step: float = 0.05) -> np.ndarray:
         raise ValueError(f"turtle_curve pieces must be a non-empty list of (radius_mm, amount), got {pieces!r}.")
     checked, total = [], 0.0
     for i, piece in enumerate(pieces):
-        try:
-            radius, amount = piece
-        except (TypeError, ValueError):
-            raise ValueError(
-                f"turtle_curve pieces[{i}] must be a pair (radius_mm or None, amount), got {piece!r}."
-            ) from None
+        radius, amount = pair(f"turtle_curve pieces[{i}]", piece, "(radius_mm or None, amount)")
         if radius is None:
             amount = positive(f"turtle_curve pieces[{i}] length", amount, unit="mm")
             total += amount

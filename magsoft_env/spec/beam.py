@@ -8,13 +8,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..validate import checked_replace, nonnegative, positive
+from ..validate import MAX_ANGLE, checked_replace, degrees_message, nonnegative, positive
 from .field import as_field
 from .material import MAX_VOLUME_FRACTION, Material
-from .profiles import Constant, PiecewiseConstant, PiecewiseLinear, Profile, as_profile
+from .profiles import Constant, Function, PiecewiseConstant, PiecewiseLinear, Profile, Sampled, as_profile
 
 _PROBE = 257  # samples used to check that the magnetization is finite
 _PHI_PROBE = 16385  # samples used to check the range of a volume fraction given as a function
+# magnetization profiles whose values are angles the caller typed (checked for degrees given as radians); a
+# jig's tangent angle and a design family's profile may wind further and are bounded where they are made
+_GIVEN_ANGLES = (Constant, PiecewiseConstant, PiecewiseLinear, Sampled, Function)
 
 #: Largest length, width and thickness accepted (m). These robots are millimetres to centimetres long;
 #: a size past a metre is almost surely in the wrong unit (mm given as m).
@@ -102,6 +105,11 @@ class Beam:
         betas = _sample(beta, self._probe_points(_PROBE), self.length, "Beam.magnetization")
         if not np.all(np.isfinite(betas)):
             raise ValueError("Beam.magnetization must be a finite angle (rad) along the beam; got non-finite values.")
+        largest = float(np.max(np.abs(betas)))
+        if type(beta) in _GIVEN_ANGLES and largest > MAX_ANGLE:
+            kind = type(beta).__name__
+            got = repr(beta.value) if type(beta) is Constant else f"a {kind} with |beta| up to {largest:g}"
+            raise ValueError(degrees_message("Beam.magnetization", got, largest))
 
     def _probe_points(self, n: int) -> np.ndarray:
         L = self.length

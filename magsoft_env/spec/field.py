@@ -8,13 +8,33 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..validate import boolean, finite_number, integer
+from ..validate import boolean, finite_number, integer, pair
 
 #: Largest field magnitude accepted (T). Coil systems for these robots give tens of mT;
 #: anything near a tesla is almost surely a unit mistake (mT given as T).
 MAX_FIELD = 1.0
 #: Most states :func:`ramp` builds (each one is an equilibrium to solve).
 MAX_RAMP_STEPS = 100_000
+#: What a three-component field gets told (the model is planar: x along the beam, z up).
+PLANAR_FIELD_NOTE = ("3D fields are not supported yet: the beam bends in the x-z plane, so a field has two "
+                     "components, (B_x, B_z); a 2-component field means (B_x, B_z), not (B_x, B_y).")
+
+
+def _three_components(value) -> bool:
+    if isinstance(value, (str, bytes, dict, set, frozenset)):
+        return False
+    try:
+        return len(value) == 3
+    except TypeError:
+        return False
+
+
+def field_pair(name: str, value, what: str = "(B_x, B_z) in tesla") -> tuple:
+    """``value`` as its two raw components ``(B_x, B_z)``; a three-component field is a ValueError that says
+    3D fields are not supported yet."""
+    if _three_components(value):
+        raise ValueError(f"{name} must be a pair {what}, got 3 components {value!r}. {PLANAR_FIELD_NOTE}")
+    return pair(name, value, what)
 
 
 def field_component(name: str, value) -> float:
@@ -40,12 +60,22 @@ class Field:
     Bx: float = 0.0
     Bz: float = 0.0
 
+    def __new__(cls, *args, **kwargs):
+        if len(args) > 2:  # Field(Bx, By, Bz): say why, rather than the dataclass's bare TypeError
+            raise ValueError(f"Field takes two components (B_x, B_z) in tesla, got {len(args)}: {args!r}. "
+                             f"{PLANAR_FIELD_NOTE}")
+        return super().__new__(cls)
+
     def __post_init__(self):
         for name in ("Bx", "Bz"):
             object.__setattr__(self, name, field_component(f"field {name}", getattr(self, name)))
 
     @classmethod
-    def from_mT(cls, Bx_mT: float = 0.0, Bz_mT: float = 0.0) -> Field:
+    def from_mT(cls, Bx_mT: float = 0.0, Bz_mT: float = 0.0, *more) -> Field:
+        """A field from its components in mT."""
+        if more:
+            raise ValueError(f"Field.from_mT takes two components (B_x, B_z) in mT, got "
+                             f"{(Bx_mT, Bz_mT, *more)!r}. {PLANAR_FIELD_NOTE}")
         return cls(finite_number("Bx_mT", Bx_mT) * 1e-3, finite_number("Bz_mT", Bz_mT) * 1e-3)
 
     @classmethod
@@ -80,12 +110,7 @@ def as_field(value, name: str = "field") -> Field:
     """Accept a :class:`Field` or a pair ``(B_x, B_z)`` in tesla."""
     if isinstance(value, Field):
         return value
-    if isinstance(value, (str, bytes, dict, set, frozenset)):
-        raise ValueError(f"{name} must be a Field or a pair (B_x, B_z) in tesla, got {value!r}.")
-    try:
-        bx, bz = value
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a Field or a pair (B_x, B_z) in tesla, got {value!r}.") from None
+    bx, bz = field_pair(name, value, "(B_x, B_z) in tesla (or a Field)")
     return Field(bx, bz)
 
 

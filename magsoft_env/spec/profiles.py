@@ -18,7 +18,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from ..validate import boolean, finite_array, finite_number, integer, positive
+from ..validate import angle as check_angle
+from ..validate import boolean, finite_array, finite_number, integer, pair, positive
 
 _COVER_RTOL = 1e-9
 #: Most cells :func:`alternating_cells` builds (each boundary is a spectral subdomain of the solver).
@@ -136,8 +137,9 @@ class PiecewiseConstant(Profile):
 def alternating_cells(n: int, *, angle: float = 0.0) -> PiecewiseConstant:
     """Magnetization of ``n`` (in [1, MAX_CELLS]) equal cells alternating between ``angle`` and ``angle + pi`` (rad)."""
     n = integer("alternating_cells n", n, 1, MAX_CELLS)
-    a = finite_number("alternating_cells angle", angle, unit="rad")
-    return PiecewiseConstant([a + np.pi * (i % 2) for i in range(n)])
+    a = check_angle("alternating_cells angle", angle)
+    flip = np.pi if a <= np.pi else -np.pi  # the opposite direction, kept within [-2 pi, 2 pi]
+    return PiecewiseConstant([a + flip * (i % 2) for i in range(n)])
 
 
 @dataclass(frozen=True)
@@ -558,12 +560,7 @@ def _check_pieces(pieces) -> tuple:
         )
     out, end = [], 0.0
     for k, piece in enumerate(pieces):
-        try:
-            ps, pb = piece
-        except (TypeError, ValueError):
-            raise ValueError(
-                f"JigProfile pieces[{k}] must be a pair (s, beta) of sample sequences, got {piece!r}."
-            ) from None
+        ps, pb = pair(f"JigProfile pieces[{k}]", piece, "(s, beta) of sample sequences")
         s = finite_array(f"JigProfile pieces[{k}] s", ps, ndim=1, min_len=2)
         b = finite_array(f"JigProfile pieces[{k}] beta", pb, ndim=1, min_len=2)
         if len(s) != len(b):
