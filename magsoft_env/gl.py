@@ -9,10 +9,15 @@ imports the simulator first), it bound GLFW, which needs a display: :func:`bind_
 called by :class:`~magsoft_env.render.RodRenderer` before it opens a context, then switches this
 process to EGL or OSMesa. Importing the package or the simulator chooses nothing, so a program that
 never renders never loads OpenGL.
+
+``MUJOCO_GL=egl`` or ``osmesa`` set without that library installed makes ``import mujoco`` itself fail, with a
+long PyOpenGL traceback: :func:`missing_gl_library` (called by ``magsoft`` before any command runs and by
+:func:`select_gl_backend`) turns that into one line naming the package to install.
 """
 
 from __future__ import annotations
 
+import ctypes
 import ctypes.util
 import importlib
 import os
@@ -30,6 +35,45 @@ _PROBE = (
 
 class RenderBackendError(RuntimeError):
     """No headless OpenGL backend could start; the message names the packages to install."""
+
+
+class GLLibraryMissing(RenderBackendError):
+    """``MUJOCO_GL`` names a backend whose library is not installed (mujoco cannot even be imported)."""
+
+
+def _library_loads(name: str) -> bool:
+    """Whether ``lib<name>.so`` loads, tried as PyOpenGL tries it (``.so``, then ``.so.9`` down to ``.so.0``)."""
+    base = f"lib{name}.so"
+    for filename in (base, *(f"{base}.{i}" for i in range(9, -1, -1))):
+        try:
+            ctypes.CDLL(filename, mode=ctypes.RTLD_GLOBAL)
+        except OSError:
+            continue
+        return True
+    return False
+
+
+def missing_gl_library() -> str:
+    """A one-line message if ``MUJOCO_GL`` is ``egl`` or ``osmesa`` and that library does not load, else ``""``.
+
+    mujoco loads the library when it is imported and fails there with a long PyOpenGL traceback
+    (``'NoneType' object has no attribute 'glGetError'``), so programs check this before importing it.
+    Cheap: one ``dlopen``, no context."""
+    backend = os.environ.get("MUJOCO_GL", "").strip().lower()
+    if backend not in _LIBRARIES or _library_loads(_LIBRARIES[backend]):
+        return ""
+    other = "osmesa" if backend == "egl" else "egl"
+    return (f"MUJOCO_GL={backend} but the {_LIBRARIES[backend]} library (lib{_LIBRARIES[backend]}.so) is not "
+            f"installed: install it (Debian/Ubuntu: apt-get install {GL_PACKAGES[backend]}), or set "
+            f"MUJOCO_GL={other} or unset MUJOCO_GL.")
+
+
+def check_gl_library() -> None:
+    """Raise :class:`GLLibraryMissing` (one line naming the package to install) if :func:`missing_gl_library`
+    finds the library of ``MUJOCO_GL`` missing; call it before importing mujoco."""
+    msg = missing_gl_library()
+    if msg:
+        raise GLLibraryMissing(msg)
 
 
 def _message(errors: dict[str, str]) -> str:
@@ -84,11 +128,13 @@ def select_gl_backend() -> str:
     Raises
     ------
     RenderBackendError
-        When neither starts; the message names the Debian packages (``libegl1`` /
+        When neither starts, or ``MUJOCO_GL`` names one whose library is missing
+        (:class:`GLLibraryMissing`); the message names the Debian packages (``libegl1`` /
         ``libgl1-mesa-dri`` for EGL, ``libosmesa6`` for OSMesa).
     """
     chosen = os.environ.get("MUJOCO_GL", "")
     if chosen:
+        check_gl_library()
         return chosen
     if "mujoco" in sys.modules:
         # too late to choose for this process: mujoco took its default at import

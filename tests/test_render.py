@@ -26,8 +26,53 @@ def test_backend_error_names_the_debian_packages(monkeypatch):
 
 def test_user_choice_of_backend_is_respected(monkeypatch):
     monkeypatch.setenv("MUJOCO_GL", "osmesa")
+    monkeypatch.setattr(backend, "_library_loads", lambda name: True)
     monkeypatch.setattr(backend, "probe_gl_backend", lambda b: pytest.fail("must not probe"))
     assert backend.select_gl_backend() == "osmesa"
+
+
+OSMESA_MISSING = not backend._library_loads("OSMesa")
+
+
+@pytest.mark.skipif(not OSMESA_MISSING, reason="OSMesa is installed here: nothing missing to report")
+@pytest.mark.parametrize("argv", [["gait", "--preset", "paper-5c", "--seconds", "0.1"],
+                                  ["video", "--preset", "paper-5c", "--seconds", "0.1", "--out", "never.mp4"]])
+def test_missing_osmesa_is_one_line_naming_the_package(argv, tmp_path):
+    env = {**os.environ, "MUJOCO_GL": "osmesa"}
+    env.pop("PYOPENGL_PLATFORM", None)
+    r = subprocess.run([sys.executable, "-m", "magsoft_env.cli", *argv], capture_output=True, text=True,
+                       env=env, cwd=tmp_path, timeout=300)
+    assert r.returncode == 2, r.stderr
+    assert "Traceback" not in r.stderr + r.stdout
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1, r.stderr
+    assert lines[0].startswith(f"magsoft {argv[0]}: error: MUJOCO_GL=osmesa but the OSMesa library")
+    assert "apt-get install libosmesa6" in lines[0]
+    assert not (tmp_path / "never.mp4").exists()
+
+
+@pytest.mark.parametrize("value, library, packages", [("egl", "EGL", "libegl1 and libgl1-mesa-dri"),
+                                                      ("OSMesa", "OSMesa", "libosmesa6")])
+def test_missing_library_message_and_error(monkeypatch, value, library, packages):
+    monkeypatch.setenv("MUJOCO_GL", value)
+    monkeypatch.setattr(backend, "_library_loads", lambda name: False)
+    msg = backend.missing_gl_library()
+    assert f"the {library} library (lib{library}.so) is not installed" in msg
+    assert f"apt-get install {packages}" in msg and "\n" not in msg
+    with pytest.raises(backend.GLLibraryMissing, match="is not installed"):
+        backend.select_gl_backend()
+    with pytest.raises(backend.RenderBackendError):  # callers that catch the general error still catch it
+        backend.check_gl_library()
+
+
+@pytest.mark.parametrize("value", [None, "", "glfw", "egl"])
+def test_no_message_when_nothing_is_missing(monkeypatch, value):
+    if value is None:
+        monkeypatch.delenv("MUJOCO_GL", raising=False)
+    else:
+        monkeypatch.setenv("MUJOCO_GL", value)
+    monkeypatch.setattr(backend, "_library_loads", lambda name: True)
+    assert backend.missing_gl_library() == ""
 
 
 def test_video_path_must_be_mp4_or_gif(tmp_path):

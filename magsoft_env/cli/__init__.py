@@ -101,6 +101,14 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_usage(sys.stdout)
         print(f"magsoft: error: give a COMMAND ({', '.join(parser.commands)}) (see magsoft --help)", file=sys.stderr)
         return 2
+    if "mujoco" not in sys.modules:
+        from ..gl import missing_gl_library
+
+        # MUJOCO_GL=osmesa/egl without its library: mujoco fails at import with a long traceback
+        missing = missing_gl_library()
+        if missing:
+            print(f"magsoft {args.command}: error: {missing}", file=sys.stderr)
+            return 2
     try:
         return int(args.run(args) or 0)
     except KeyboardInterrupt:
