@@ -6,7 +6,6 @@ Analytical equilibria (``solve_equilibrium``, ``solve_path``), inverse design
 mujoco, torch, stable-baselines3 or a GL backend.
 
 Rendering chooses its headless OpenGL backend itself (:mod:`magsoft_env.gl`): EGL, else OSMesa.
-Module paths of version 0.3 still import, with a DeprecationWarning (:mod:`magsoft_env._moved`).
 """
 
 from __future__ import annotations
@@ -14,7 +13,6 @@ from __future__ import annotations
 import importlib
 import importlib.util
 
-from . import _moved
 from .spec import (
     MU0,
     Beam,
@@ -36,8 +34,6 @@ from .spec import (
 )
 
 __version__ = "0.4.0"
-
-_moved.install()  # the 0.3 module paths, with a DeprecationWarning
 
 # public name -> module that defines it (imported on first use)
 _LAZY = {

@@ -1,7 +1,7 @@
 """Layering of the package, checked statically from the sources (every import statement, lazy ones too).
 
 Each module belongs to one unit: the facade (``magsoft_env/__init__.py``), the root leaf utilities
-(``units``, ``io``, ``threads``, ``gl``, ``validate``, ``assets``, ``_moved``), or a layer package.
+(``units``, ``io``, ``threads``, ``gl``, ``validate``, ``assets``), or a layer package.
 ``ALLOWED`` lists the units each may import; a new upward import, an import of the facade from
 inside a layer, a private name (``_x``) imported from another unit, a heavy third-party package in
 a layer that must not load it, or a module in no known unit fails the test.
@@ -17,7 +17,7 @@ import pytest
 import magsoft_env
 
 PACKAGE = Path(magsoft_env.__file__).parent
-LEAVES = {"units", "io", "threads", "gl", "validate", "assets", "_moved"}
+LEAVES = {"units", "io", "threads", "gl", "validate", "assets"}
 
 # unit -> units it may import (itself always)
 ALLOWED = {
@@ -158,3 +158,14 @@ def test_an_upward_import_fails(tmp_path, package, source, expected):
     (copy / package / "bad.py").write_text(source)
     found = violations(copy)
     assert len(found) == 1 and f"{package}/bad.py:" in found[0] and expected in found[0], found
+
+
+def test_old_module_paths_are_gone():
+    """The 0.3 module paths (the ``_moved`` import shim) are removed: nothing in the repository needs them."""
+    import importlib.util
+    import sys
+
+    assert not (PACKAGE / "_moved.py").exists()
+    assert not any(type(f).__module__ == "magsoft_env._moved" for f in sys.meta_path)
+    for old in ("magsoft_env.presets", "magsoft_env.gaits", "magsoft_env.plotting", "magsoft_env.render.backend"):
+        assert importlib.util.find_spec(old) is None, old

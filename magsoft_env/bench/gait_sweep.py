@@ -3,7 +3,7 @@
     python -m magsoft_env.bench.gait_sweep [--quick] [--groups 5a-field,5b-numerics] [--seconds 6]
                                            [--json out.json]
 
-Every row is one :func:`magsoft_env.gaits.run_gait` of a preset with some of its settings
+Every row is one :func:`magsoft_env.sim.gait.run_gait` of a preset with some of its settings
 replaced (field, friction, segments, timestep); the speed is the centre-of-mass speed along +x
 after the first field period. Groups:
 

@@ -335,7 +335,7 @@ class MagSoftCrawlEnv(gym.Env):
         return np.clip(np.asarray(action, dtype=float), -1.0, 1.0) * self.field_limit
 
     def waveparams_of_action(self, action) -> Waveparams:
-        """Waveform-mode action in [-1, 1]^4 -> the cycle's :class:`~magsoft_env.gaits.Waveparams`."""
+        """Waveform-mode action in [-1, 1]^4 -> the cycle's :class:`~magsoft_env.spec.drive.Waveparams`."""
         a = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
         f_lo, f_hi = self.frequency_range
         freq = f_lo + 0.5 * (a[3] + 1.0) * (f_hi - f_lo)
