@@ -33,7 +33,7 @@ def _make(env_id, **kwargs):
 @pytest.mark.parametrize(
     "kwargs, name",
     [
-        ({"segments": 20.0}, "segments"),
+        ({"segments": 20.5}, "segments"),
         ({"segments": True}, "segments"),
         ({"segments": 1001}, "segments"),
         ({"timestep": "1e-3"}, "timestep"),
@@ -58,6 +58,35 @@ def _make(env_id, **kwargs):
 def test_rod_options_check_type_and_range(kwargs, name):
     with pytest.raises(ValueError, match=f"RodOptions.{name}"):
         RodOptions(**kwargs)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"feature_x": 1e30}, r"RodOptions.feature_x must lie in \[-1, 1\] m, got 1e\+30"),
+    ({"feature_x": -20.0}, r"RodOptions.feature_x must lie in \[-1, 1\] m, got -20.0 \(metres"),
+    ({"timestep": 1e-30}, r"RodOptions.timestep must lie in \[1e-06, 0.1\] s, got 1e-30"),
+    ({"timestep": 0.5}, r"RodOptions.timestep must lie in \[1e-06, 0.1\] s, got 0.5"),
+])
+def test_rod_options_range_names_parameter_range_and_value(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        RodOptions(**kwargs)
+    RodOptions(feature_x=-8.5e-3, timestep=1e-6)  # the ends of the ranges stay open to use
+
+
+@pytest.mark.parametrize("value", [20, np.int64(20), 20.0, np.float64(20.0), 2.5, "20", True, math.nan, 10**9])
+def test_one_integer_policy_for_rod_options_and_validate(value):
+    """validate.integer and RodOptions accept and refuse the same values: integral floats (20.0) are integers."""
+    from magsoft_env.validate import integer
+
+    try:
+        expected = integer("n", value, 2, 1000)
+    except ValueError:
+        with pytest.raises(ValueError, match=r"RodOptions.segments must be a positive integer|an integer"):
+            RodOptions(segments=value)
+        return
+    opts = RodOptions(segments=value, solver_iterations=value, noslip_iterations=value)
+    for name in ("segments", "solver_iterations", "noslip_iterations"):
+        got = getattr(opts, name)
+        assert got == expected and type(got) is int, name  # stored as a Python int
 
 
 @pytest.mark.parametrize("n", [-5, "10", 2.7, True, None])
@@ -177,7 +206,7 @@ def test_shape_env_arguments_are_checked(kwargs, match):
         (lambda b: mujoco_path(b, [(0.0, 0.013)], max_time=1e30), "max_time"),
         (lambda b: Simulator(b).step(10 * MAX_STEPS), "limit of 1e\\+07"),
         (lambda b: Simulator(b).settle(max_time=1e30), "max_time"),
-        (lambda b: Simulator(b, RodOptions(timestep=1e-30)).settle(), "max_time / timestep"),
+        (lambda b: Simulator(b, RodOptions(timestep=1e-30)).settle(), r"RodOptions.timestep must lie in \[1e-06"),
         (lambda b: Simulator(b).run(Sine((0.0, 1e-3), 1.0), 1e30), "duration / timestep"),
         (lambda b: Simulator(b, RodOptions(scene="floor")).run((0.0, 0.0), 1e300), "duration"),
         (lambda b: _make("MagSoftCrawl-v0", sim_dt=1e-30), r"ctrl_dt / sim_dt"),

@@ -14,7 +14,7 @@ import mujoco
 import numpy as np
 
 from ..spec import Beam
-from ..validate import choice, finite_number, nonnegative, positive
+from ..validate import choice, finite_number, integer, nonnegative, positive
 from .discretize import RodDiscretization, discretize
 
 SCENES = ("cantilever", "floor", "channel", "obstacle")
@@ -46,6 +46,12 @@ DEFAULT_TIMESTEP = 1e-3
 MAX_SEGMENTS = 1000
 #: Largest ``RodOptions.timestep`` (s).
 MAX_TIMESTEP = 0.1
+#: Smallest ``RodOptions.timestep`` (s): a finer step needs over a million steps per simulated second (the
+#: finest step of the convergence studies, docs/convergence.md, is 12.5 us).
+MIN_TIMESTEP = 1e-6
+#: Largest ``|RodOptions.feature_x|`` (m): the scene feature within a metre of the clamp, as every beam is
+#: (:data:`magsoft_env.spec.beam.MAX_SIZE`); further is a unit mistake (mm given as m).
+MAX_FEATURE_X = 1.0
 #: Largest ``RodOptions.gravity`` (m/s^2), about 100 g.
 MAX_GRAVITY = 1000.0
 #: Largest ``RodOptions.solver_iterations`` and ``noslip_iterations`` (per step).
@@ -94,7 +100,7 @@ class RodOptions:
         solve; under the others the hinge springs are explicit (see docs/sim.md for the
         measured stable timesteps).
     timestep : float or None
-        Simulation step (s), in (0, 0.1]. ``None``: 1 ms for every scene (docs/sim.md has the
+        Simulation step (s), in [1e-6, 0.1]. ``None``: 1 ms for every scene (docs/sim.md has the
         measured errors of each step).
     gravity : float
         Gravitational acceleration along -z (m/s^2), in [0, 1000]; 0 turns gravity off.
@@ -118,7 +124,7 @@ class RodOptions:
     contact_dampratio : float
         Contact ``solref`` damping ratio.
     feature_x : float or None
-        x (m) of the channel entrance or the obstacle's left face; ``None``: ``L + 5 mm``.
+        x (m) of the channel entrance or the obstacle's left face, in [-1, 1]; ``None``: ``L + 5 mm``.
     render : bool
         Add box visual geoms, a light and a camera (only for rendering).
     grading : float or None
@@ -192,14 +198,15 @@ class RodOptions:
 
     def __post_init__(self):
         # every field checked for its type and documented range, nothing built yet
-        _integer("RodOptions.segments", self.segments, 2, MAX_SEGMENTS)
+        object.__setattr__(self, "segments", integer("RodOptions.segments", self.segments, 2, MAX_SEGMENTS))
         choice("RodOptions.scene", self.scene, SCENES)
         choice("RodOptions.integrator", self.integrator, INTEGRATORS)
         if self.timestep is None:
             object.__setattr__(self, "timestep", DEFAULT_TIMESTEP)
         dt = positive("RodOptions.timestep", self.timestep, unit="s")
-        if dt > MAX_TIMESTEP:
-            raise ValueError(f"RodOptions.timestep must lie in (0, {MAX_TIMESTEP:g}] s, got {self.timestep!r}.")
+        if not MIN_TIMESTEP <= dt <= MAX_TIMESTEP:
+            raise ValueError(f"RodOptions.timestep must lie in [{MIN_TIMESTEP:g}, {MAX_TIMESTEP:g}] s, got "
+                             f"{self.timestep!r} (seconds: 0.1 ms is 0.0001).")
         g = nonnegative("RodOptions.gravity", self.gravity, unit="m/s^2")
         if g > MAX_GRAVITY:
             raise ValueError(f"RodOptions.gravity must lie in [0, {MAX_GRAVITY:g}] m/s^2, got {self.gravity!r}.")
@@ -219,7 +226,10 @@ class RodOptions:
             positive("RodOptions.contact_timeconst", tc, unit="s")
         positive("RodOptions.contact_dampratio", self.contact_dampratio)
         if self.feature_x is not None:
-            finite_number("RodOptions.feature_x", self.feature_x, unit="m")
+            fx = finite_number("RodOptions.feature_x", self.feature_x, unit="m")
+            if abs(fx) > MAX_FEATURE_X:
+                raise ValueError(f"RodOptions.feature_x must lie in [-{MAX_FEATURE_X:g}, {MAX_FEATURE_X:g}] m, got "
+                                 f"{self.feature_x!r} (metres: 20 mm is 0.02).")
         if self.grading is None:
             object.__setattr__(self, "grading", DEFAULT_CANTILEVER_GRADING if self.scene == "cantilever" else 1.0)
         g = finite_number("RodOptions.grading", self.grading)
@@ -230,8 +240,9 @@ class RodOptions:
         choice("RodOptions.cone", self.cone, CONES)
         choice("RodOptions.magnetics", self.magnetics, MAGNETICS)
         # bounded: with tolerance 0 MuJoCo runs every iteration of every step
-        _integer("RodOptions.noslip_iterations", self.noslip_iterations, 0, MAX_SOLVER_ITERATIONS)
-        _integer("RodOptions.solver_iterations", self.solver_iterations, 1, MAX_SOLVER_ITERATIONS)
+        for name, lo in (("noslip_iterations", 0), ("solver_iterations", 1)):
+            object.__setattr__(self, name, integer(f"RodOptions.{name}", getattr(self, name), lo,
+                                                   MAX_SOLVER_ITERATIONS))
         nonnegative("RodOptions.solver_tolerance", self.solver_tolerance)
         if self.contact_impedance is not None:
             imp = self.contact_impedance
@@ -308,12 +319,6 @@ class RodModel:
     def native(self) -> bool:
         """Whether MuJoCo applies the magnetic couples itself (``RodOptions.magnetics == "native"``)."""
         return self.field_mocap >= 0
-
-
-def _integer(name: str, value, lo: int, hi: int) -> int:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or not lo <= value <= hi:
-        raise ValueError(f"{name} must be an integer in [{lo}, {hi}], got {value!r}.")
-    return int(value)
 
 
 def material_contact_timeconst(beam: Beam) -> float:
