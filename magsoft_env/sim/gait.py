@@ -4,8 +4,9 @@ Examples
 --------
 >>> from magsoft_env.cases.gaits import gait_preset
 >>> from magsoft_env.sim.gait import run_gait
->>> result = run_gait(gait_preset("paper-5c", reverse=True), seconds=2.0)   # doctest: +SKIP
->>> result.speed * 1e3                              # mm/s, signed along +x  # doctest: +SKIP
+>>> result = run_gait(gait_preset("paper-5c", reverse=True), seconds=2.0)
+>>> result.direction, round(result.speed * 1e3, 1)   # mm/s, signed along +x
+('right', 0.4)
 """
 
 from __future__ import annotations
