@@ -52,6 +52,15 @@ def in_range(name: str, value, lo: float, hi: float, *, unit: str = "") -> float
 MAX_ANGLE = 2 * math.pi
 
 
+class AngleRangeError(ValueError):
+    """An angle (rad) beyond :data:`MAX_ANGLE`; ``largest`` is its magnitude (rad). Readers of files in
+    degrees catch it to say so in their own unit."""
+
+    def __init__(self, message: str, largest: float):
+        super().__init__(message)
+        self.largest = largest
+
+
 def degrees_message(name: str, got: str, largest: float) -> str:
     """The message for an angle (rad) whose magnitude ``largest`` exceeds :data:`MAX_ANGLE` (``got``: the value
     received, as the message shows it)."""
@@ -65,7 +74,7 @@ def angle(name: str, value) -> float:
     number looks like degrees and how to convert it)."""
     x = finite_number(name, value, unit="rad")
     if abs(x) > MAX_ANGLE:
-        raise ValueError(degrees_message(name, repr(value), abs(x)))
+        raise AngleRangeError(degrees_message(name, repr(value), abs(x)), abs(x))
     return x
 
 

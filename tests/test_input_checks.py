@@ -764,3 +764,17 @@ def test_validate_pair_refuses_what_is_not_two_items(value):
     with pytest.raises(ValueError, match=r"^x must be a pair \(a, b\), got .*\.$"):
         pair("x", value, "(a, b)")
     assert pair("x", [1, "b"], "(a, b)") == (1, "b")
+
+
+@pytest.mark.parametrize("magnetization, top", [
+    ({"kind": "uniform", "angle_deg": 400}, "400"), ({"kind": "cells", "angles_deg": [0, 720]}, "720"),
+    ({"kind": "piecewise_linear", "s_mm": [0, 20], "angles_deg": [0, -450]}, "450"),
+    ({"kind": "alternating_cells", "cells": 2, "angle_deg": 400}, "400"),
+])
+def test_file_angles_beyond_a_turn_are_reported_in_degrees(magnetization, top):
+    from magsoft_env.cases.beamfile import beam_from_dict
+
+    block = {"length_mm": 20, "width_mm": 5, "thickness_mm": 1, "magnetization": magnetization}
+    with pytest.raises(ValueError, match=rf"beam magnetization angles must lie in \[-360, 360\] deg .*got up to {top}"):
+        beam_from_dict(block)
+    assert beam_from_dict({**block, "magnetization": {"kind": "uniform", "angle_deg": 360}}).beta(0.0) == 2 * math.pi

@@ -58,7 +58,7 @@ from ..spec import (
 )
 from ..spec.profiles import MAX_CELLS, MAX_SAMPLES
 from ..units import MM
-from ..validate import choice, finite_array, finite_number, integer, positive
+from ..validate import AngleRangeError, choice, finite_array, finite_number, integer, positive
 from .expressions import compile_expression
 from .numbers import kilo, mega, milli, radians, same, to_degrees, to_milli, to_unit
 
@@ -116,7 +116,10 @@ def beam_from_dict(d: dict, *, where: str = "beam") -> Beam:
     """A :class:`Beam` from a beam block (mm, deg -> SI); every key is checked, unknown keys are errors."""
     check_keys(where, d, _BEAM_KEYS, required=("width_mm", "thickness_mm"))
     material = _material_from_dict(d.get("material", {}), where=f"{where} material")
-    beta, natural_length = _magnetization_from_dict(d.get("magnetization", {"kind": "uniform"}), where=where)
+    try:
+        beta, natural_length = _magnetization_from_dict(d.get("magnetization", {"kind": "uniform"}), where=where)
+    except AngleRangeError as exc:
+        raise _angles_in_degrees(where, exc) from None
     if "length_mm" in d:
         length = _scalar(f"{where} length_mm", d["length_mm"], milli, positive, "mm")
         if natural_length is not None and abs(length - natural_length) > 1e-9 * natural_length and (
@@ -130,14 +133,23 @@ def beam_from_dict(d: dict, *, where: str = "beam") -> Beam:
         length = natural_length
     else:
         raise ValueError(f"{where} needs length_mm (> 0, mm): the magnetization does not fix the length.")
-    return Beam(
-        length=length,
-        width=_scalar(f"{where} width_mm", d["width_mm"], milli, positive, "mm"),
-        thickness=_scalar(f"{where} thickness_mm", d["thickness_mm"], milli, positive, "mm"),
-        material=material,
-        volume_fraction=_phi_from_dict(d.get("volume_fraction", 0.2), where=f"{where} volume_fraction"),
-        magnetization=beta,
-    )
+    try:
+        return Beam(
+            length=length,
+            width=_scalar(f"{where} width_mm", d["width_mm"], milli, positive, "mm"),
+            thickness=_scalar(f"{where} thickness_mm", d["thickness_mm"], milli, positive, "mm"),
+            material=material,
+            volume_fraction=_phi_from_dict(d.get("volume_fraction", 0.2), where=f"{where} volume_fraction"),
+            magnetization=beta,
+        )
+    except AngleRangeError as exc:
+        raise _angles_in_degrees(where, exc) from None
+
+
+def _angles_in_degrees(where: str, exc: AngleRangeError) -> ValueError:
+    """An angle beyond a turn, told in the file's unit (degrees), not as a radians-vs-degrees mix-up."""
+    return ValueError(f"{where} magnetization angles must lie in [-360, 360] deg (one turn either way), got up to "
+                      f"{math.degrees(exc.largest):.6g} deg.")
 
 
 def _material_from_dict(d: dict, *, where: str) -> Material:

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..validate import MAX_ANGLE, checked_replace, degrees_message, nonnegative, positive
+from ..validate import MAX_ANGLE, AngleRangeError, checked_replace, degrees_message, nonnegative, positive
 from .field import as_field
 from .material import MAX_VOLUME_FRACTION, Material
 from .profiles import Constant, Function, PiecewiseConstant, PiecewiseLinear, Profile, Sampled, as_profile
@@ -109,7 +109,7 @@ class Beam:
         if type(beta) in _GIVEN_ANGLES and largest > MAX_ANGLE:
             kind = type(beta).__name__
             got = repr(beta.value) if type(beta) is Constant else f"a {kind} with |beta| up to {largest:g}"
-            raise ValueError(degrees_message("Beam.magnetization", got, largest))
+            raise AngleRangeError(degrees_message("Beam.magnetization", got, largest), largest)
 
     def _probe_points(self, n: int) -> np.ndarray:
         L = self.length
