@@ -129,3 +129,7 @@ def test_body_orientation_matches_numpy_unwrap_on_random_chains():
         assert body_orientation(wrapped, w) == pytest.approx(w @ unwrapped / w.sum(), abs=1e-12)
         anchor = true[-1]
         assert body_orientation(wrapped, w, anchor=anchor) == pytest.approx(w @ true / w.sum(), abs=1e-9)
+
+
+def test_orientation_of_a_non_finite_state_is_nan():
+    assert math.isnan(body_orientation(np.array([0.0, np.nan, 0.1]), np.ones(3), anchor=np.nan))

@@ -71,6 +71,8 @@ def _mean_angle(a: np.ndarray, w: np.ndarray, total: float, anchor: float | None
     rel = np.cumsum(np.remainder(np.diff(a) + math.pi, _TURN) - math.pi)  # each piece's angle minus the first's
     first = float(a[0])
     if anchor is not None:
+        if not math.isfinite(anchor):  # a state gone non-finite (the simulator has reported it): no orientation
+            return math.nan
         last = first + (float(rel[-1]) if rel.size else 0.0)
         first += _TURN * round((float(anchor) - last) / _TURN)
     return first + float(w[1:] @ rel) / total
