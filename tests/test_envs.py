@@ -14,6 +14,7 @@ from gymnasium.utils.env_checker import check_env
 
 import magsoft_env  # noqa: F401  (registers the ids)
 from magsoft_env.envs import ENV_SPECS, register_all
+from magsoft_env.envs.crawl import AIRBORNE_TOLERANCE
 
 IDS = list(ENV_SPECS)
 # small rods at a coarse step keep the contract tests fast; the physics does not change the contract
@@ -114,7 +115,7 @@ def test_forced_instability_truncates_with_reason(env_id):
 
 
 def test_crawl_limit_terminates_with_penalty_and_no_forward_reward():
-    env = make("MagSoftCrawl-v0", field_limit=0.02)
+    env = make("MagSoftCrawl-v0", field_limit=0.02, max_clearance=None)  # the rotation limit alone
     env.reset(seed=0)
     for _ in range(50):  # full field along z flips the beam
         obs, r, term, trunc, info = env.step(np.array([0.0, 1.0], dtype=np.float32))
@@ -283,13 +284,87 @@ def test_floor_envs_run_each_robots_own_numerics_unless_told():
 
 
 def test_a_jump_is_not_a_crawl():
-    env = make("MagSoftCrawl-v0").unwrapped
+    env = make("MagSoftCrawl-v0", max_clearance=2e-3).unwrapped
     env.reset(seed=0)
-    assert env._crawl_violation() == ""  # resting on the floor
+    assert env._crawl_violation(env._substep_limits()) == ""  # resting on the floor
     env.sim.data.qpos[1] += 3e-3  # the whole beam 3 mm up (base_z): more than the 2 mm clearance limit
     mujoco.mj_forward(env.sim.model, env.sim.data)
-    assert env._crawl_violation().startswith("airborne: the lowest point is 2.99 mm above the floor > 2.00 mm")
+    assert "the lowest point is 2.989 mm above the floor > 2.000 mm" in env._crawl_violation(env._substep_limits())
     assert make("MagSoftCrawl-v0", max_clearance=None).unwrapped.max_clearance is None
     assert make("MagSoftObstacle-v0").unwrapped.max_clearance is None  # on the block the beam is above the floor
     with pytest.raises(ValueError, match="max_clearance must be > 0"):
         make("MagSoftCrawl-v0", max_clearance=0.0)
+
+
+#: At 4 mT: B_z down, B_x right, then B_z up throws the whole beam 2.7 mm off the floor in the middle of the
+#: third 20 ms step; it lands before that step ends (found by a search over the +-1 corners, seed 0).
+HOP_ACTIONS = [(0.0, -1.0), (1.0, 0.0), (0.0, 1.0)]
+
+
+def _hop_env(**kw):
+    return gym.make("MagSoftCrawl-v0", field_limit=0.004, **kw)
+
+
+def test_a_hop_within_a_control_step_ends_the_episode():
+    # what an end-of-step check sees: every step ends with the beam within 2 mm of the floor, below 120 deg
+    free = _hop_env(crawl_mode="none", max_clearance=None).unwrapped
+    free.reset(seed=0)
+    for a in HOP_ACTIONS:
+        free.step(np.array(a, dtype=np.float32))
+        _, z = free.sim.centerline()
+        assert np.min(z) - 0.5 * free.gait.beam.thickness < 2e-3
+        assert np.max(np.abs(free.sim.angles())) < free.max_link_rotation
+    assert free.step(np.zeros(2, dtype=np.float32))[-1]["highest_clearance"] > 2.5e-3  # but it hopped 2.7 mm
+    # the limits hold at every substep: the hop ends the episode on the step in which it happened
+    env = _hop_env(max_clearance=2e-3)
+    env.reset(seed=0)
+    for k, a in enumerate(HOP_ACTIONS):
+        _, reward, terminated, truncated, info = env.step(np.array(a, dtype=np.float32))
+        assert terminated == (k == 2) and not truncated
+    assert info["crawl_violation"].startswith("airborne at t = 0.0")
+    assert "above the floor > 2.000 mm" in info["crawl_violation"]
+    assert info["reward_forward"] == 0.0 and info["reward_crawl"] < 0.0
+    # under the default (part of the beam on the floor at every substep) the smaller lift of step 2 ends it
+    env = _hop_env()
+    env.reset(seed=0)
+    assert not env.step(np.array(HOP_ACTIONS[0], dtype=np.float32))[2]
+    _, _, terminated, _, info = env.step(np.array(HOP_ACTIONS[1], dtype=np.float32))
+    assert terminated and info["crawl_violation"].startswith("airborne")
+
+
+def test_substep_clearance_and_airborne_fraction_are_the_states_own():
+    # the sensors' history against the centreline read after every single substep
+    env = _hop_env(crawl_mode="none", max_clearance=None).unwrapped
+    env.reset(seed=0)
+    half_h = 0.5 * env.gait.beam.thickness
+    clear = [np.min(env.sim.centerline()[1]) - half_h]
+    for a in HOP_ACTIONS:
+        steps = env._stepping(np.array(a, dtype=np.float32), block=1)
+        while True:
+            try:
+                next(steps)
+            except StopIteration as done:
+                info = done.value[-1]
+                break
+            clear.append(np.min(env.sim.centerline()[1]) - half_h)
+        clear.append(np.min(env.sim.centerline()[1]) - half_h)  # the step's end state
+    clear = np.array(clear)
+    assert info["highest_clearance"] == pytest.approx(clear.max(), abs=1e-12)
+    n = len(HOP_ACTIONS) * env.n_substeps
+    assert len(clear) == n + 1
+    assert info["airborne_fraction"] == pytest.approx(np.count_nonzero(clear[:-1] > AIRBORNE_TOLERANCE) / n)
+    assert 0.0 < info["airborne_fraction"] < 1.0
+    # the rotation row: the cosine of the largest piece angle
+    lim = env._limits_of(*(a[:, None] for a in env.sim.centerline()))
+    assert lim[2, 0] == pytest.approx(np.cos(np.max(np.abs(env.sim.angles()))), abs=1e-12)
+
+
+def test_the_paper_gait_never_leaves_the_floor():
+    env = gym.make("MagSoftCrawl-v0")  # paper-5c at its own numerics, the default crawl limits
+    base = env.unwrapped
+    env.reset(seed=0)
+    for k in range(250):
+        _, _, terminated, truncated, info = env.step(base.open_loop_action(k * base.ctrl_dt))
+        assert not terminated
+    assert truncated and info["airborne_fraction"] == 0.0
+    assert info["highest_clearance"] < 0.1 * AIRBORNE_TOLERANCE

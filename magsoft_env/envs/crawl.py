@@ -14,7 +14,7 @@ from ..cases.robots import resolve_robot
 from ..sim import PhaseShifted, Ramp, SimulationError, Simulator
 from ..sim.gait import gait_rod_options
 from ..sim.health import UnphysicalError, check_steps
-from ..sim.model import CONTACT_HISTORY, MAX_TIMESTEP
+from ..sim.model import CONTACT_HISTORY, MAX_TIMESTEP, NODE_SENSOR
 from ..sim.readouts import is_flipped, orientation
 from ..spec.drive import Waveparams
 from ..validate import choice, finite_number, nonnegative, positive
@@ -29,11 +29,16 @@ DEFAULT_CTRL_DT = 0.02
 #: Simulation step (s) of a robot whose file states none (``sim_dt=None`` takes the robot's own numerics,
 #: :func:`magsoft_env.cases.gaits.numerics`; docs/convergence.md).
 DEFAULT_SIM_DT = 2e-4
-#: Largest clearance (m) of the rod's lowest point above the floor at the end of a step (``max_clearance``): a
-#: crawl keeps part of the beam on the floor; a jump clears it. Random actions at the 2 mT default lift the lowest
-#: point at most 0.6-1.4 mm (4 episodes), the open-loop paper-5c gait 0 mm; PPO's flick-and-hop gait under the
-#: rotation limit alone (36-44 mm/s) throws the whole beam several mm into the air.
-DEFAULT_MAX_CLEARANCE = 2e-3
+#: Clearance (m) of the rod's lowest point above the floor beyond which the whole beam is off the floor
+#: (airborne): the gap of the capsule colliders, so that a resting beam reads minus its contact depth. A numerical
+#: tolerance, not a hop height: the open-loop paper gaits in this env (paper-5a, 5b, 5c at their own numerics,
+#: 5 s each) reach at most 0.0005 mm at any substep, 20x below it; 0.01 mm is 0.9 % of the paper beams'
+#: 1.13 mm thickness.
+AIRBORNE_TOLERANCE = 1e-5
+#: Largest clearance (m) of the rod's lowest point above the floor at any substep (``max_clearance``) in the crawl
+#: modes: part of the beam on the floor at every instant, as the paper's robots crawl; airborne at any substep
+#: ends the episode (a hop, not a crawl).
+DEFAULT_MAX_CLEARANCE = AIRBORNE_TOLERANCE
 #: The paper's channel ceiling (m): the crawl-mode height limit by default.
 DEFAULT_MAX_HEIGHT = 7.6e-3
 #: Largest |tangent angle| of any piece in crawl mode "rotation" (rad): beyond it the beam tumbles.
@@ -47,6 +52,45 @@ ACTION_MODES = ("field", "waveform")
 CRAWL_MODES = ("rotation", "height", "none")
 
 
+class CentrelineHistory:
+    """The rod's centreline at every substep of the last native block, from MuJoCo's own sensors.
+
+    The scene carries a ``framepos`` sensor on each centreline point (:data:`~magsoft_env.sim.model.NODE_SENSOR`)
+    with a history buffer of ``nsample`` steps; after ``mj_step(m, d, k)`` (or a ``mujoco.rollout`` block) the
+    buffer holds the centreline of the state each of the ``k`` steps started from, so the crawl limits can be
+    held at every substep without stepping MuJoCo one step at a time from Python.
+    """
+
+    def __init__(self, model, data):
+        ids = []
+        while (sid := mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, f"{NODE_SENSOR}{len(ids)}")) >= 0:
+            ids.append(sid)
+        if len(ids) < 2:
+            raise ValueError(f"the model has no centreline sensors ({NODE_SENSOR}0, ...): a contact scene builds them.")
+        ns = int(model.sensor_history[ids[0], 0])
+        adr = model.sensor_historyadr[ids].astype(int)
+        stride = 2 + ns + 3 * ns  # user slot, cursor, nsample timestamps, nsample 3-vectors
+        if ns < 1 or np.any(model.sensor_history[ids, 0] != ns) or np.any(adr != adr[0] + stride * np.arange(len(ids))):
+            raise ValueError("the centreline sensors must be consecutive 3-vectors with equal history buffers.")
+        #: samples each buffer holds: the longest block it covers (steps)
+        self.nsample = ns
+        rows = data.history[adr[0]: adr[0] + stride * len(ids)].reshape(len(ids), stride)  # a view
+        self._cursor = rows[0, 1:2]
+        self._values = rows[:, 2 + ns:].reshape(len(ids), ns, 3)
+
+    def last(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """x and z (m) of the centreline points at the start of each of the last ``k`` steps, oldest first:
+        shape ``(N + 2, k)`` each."""
+        if not 1 <= k <= self.nsample:
+            raise ValueError(f"k must lie in [1, {self.nsample}], got {k!r}.")
+        end = int(self._cursor[0]) + 1
+        if end >= k:  # the last k samples in one piece of the ring: a view
+            v = self._values[:, end - k:end]
+        else:
+            v = self._values[:, (end + np.arange(-k, 0)) % self.nsample]
+        return v[..., 0], v[..., 2]
+
+
 class MagSoftCrawlEnv(gym.Env):
     """
     ## Description
@@ -57,11 +101,16 @@ class MagSoftCrawlEnv(gym.Env):
     :mod:`magsoft_env.sim` (planar, ``segments`` cells, magnetic couples ``(R m) x B``).
 
     Above about 2.5-3 mT a 20-30 mm beam stops crawling and tumbles end over end at tens of
-    mm/s (docs/envs.md, "Crawl mode"). The default ``crawl_mode="rotation"`` ends the episode when a
-    piece turns more than ``max_link_rotation`` from the floor, or when the whole beam leaves the floor by
-    more than ``max_clearance`` (a jump: PPO otherwise learns to flick and hop), so that rewards compare
-    crawling with crawling; ``"height"`` limits the highest point to ``max_height`` (the
-    paper's 7.6 mm channel ceiling), ``"none"`` allows tumbling.
+    mm/s (docs/envs.md, "Crawl mode"). The crawl modes hold what the paper's robots do: part of the
+    beam on the floor at every instant. The default ``crawl_mode="rotation"`` ends the episode when the
+    whole beam is off the floor (its lowest point more than ``max_clearance`` = 0.01 mm above it: a hop) or
+    a piece turns more than ``max_link_rotation`` from the floor (a tumble); ``"height"`` holds the same
+    floor contact and limits the highest point to ``max_height`` (the paper's 7.6 mm channel ceiling);
+    ``"none"`` allows hops and tumbling. The limits hold at every simulation substep, not only at the end
+    of a control step (a hop that lands within one 20 ms step counts): MuJoCo's ``framepos`` sensors of the
+    centreline points keep every substep of a native block in their history buffers
+    (:class:`CentrelineHistory`), which the env reads after each block. A hop-tolerant crawl is
+    ``max_clearance=2e-3`` (the whole beam up to 2 mm off the floor) or ``None`` (no floor limit).
 
     ## Action Space
 
@@ -124,7 +173,8 @@ class MagSoftCrawlEnv(gym.Env):
 
     ## Episode End
 
-    - Termination: the crawl limit is broken (``info["crawl_violation"]`` says which).
+    - Termination: a crawl limit is broken at any substep of the step (``info["crawl_violation"]`` says
+      which, and when).
     - Truncation: the time limit (``max_episode_steps`` of the registered id: 250 steps = 5 s
       in field mode, 20 cycles in waveform mode), or an unstable simulation:
       ``info["truncation_reason"]`` holds the :class:`~magsoft_env.sim.SimulationError` text.
@@ -134,8 +184,12 @@ class MagSoftCrawlEnv(gym.Env):
       (``penetration_m``, ``penetration_h``, ``step``, ``time_s``, ...). Every ``info`` carries
       ``max_penetration`` (m), the deepest contact of the episode so far, ``orientation`` (rad), the body's
       length-weighted mean tangent angle, continuous in time (+-pi after one turn end over end;
-      :mod:`magsoft_env.sim.readouts`), and ``flipped``, True once it has been past vertical (|orientation| >
-      pi / 2) at the end of a step of this episode (a tumble; crawl mode "none" lets the episode go on).
+      :mod:`magsoft_env.sim.readouts`), ``flipped``, True once it has been past vertical (|orientation| >
+      pi / 2) at the end of a step of this episode (a tumble; crawl mode "none" lets the episode go on),
+      ``highest_clearance`` (m), the highest the lowest point of the beam has been above the floor at any
+      substep of the episode so far (minus the contact depth while it touches), and ``airborne_fraction``,
+      the fraction of the episode's substeps that started with the whole beam more than
+      :data:`AIRBORNE_TOLERANCE` (0.01 mm) above the floor.
 
     ## Arguments
 
@@ -157,8 +211,8 @@ class MagSoftCrawlEnv(gym.Env):
     | ``crawl_mode`` | ``"rotation"`` | ``"rotation"``, ``"height"`` or ``"none"`` |
     | ``max_link_rotation`` | 2 pi / 3 (120 deg) | crawl-mode rotation limit (rad), in (0, pi] |
     | ``max_height`` | 7.6e-3 | crawl-mode height limit (m) |
-    | ``max_clearance`` | 2e-3 | crawl modes "rotation" and "height": the episode ends when the rod's lowest point is |
-    | | | higher above the floor (m) at the end of a step (a jump, not a crawl); None: no limit |
+    | ``max_clearance`` | 1e-5 | crawl modes "rotation" and "height": the episode ends when the rod's lowest point is |
+    | | | higher above the floor (m) at any substep (the whole beam off the floor); None: no limit |
     | ``crawl_penalty`` | 10 | reward lost when the crawl limit is broken |
     | ``frequency_range`` | (0.5, 4) | waveform-mode frequencies (Hz) |
     | ``clock_frequency`` | 2 | field-mode clock observed as sin/cos (Hz) |
@@ -300,6 +354,9 @@ class MagSoftCrawlEnv(gym.Env):
         self.segments = options.segments
         self._mass = self.sim.rod.disc.mass
         self._bodies = self.sim.rod.body_ids
+        self._nodes = CentrelineHistory(self.sim.model, self.sim.data)
+        self._cos_rotation = math.cos(self.max_link_rotation)
+        self._inv_piece_length = (1.0 / self.sim.rod.disc.piece_length)[:, None]
         if self.action_mode == "field":
             self.metadata = {**self.metadata, "render_fps": int(round(1.0 / (self.n_substeps * self.sim_dt)))}
             self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
@@ -318,6 +375,10 @@ class MagSoftCrawlEnv(gym.Env):
         self._broken = False
         self._episode_forward = 0.0
         self._flipped = False
+        self._samples: list = []
+        self._highest_clearance = 0.0
+        self._airborne = 0
+        self._substeps = 0
 
     # ------------------------------------------------------------------ physics readouts
     def com_position(self) -> np.ndarray:
@@ -376,6 +437,10 @@ class MagSoftCrawlEnv(gym.Env):
         self._broken = False
         self._episode_forward = 0.0
         self._flipped = False
+        x, z = self.sim.centerline()
+        self._highest_clearance = float(np.min(z)) - 0.5 * self.gait.beam.thickness
+        self._airborne = 0
+        self._substeps = 0
         self._last_obs = self._get_obs()
         return self._last_obs, self._info(0.0)
 
@@ -384,13 +449,15 @@ class MagSoftCrawlEnv(gym.Env):
         <magsoft_env.sim.Simulator.stepping>`'s blocks, at most ``block`` steps each) that returns
         (duration s, mean normalized field power)."""
         sim = self.sim
+        waveform = None
         if self.action_mode == "field":
             target = self.field_of_action(action)
             if self.slew_rate is not None:
                 dmax = self.slew_rate * self.n_substeps * self.sim_dt
                 target = self._field + np.clip(target - self._field, -dmax, dmax)
                 start = self._field.copy()
-                sim.set_waveform(Ramp(tuple(start), tuple(target), duration=self.n_substeps * self.sim_dt))
+                waveform = Ramp(tuple(start), tuple(target), duration=self.n_substeps * self.sim_dt)
+                sim.set_waveform(waveform)
                 # mean of the squared linear ramp
                 power = float(np.sum(start**2 + start * target + target**2) / 3.0)
             else:
@@ -401,12 +468,58 @@ class MagSoftCrawlEnv(gym.Env):
         else:
             wave = self.waveparams_of_action(action)
             self._last_action = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
-            sim.set_waveform(PhaseShifted(wave.amplitude_x, wave.amplitude_z, wave.frequency, wave.phase, 0.0))
+            waveform = PhaseShifted(wave.amplitude_x, wave.amplitude_z, wave.frequency, wave.phase, 0.0)
+            sim.set_waveform(waveform)
             n = max(1, int(round(1.0 / (wave.frequency * self.sim_dt))))
             power = 0.5 * (wave.amplitude_x**2 + wave.amplitude_z**2)
             self._field = np.zeros(2)  # a whole period ends where it began
-        yield from sim.stepping(n, block=block)
+        # the centreline of every substep, block by block from the sensors' history (before the next block
+        # overwrites it)
+        self._samples = []
+        done = sim.nstep
+        for c, k in enumerate(self._calls(n, waveform)):
+            if c:
+                yield
+            for _ in sim.stepping(k, block=block):
+                done = self._read_block(done)
+                yield
+            done = self._read_block(done)
         return n * self.sim_dt, power / self.field_limit**2
+
+    def _calls(self, n: int, waveform) -> list[int]:
+        """The substeps of each ``Simulator.stepping`` call of a step: one call, unless the field runs in pieces
+        of equal fields (a waveform whose samples repeat somewhere, e.g. at a symmetric peak): the simulator
+        yields within a piece but not between pieces, so the step then runs in calls of at most the
+        centreline history's length."""
+        if waveform is not None:
+            f = waveform.sample(self.sim.timestep * np.arange(n))  # the fields stepping() samples (t0 = now)
+            same = np.all(f[1:] == f[:-1], axis=1)
+            if same.any() and not same.all():
+                h = self._nodes.nsample
+                return [h] * (n // h) + ([n % h] if n % h else [])
+        return [n]
+
+    def _read_block(self, start: int) -> int:
+        """Reduce the substeps since step count ``start`` to their clearance, height and rotation (cos of the
+        largest piece angle); returns the present step count."""
+        k = self.sim.nstep - start
+        if k > self._nodes.nsample:
+            raise RuntimeError(f"{k} substeps ran without a native block boundary; the crawl limits read at most "
+                               f"{self._nodes.nsample} from the centreline sensors' history (keep the simulator's "
+                               "native blocks: rollout_blocks=True).")
+        if k > 0:
+            self._samples.append(self._limits_of(*self._nodes.last(k)))
+        return self.sim.nstep
+
+    def _limits_of(self, x: np.ndarray, z: np.ndarray) -> np.ndarray:
+        """Rows clearance (m), highest point (m), cos of the largest |piece angle| for centreline points
+        ``x``, ``z`` of shape ``(N + 2, k)``: shape ``(3, k)``."""
+        out = np.empty((3, x.shape[1]))
+        np.subtract(z.min(axis=0), 0.5 * self.gait.beam.thickness, out=out[0])
+        z.max(axis=0, out=out[1])
+        # the pieces are rigid: the cosine of a piece's angle is its x extent over its length
+        ((x[1:] - x[:-1]) * self._inv_piece_length).min(axis=0, out=out[2])
+        return out
 
     def step(self, action):
         steps = self._stepping(action)
@@ -436,7 +549,7 @@ class MagSoftCrawlEnv(gym.Env):
         com = self.com_position()
         self._com_vel = (com - self._com) / duration
         self._com = com
-        violation = self._crawl_violation()
+        violation = self._crawl_violation(self._substep_limits())
         # a step that breaks the crawl limit earns no forward reward (else one flip pays)
         forward = 0.0 if violation else self.forward_reward_weight * self.target_direction * self._com_vel[0]
         field_cost = -self.field_cost_weight * power
@@ -459,22 +572,44 @@ class MagSoftCrawlEnv(gym.Env):
         terminated = bool(violation) or self._is_success()
         return obs, float(reward), terminated, False, info
 
-    def _crawl_violation(self) -> str:
-        if self.crawl_mode != "none" and self.max_clearance is not None:
-            z = self.sim.centerline()[1]
-            clear = float(np.min(z)) - 0.5 * self.gait.beam.thickness
-            if clear > self.max_clearance:
-                return (f"airborne: the lowest point is {clear * 1e3:.2f} mm above the floor > "
-                        f"{self.max_clearance * 1e3:.2f} mm (a jump, not a crawl)")
+    def _substep_limits(self) -> np.ndarray:
+        """Clearance, height and rotation rows (:meth:`_limits_of`) of every substep of the step just taken (the
+        state each started from, from the sensors' history) and of its end state (last column); the episode's
+        highest clearance and airborne count are updated."""
+        x, z = self.sim.centerline()
+        end = self._limits_of(x[:, None], z[:, None])
+        lim = np.concatenate([*self._samples, end], axis=1)
+        self._samples = []
+        self._highest_clearance = max(self._highest_clearance, float(lim[0].max()))
+        self._airborne += int(np.count_nonzero(lim[0, :-1] > AIRBORNE_TOLERANCE))
+        self._substeps += lim.shape[1] - 1
+        return lim
+
+    def _crawl_violation(self, lim: np.ndarray) -> str:
+        """The first broken crawl limit among the substeps of ``lim`` (:meth:`_substep_limits`), or ""."""
+        if self.crawl_mode == "none":
+            return ""
+        broken = np.zeros(lim.shape[1], dtype=bool)
+        if self.max_clearance is not None:
+            broken |= lim[0] > self.max_clearance
         if self.crawl_mode == "rotation":
-            rot = float(np.max(np.abs(self.sim.angles())))
-            if rot > self.max_link_rotation:
-                return f"link rotation {math.degrees(rot):.1f} deg > {math.degrees(self.max_link_rotation):.1f} deg"
-        elif self.crawl_mode == "height":
-            top = float(np.max(self.sim.centerline()[1]))
-            if top > self.max_height:
-                return f"height {top * 1e3:.2f} mm > {self.max_height * 1e3:.2f} mm"
-        return ""
+            broken |= lim[2] < self._cos_rotation
+        else:
+            broken |= lim[1] > self.max_height
+        if not broken.any():
+            return ""
+        j = int(np.argmax(broken))
+        clear, top, cos = lim[:, j]
+        # column j is the state j substeps into the step, the last one the step's end (now)
+        when = f"at t = {self.sim.time - (lim.shape[1] - 1 - j) * self.sim_dt:.4f} s"
+        if self.max_clearance is not None and clear > self.max_clearance:
+            return (f"airborne {when}: the lowest point is {clear * 1e3:.3f} mm above the floor > "
+                    f"{self.max_clearance * 1e3:.3f} mm (the whole beam off the floor: a hop, not a crawl)")
+        if self.crawl_mode == "rotation":
+            rot = math.acos(max(-1.0, min(1.0, cos)))
+            return (f"link rotation {math.degrees(rot):.1f} deg > {math.degrees(self.max_link_rotation):.1f} deg "
+                    f"{when}")
+        return f"height {top * 1e3:.2f} mm > {self.max_height * 1e3:.2f} mm {when}"
 
     def _success_reward(self) -> float:
         return 0.0
@@ -495,6 +630,8 @@ class MagSoftCrawlEnv(gym.Env):
             "x_position": float(self._com[0]), "z_position": float(self._com[1]),
             "x_velocity": float(self._com_vel[0]), "field": self._field.copy(), "time": self.sim.time,
             "is_success": self._is_success(), "max_penetration": self.sim.max_penetration,
+            "highest_clearance": self._highest_clearance,
+            "airborne_fraction": self._airborne / self._substeps if self._substeps else 0.0,
         }
 
     def open_loop_action(self, t: float, wave: Waveparams | None = None) -> np.ndarray:

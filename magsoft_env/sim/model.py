@@ -61,6 +61,12 @@ MAX_SOLVER_ITERATIONS = 10_000
 #: anything in the scene; negative when penetrating, 0 without contact.
 CONTACT_SENSOR = "rod_floor_depth"
 FEATURE_SENSOR = "rod_scene_depth"
+#: Contact scenes: the ``framepos`` sensors of the centreline points (base end, every hinge, tip; the points
+#: of ``Simulator.centerline``), named this prefix + index, each with a history of :data:`CONTACT_HISTORY`
+#: samples: a native block of steps leaves every step's centreline there, so that an environment holds
+#: its crawl limits (clearance, height, rotation) at every step (``envs.crawl``). The tip point is a
+#: site of the same name on the last piece.
+NODE_SENSOR = "rod_node"
 #: How the magnetic couples reach MuJoCo (``RodOptions.magnetics``).
 MAGNETICS = ("native", "python")
 #: Native magnetics: the world-fixed frame of the field (a mocap body and its site), whose x axis the
@@ -527,11 +533,25 @@ def build_spec(beam: Beam, options: RodOptions) -> tuple[mujoco.MjSpec, RodDiscr
             g.contype = g.conaffinity = 0
     if o.has_contact:
         _add_contact_sensors(spec, o)
+        _add_node_sensors(spec, disc, o)
     if o.render:
         world = spec.worldbody
         world.add_light(name="light", pos=[0.5 * beam.length, -0.1, 0.1], dir=[0, 1, -1])
         world.add_camera(name="side", pos=[0.5 * beam.length, -4.0 * beam.length, 0.0], xyaxes=[1, 0, 0, 0, 0, 1])
     return spec, disc
+
+
+def _add_node_sensors(spec, disc: RodDiscretization, o: RodOptions) -> None:
+    # the centreline points: every piece's frame origin (its end toward s = 0), and a site at the tip;
+    # sensors read kinematics MuJoCo computes anyway, and change nothing in the dynamics
+    n = o.segments
+    tip = spec.body(f"piece{n}").add_site(name=f"{NODE_SENSOR}{n + 1}", pos=[float(disc.piece_length[n]), 0, 0],
+                                          size=[1e-5, 0, 0], group=5)
+    for i in range(n + 2):
+        obj = (mujoco.mjtObj.mjOBJ_XBODY, f"piece{i}") if i <= n else (mujoco.mjtObj.mjOBJ_SITE, tip.name)
+        sensor = spec.add_sensor(name=f"{NODE_SENSOR}{i}", type=mujoco.mjtSensor.mjSENS_FRAMEPOS,
+                                 objtype=obj[0], objname=obj[1])
+        sensor.nsample = CONTACT_HISTORY
 
 
 def rod_tree(disc: RodDiscretization, options: RodOptions) -> dict:
