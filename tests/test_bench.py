@@ -42,7 +42,7 @@ def test_env_bench_short(capsys):
 
     assert env_bench.main(["--steps", "10"]) in (0, None)
     out = capsys.readouterr().out
-    for env_id in ("MagSoftCrawl-v0", "MagSoftShape-v0"):
+    for env_id in ("MagSoftCrawl-v1", "MagSoftShape-v0"):
         (row,) = [line for line in out.splitlines() if line.strip().startswith(env_id)]
         assert row.rstrip().endswith(tuple("0123456789"))  # the real-time factor closes the row
     assert "sync:" in out and "async:" in out

@@ -61,8 +61,8 @@ CASES = [
     ("crosscheck", ["fig3a_L2O", "--segments", "8"], "{never}", "fig3a_L20"),
     ("design", ["--target", "bal"], "{never}", "Did you mean 'ball'"),
     ("video", ["--preset", "paper-5x"], "{never}/x.gif", "Did you mean 'paper-5c'"),
-    ("video", ["--env", "MagSoftCrawl-v1"], "{never}/x.mp4", "Did you mean 'MagSoftCrawl-v0'"),
-    ("video", ["--env", "MagSoftCrawl-v0", "--policy", "missing.zip"], "{never}/x.gif", "--policy must be an existing"),
+    ("video", ["--env", "MagSoftCrawl-v9"], "{never}/x.mp4", "Did you mean 'MagSoftCrawl-v1'"),
+    ("video", ["--env", "MagSoftCrawl-v1", "--policy", "missing.zip"], "{never}/x.gif", "--policy must be an existing"),
     # output paths that cannot be written
     ("video", ["--preset", "paper-5a"], "{never}/x.avi", "--out must end in one of"),
     ("video", ["--preset", "paper-5a"], "{tmp}/folder.mp4", "which is a folder"),
@@ -115,13 +115,13 @@ def test_user_errors_exit_2_with_one_line_and_no_traceback(tmp_path, capsys, com
 
 def test_the_real_command_fails_well(tmp_path):
     """``python -m magsoft_env.cli``: exit status 2, the message on the real stderr, no traceback."""
-    r = subprocess.run([sys.executable, "-m", "magsoft_env.cli", "video", "--env", "MagSoftCrawl-v1", "--out",
+    r = subprocess.run([sys.executable, "-m", "magsoft_env.cli", "video", "--env", "MagSoftCrawl-v9", "--out",
                         str(tmp_path / "x.mp4")], capture_output=True, text=True, timeout=120)
     assert r.returncode == 2, r
     assert r.stdout == "" and "Traceback" not in r.stderr
     (line,) = r.stderr.strip().splitlines()
     assert line.startswith("magsoft video: error: --env must be a registered magsoft environment id (")
-    assert line.endswith("got 'MagSoftCrawl-v1'. Did you mean 'MagSoftCrawl-v0'?")
+    assert line.endswith("got 'MagSoftCrawl-v9'. Did you mean 'MagSoftCrawl-v1'?")
 
 
 def test_unknown_flag_suggests_the_closest_one(capsys):

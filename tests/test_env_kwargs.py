@@ -9,10 +9,10 @@ import magsoft_env  # noqa: F401  (registers the ids)
 @pytest.mark.parametrize(
     "env_id, kwargs, hint",
     [
-        ("MagSoftCrawl-v0", {"fieldlimit": 0.004}, "field_limit"),
-        ("MagSoftCrawlWaveform-v0", {"sim_dtt": 1e-4}, "sim_dt"),
-        ("MagSoftChannel-v0", {"channel_gap": 0.0}, "entrance_gap"),
-        ("MagSoftObstacle-v0", {"obstacle_gapp": 1e-3}, "obstacle_gap"),
+        ("MagSoftCrawl-v1", {"fieldlimit": 0.004}, "field_limit"),
+        ("MagSoftCrawlWaveform-v1", {"sim_dtt": 1e-4}, "sim_dt"),
+        ("MagSoftChannel-v1", {"channel_gap": 0.0}, "entrance_gap"),
+        ("MagSoftObstacle-v1", {"obstacle_gapp": 1e-3}, "obstacle_gap"),
         ("MagSoftShape-v0", {"ctrldt": 0.1}, "ctrl_dt"),
     ],
 )

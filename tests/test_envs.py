@@ -28,7 +28,7 @@ def make(env_id, **kw):
 def test_import_does_not_load_mujoco_torch_or_gl():
     code = (
         "import sys, magsoft_env, gymnasium\n"
-        "assert 'MagSoftCrawl-v0' in gymnasium.registry\n"
+        "assert 'MagSoftCrawl-v1' in gymnasium.registry\n"
         "bad = [m for m in ('mujoco', 'torch', 'stable_baselines3', 'OpenGL') if m in sys.modules]\n"
         "print(bad)\n"
     )
@@ -93,7 +93,7 @@ def test_observations_finite_and_reward_terms_add_up(env_id):
 
 
 def test_different_seeds_give_different_starts():
-    env = make("MagSoftCrawl-v0")
+    env = make("MagSoftCrawl-v1")
     a, _ = env.reset(seed=1)
     b, _ = env.reset(seed=2)
     assert not np.array_equal(a, b)
@@ -115,7 +115,7 @@ def test_forced_instability_truncates_with_reason(env_id):
 
 
 def test_crawl_limit_terminates_with_penalty_and_no_forward_reward():
-    env = make("MagSoftCrawl-v0", field_limit=0.02, max_clearance=None)  # the rotation limit alone
+    env = make("MagSoftCrawl-v1", field_limit=0.02, max_clearance=None)  # the rotation limit alone
     env.reset(seed=0)
     for _ in range(50):  # full field along z flips the beam
         obs, r, term, trunc, info = env.step(np.array([0.0, 1.0], dtype=np.float32))
@@ -128,7 +128,7 @@ def test_crawl_limit_terminates_with_penalty_and_no_forward_reward():
 
 
 def test_crawl_violation_forfeits_the_episode_forward_reward():
-    env = make("MagSoftCrawl-v0", field_limit=0.02)
+    env = make("MagSoftCrawl-v1", field_limit=0.02)
     env.reset(seed=0)
     earned, total = 0.0, 0.0
     for _ in range(50):
@@ -143,7 +143,7 @@ def test_crawl_violation_forfeits_the_episode_forward_reward():
 
 
 def test_height_mode_and_slew_rate_limit():
-    env = make("MagSoftCrawl-v0", crawl_mode="height", slew_rate=0.05)  # 50 mT/s: 1 mT per 20 ms step
+    env = make("MagSoftCrawl-v1", crawl_mode="height", slew_rate=0.05)  # 50 mT/s: 1 mT per 20 ms step
     env.reset(seed=0)
     _, _, _, _, info = env.step(np.array([1.0, -1.0], dtype=np.float32))
     np.testing.assert_allclose(info["field"], [1e-3, -1e-3], rtol=1e-9)
@@ -152,7 +152,7 @@ def test_height_mode_and_slew_rate_limit():
 
 
 def test_waveform_action_mapping_round_trip():
-    env = make("MagSoftCrawlWaveform-v0").unwrapped
+    env = make("MagSoftCrawlWaveform-v1").unwrapped
     a = np.array([0.3, -0.5, 0.25, 0.1], dtype=np.float32)
     w = env.waveparams_of_action(a)
     assert w.amplitude_x == pytest.approx(0.3 * env.field_limit)
@@ -161,7 +161,7 @@ def test_waveform_action_mapping_round_trip():
 
 
 def test_waveform_step_lasts_one_period():
-    env = make("MagSoftCrawlWaveform-v0")
+    env = make("MagSoftCrawlWaveform-v1")
     env.reset(seed=0)
     a = np.array([0.0, 0.05, 0.0, 1.0], dtype=np.float32)  # f = 4 Hz
     _, _, _, _, info = env.step(a)
@@ -180,7 +180,7 @@ def test_shape_target_option_and_success_flag():
 
 @pytest.mark.parametrize("mode", ["sync", "async"])
 def test_vector_envs(mode):
-    envs = gym.make_vec("MagSoftCrawl-v0", num_envs=2, vectorization_mode=mode, **FAST)
+    envs = gym.make_vec("MagSoftCrawl-v1", num_envs=2, vectorization_mode=mode, **FAST)
     obs, _ = envs.reset(seed=[0, 1])
     assert obs.shape == (2, envs.single_observation_space.shape[0])
     for _ in range(3):
@@ -211,7 +211,7 @@ def test_bad_arguments_raise_value_errors(kwargs, match):
 
 
 def test_open_loop_action_follows_the_gait():
-    env = make("MagSoftCrawl-v0", robot="paper-5c").unwrapped
+    env = make("MagSoftCrawl-v1", robot="paper-5c").unwrapped
     wave = env.gait.wave
     t = 0.13
     b = wave.sample([t + 0.01])[0]
@@ -228,7 +228,7 @@ def test_shape_open_loop_target_field_reaches_the_target():
     assert info["position_error"] < 0.05 * env.unwrapped.beam.length
 
 
-@pytest.mark.parametrize("env_id, past", [("MagSoftChannel-v0", "exit_x"), ("MagSoftObstacle-v0", "clear_x")])
+@pytest.mark.parametrize("env_id, past", [("MagSoftChannel-v1", "exit_x"), ("MagSoftObstacle-v1", "clear_x")])
 def test_feature_envs_reach_success_past_the_feature(env_id, past):
     # the success condition, exercised: a beam set down beyond the box's far end (the block's
     # right face) ends the episode with the success reward; one 0.5 mm short of it is not a
@@ -259,8 +259,8 @@ def test_floor_envs_run_each_robots_own_numerics_unless_told():
     from magsoft_env.cases.gaits import FIDELITY
     from magsoft_env.sim.gait import gait_rod_options
 
-    for env_id, own in (("MagSoftCrawl-v0", (20, 2e-4)), ("MagSoftChannel-v0", (80, 1e-4)),
-                        ("MagSoftObstacle-v0", (80, 2.5e-5))):
+    for env_id, own in (("MagSoftCrawl-v1", (20, 2e-4)), ("MagSoftChannel-v1", (80, 1e-4)),
+                        ("MagSoftObstacle-v1", (80, 2.5e-5))):
         u = gym.make(env_id).unwrapped
         assert (u.segments, u.sim_dt) == own and u.fidelity is None
         assert u.observation_space.shape == (2 * own[0] + 8,)
@@ -268,32 +268,32 @@ def test_floor_envs_run_each_robots_own_numerics_unless_told():
         o = gait_rod_options(u.gait, scene=u._scene, feature_x=u.sim.options.feature_x)
         assert u.sim.options == o
     for level, (n, dt) in FIDELITY.items():
-        u = gym.make("MagSoftObstacle-v0", fidelity=level).unwrapped
+        u = gym.make("MagSoftObstacle-v1", fidelity=level).unwrapped
         assert (u.segments, u.sim_dt, u.sim.options.timestep, u.fidelity) == (n, dt, dt, level)
     # a robot's numerics for the scene: paper-5c under the channel's ceiling
-    u = gym.make("MagSoftChannel-v0", robot="paper-5c").unwrapped
+    u = gym.make("MagSoftChannel-v1", robot="paper-5c").unwrapped
     assert (u.segments, u.sim_dt) == (40, 1e-4)
-    assert (gym.make("MagSoftCrawl-v0").unwrapped.segments, gym.make("MagSoftObstacle-v0", robot="paper-5c")
+    assert (gym.make("MagSoftCrawl-v1").unwrapped.segments, gym.make("MagSoftObstacle-v1", robot="paper-5c")
             .unwrapped.segments) == (20, 20)
-    u = gym.make("MagSoftChannel-v0", segments=10, sim_dt=5e-4).unwrapped
+    u = gym.make("MagSoftChannel-v1", segments=10, sim_dt=5e-4).unwrapped
     assert (u.segments, u.sim_dt) == (10, 5e-4)
     with pytest.raises(ValueError, match="not both"):
-        gym.make("MagSoftCrawl-v0", fidelity="fast", sim_dt=1e-4)
+        gym.make("MagSoftCrawl-v1", fidelity="fast", sim_dt=1e-4)
     with pytest.raises(ValueError, match="fidelity must be one of"):
-        gym.make("MagSoftCrawl-v0", fidelity="quick")
+        gym.make("MagSoftCrawl-v1", fidelity="quick")
 
 
 def test_a_jump_is_not_a_crawl():
-    env = make("MagSoftCrawl-v0", max_clearance=2e-3).unwrapped
+    env = make("MagSoftCrawl-v1", max_clearance=2e-3).unwrapped
     env.reset(seed=0)
     assert env._crawl_violation(env._substep_limits()) == ""  # resting on the floor
     env.sim.data.qpos[1] += 3e-3  # the whole beam 3 mm up (base_z): more than the 2 mm clearance limit
     mujoco.mj_forward(env.sim.model, env.sim.data)
     assert "the lowest point is 2.989 mm above the floor > 2.000 mm" in env._crawl_violation(env._substep_limits())
-    assert make("MagSoftCrawl-v0", max_clearance=None).unwrapped.max_clearance is None
-    assert make("MagSoftObstacle-v0").unwrapped.max_clearance is None  # on the block the beam is above the floor
+    assert make("MagSoftCrawl-v1", max_clearance=None).unwrapped.max_clearance is None
+    assert make("MagSoftObstacle-v1").unwrapped.max_clearance is None  # on the block the beam is above the floor
     with pytest.raises(ValueError, match="max_clearance must be > 0"):
-        make("MagSoftCrawl-v0", max_clearance=0.0)
+        make("MagSoftCrawl-v1", max_clearance=0.0)
 
 
 #: At 4 mT: B_z down, B_x right, then B_z up throws the whole beam 2.7 mm off the floor in the middle of the
@@ -302,7 +302,7 @@ HOP_ACTIONS = [(0.0, -1.0), (1.0, 0.0), (0.0, 1.0)]
 
 
 def _hop_env(**kw):
-    return gym.make("MagSoftCrawl-v0", field_limit=0.004, **kw)
+    return gym.make("MagSoftCrawl-v1", field_limit=0.004, **kw)
 
 
 def test_a_hop_within_a_control_step_ends_the_episode():
@@ -360,7 +360,7 @@ def test_substep_clearance_and_airborne_fraction_are_the_states_own():
 
 
 def test_the_paper_gait_never_leaves_the_floor():
-    env = gym.make("MagSoftCrawl-v0")  # paper-5c at its own numerics, the default crawl limits
+    env = gym.make("MagSoftCrawl-v1")  # paper-5c at its own numerics, the default crawl limits
     base = env.unwrapped
     env.reset(seed=0)
     for k in range(250):
@@ -368,3 +368,14 @@ def test_the_paper_gait_never_leaves_the_floor():
         assert not terminated
     assert truncated and info["airborne_fraction"] == 0.0
     assert info["highest_clearance"] < 0.1 * AIRBORNE_TOLERANCE
+
+
+@pytest.mark.parametrize("name", ["MagSoftCrawl", "MagSoftCrawlWaveform", "MagSoftChannel", "MagSoftObstacle"])
+def test_the_floor_ids_v0_are_removed_with_an_error_naming_v1(name):
+    # v1 changed what their episodes reward (crawl limits at every substep; the channel and obstacle observe
+    # 168 numbers, v0 48): a policy trained on v0 must not run on v1 silently
+    assert f"{name}-v1" in gym.registry and f"{name}-v0" not in gym.registry
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        with pytest.raises(gym.error.DeprecatedEnv, match=f"Please use `{name}-v1`"):
+            gym.make(f"{name}-v0")

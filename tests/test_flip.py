@@ -89,7 +89,7 @@ def test_gait_cli_reports_the_tumble(capsys):
 
 def test_crawl_env_info_carries_orientation_and_flipped():
     wave = _scaled(FLIP_SCALE).wave
-    env = gym.make("MagSoftCrawl-v0", crawl_mode="none", field_limit=3e-3)
+    env = gym.make("MagSoftCrawl-v1", crawl_mode="none", field_limit=3e-3)
     base = env.unwrapped
     _, info = env.reset(seed=0)
     assert info["flipped"] is False and abs(info["orientation"]) < 0.01

@@ -104,7 +104,7 @@ env = gym.make("MagSoftShape-v0", render_mode="rgb_array", segments=6, width=64,
 env.reset(seed=0)
 env.step(np.array([0.2, 0.5], np.float32))
 img = env.render()
-env2 = gym.make("MagSoftCrawl-v0", render_mode="rgb_array", segments=6, width=64, height=48)
+env2 = gym.make("MagSoftCrawl-v1", render_mode="rgb_array", segments=6, width=64, height=48)
 env2.reset(seed=0)
 img2 = env2.render()
 print(json.dumps({"n": len(frames), "mp4": len(mp4), "shape": list(mp4[0].shape), "gif": len(gif),
@@ -156,7 +156,7 @@ def test_video_cli_rejects_bad_input_before_any_work(capsys):
 
     assert main(["video", "--preset", "paper-5a", "--out", "x.avi"]) == 2
     assert "--out must end in one of" in capsys.readouterr().err
-    assert main(["video", "--env", "MagSoftCrawl-v0", "--seconds", "0", "--out", "x.gif"]) == 2
+    assert main(["video", "--env", "MagSoftCrawl-v1", "--seconds", "0", "--out", "x.gif"]) == 2
     assert "--seconds must be > 0" in capsys.readouterr().err
 
 

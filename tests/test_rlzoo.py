@@ -13,7 +13,7 @@ import pytest
 pytest.importorskip("rl_zoo3")
 
 ROOT = Path(__file__).resolve().parents[1]
-FLOOR_ENVS = ["MagSoftCrawl-v0", "MagSoftCrawlWaveform-v0", "MagSoftChannel-v0", "MagSoftObstacle-v0"]
+FLOOR_ENVS = ["MagSoftCrawl-v1", "MagSoftCrawlWaveform-v1", "MagSoftChannel-v1", "MagSoftObstacle-v1"]
 
 
 @pytest.mark.slow
@@ -48,14 +48,14 @@ def test_rl_zoo_trains_every_floor_env_from_the_shipped_file(tmp_path, env_id):
 
 @pytest.mark.slow
 def test_train_then_evaluate_against_the_open_loop_gaits(tmp_path):
-    cmd = [sys.executable, str(ROOT / "train" / "train.py"), "--env", "MagSoftCrawl-v0", "--runs", str(tmp_path),
+    cmd = [sys.executable, str(ROOT / "train" / "train.py"), "--env", "MagSoftCrawl-v1", "--runs", str(tmp_path),
            "--run-id", "t", "--timesteps", "128", "--set", "n_steps=64", "batch_size=32", "n_epochs=2",
            "--env-kwarg", "segments=6", "--eval-freq", "64", "--eval-episodes", "1", "--max-minutes", "5"]
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=300, cwd=tmp_path)
     assert r.returncode == 0, r.stderr[-3000:]
     run = tmp_path / "t"
     summary = json.loads((run / "evaluation.json").read_text())
-    assert summary["env_id"] == "MagSoftCrawl-v0" and summary["env_kwargs"]["segments"] == 6
+    assert summary["env_id"] == "MagSoftCrawl-v1" and summary["env_kwargs"]["segments"] == 6
     assert summary["model_timesteps"] == 128 and summary["curve"]["eval_timesteps"] == [64, 128]
     assert [g["name"] for g in summary["open_loop"]] == ["open-loop paper-5c", "open-loop paper-5c --reverse"]
     assert summary["policy"]["episode_s"] > 0 and summary["train_wall_s"] > 0
@@ -72,4 +72,4 @@ def test_train_then_evaluate_against_the_open_loop_gaits(tmp_path):
     cont = [*cmd[:7], "t2", "--continue-from", str(run), *cmd[8:], "--no-eval"]
     r = subprocess.run(cont, capture_output=True, text=True, timeout=300, cwd=tmp_path)
     assert r.returncode == 0, r.stderr[-3000:]
-    assert "Loading pretrained agent" in r.stdout and (tmp_path / "t2" / "ppo" / "MagSoftCrawl-v0_1").is_dir()
+    assert "Loading pretrained agent" in r.stdout and (tmp_path / "t2" / "ppo" / "MagSoftCrawl-v1_1").is_dir()

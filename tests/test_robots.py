@@ -186,11 +186,11 @@ def test_bad_robot_sources():
 def test_a_robot_file_runs_in_every_floor_env_and_the_cli(tmp_path):
     beam = dict(_beams())["polyline"]
     path = Robot("mine", beam, drive=Waveparams(0.0, 1.5e-3, 2.0), segments=10).save(tmp_path / "mine.yml")
-    for env_id in ("MagSoftCrawl-v0", "MagSoftChannel-v0", "MagSoftObstacle-v0"):
+    for env_id in ("MagSoftCrawl-v1", "MagSoftChannel-v1", "MagSoftObstacle-v1"):
         env = gym.make(env_id, robot=str(path), segments=10)
         assert env.unwrapped.gait.beam == beam
         env.close()
-    env = gym.make("MagSoftCrawl-v0", robot=path, segments=10)
+    env = gym.make("MagSoftCrawl-v1", robot=path, segments=10)
     check_env(env.unwrapped, skip_render_check=True)
     shape = gym.make("MagSoftShape-v0", robot=str(path), segments=10)
     assert shape.unwrapped.beam == beam
@@ -219,7 +219,7 @@ def test_a_statics_preset_may_name_a_robot(tmp_path):
 def test_random_actions_at_the_registered_coil_limit_crawl_for_50_steps_or_more_when_hops_are_allowed():
     # 2 mT keeps random actions from tumbling the beam; they do lift it off the floor within a few steps (the
     # default crawl limit), so the episode lengths are measured with hops of up to 2 mm allowed
-    env = gym.make("MagSoftCrawl-v0", max_clearance=2e-3)
+    env = gym.make("MagSoftCrawl-v1", max_clearance=2e-3)
     env.action_space.seed(0)
     lengths = []
     for ep in range(4):

@@ -150,24 +150,24 @@ def test_equilibrium_arguments_are_checked(beam):
 )
 def test_crawl_env_arguments_are_checked(kwargs, match):
     with pytest.raises(ValueError, match=match):
-        _make("MagSoftCrawl-v0", **kwargs)
+        _make("MagSoftCrawl-v1", **kwargs)
 
 
 def test_waveform_env_period_must_hold_whole_steps():
     with pytest.raises(ValueError, match="shortest period"):
-        _make("MagSoftCrawlWaveform-v0", sim_dt=0.05, frequency_range=(0.5, 40.0))
+        _make("MagSoftCrawlWaveform-v1", sim_dt=0.05, frequency_range=(0.5, 40.0))
 
 
 @pytest.mark.parametrize(
     "env_id, kwargs, match",
     [
-        ("MagSoftChannel-v0", {"entrance_gap": -3e-3}, "entrance_gap must lie in"),
-        ("MagSoftChannel-v0", {"entrance_gap": 2.0}, "entrance_gap must lie in"),
-        ("MagSoftChannel-v0", {"entrance_gap": "2e-3"}, "entrance_gap"),
-        ("MagSoftObstacle-v0", {"obstacle_gap": -2e-3}, "obstacle_gap must lie in"),
-        ("MagSoftObstacle-v0", {"obstacle_gap": 0.2e-3}, r"obstacle_gap must lie in .*h/2"),
-        ("MagSoftObstacle-v0", {"obstacle_gap": math.nan}, "obstacle_gap"),
-        ("MagSoftChannel-v0", {"robot": "paper-5z"}, "robot"),
+        ("MagSoftChannel-v1", {"entrance_gap": -3e-3}, "entrance_gap must lie in"),
+        ("MagSoftChannel-v1", {"entrance_gap": 2.0}, "entrance_gap must lie in"),
+        ("MagSoftChannel-v1", {"entrance_gap": "2e-3"}, "entrance_gap"),
+        ("MagSoftObstacle-v1", {"obstacle_gap": -2e-3}, "obstacle_gap must lie in"),
+        ("MagSoftObstacle-v1", {"obstacle_gap": 0.2e-3}, r"obstacle_gap must lie in .*h/2"),
+        ("MagSoftObstacle-v1", {"obstacle_gap": math.nan}, "obstacle_gap"),
+        ("MagSoftChannel-v1", {"robot": "paper-5z"}, "robot"),
     ],
 )
 def test_feature_gaps_must_keep_the_feature_off_the_resting_beam(env_id, kwargs, match):
@@ -176,7 +176,7 @@ def test_feature_gaps_must_keep_the_feature_off_the_resting_beam(env_id, kwargs,
 
 
 def test_obstacle_gap_of_half_the_thickness_starts_clear():
-    env = _make("MagSoftObstacle-v0", obstacle_gap=0.5 * H + 1e-6)
+    env = _make("MagSoftObstacle-v1", obstacle_gap=0.5 * H + 1e-6)
     _, info = env.reset(seed=0)
     assert env.unwrapped.sim.initial_overlap == 0.0 and info["max_penetration"] == 0.0
     env.close()
@@ -209,9 +209,9 @@ def test_shape_env_arguments_are_checked(kwargs, match):
         (lambda b: Simulator(b, RodOptions(timestep=1e-30)).settle(), r"RodOptions.timestep must lie in \[1e-06"),
         (lambda b: Simulator(b).run(Sine((0.0, 1e-3), 1.0), 1e30), "duration / timestep"),
         (lambda b: Simulator(b, RodOptions(scene="floor")).run((0.0, 0.0), 1e300), "duration"),
-        (lambda b: _make("MagSoftCrawl-v0", sim_dt=1e-30), r"ctrl_dt / sim_dt"),
-        (lambda b: _make("MagSoftCrawl-v0", ctrl_dt=1e30), r"ctrl_dt / sim_dt"),
-        (lambda b: _make("MagSoftCrawlWaveform-v0", frequency_range=(1e-30, 1.0)), "f_min"),
+        (lambda b: _make("MagSoftCrawl-v1", sim_dt=1e-30), r"ctrl_dt / sim_dt"),
+        (lambda b: _make("MagSoftCrawl-v1", ctrl_dt=1e30), r"ctrl_dt / sim_dt"),
+        (lambda b: _make("MagSoftCrawlWaveform-v1", frequency_range=(1e-30, 1.0)), "f_min"),
         (lambda b: _make("MagSoftShape-v0", ctrl_dt=1e30), r"ctrl_dt / sim_dt"),
         (lambda b: _make("MagSoftShape-v0", sim_dt=1e-30), r"ctrl_dt / sim_dt"),
         (lambda b: run_gait(gait_preset("paper-5c"), seconds=1e30), "seconds / timestep"),
@@ -274,7 +274,7 @@ def test_energy_no_field_supplied_is_a_launch(beam):
 
 
 def test_unphysical_run_truncates_the_env_with_reason_and_figures():
-    env = _make("MagSoftCrawl-v0", field_limit=0.1, sim_dt=1e-3)
+    env = _make("MagSoftCrawl-v1", field_limit=0.1, sim_dt=1e-3)
     env.reset(seed=0)
     obs, r, term, trunc, info = env.step(np.array([0.0, 1.0], dtype=np.float32))  # 100 mT at 1 ms: 2.3 h
     assert trunc and not term and r == 0.0

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib
 import importlib.util
 import json
 from pathlib import Path
@@ -29,9 +30,9 @@ def test_hyperparams_env_block_else_default_with_merge_keys(tmp_path):
     f.write_text(
         "default: &d\n  n_timesteps: 100\n  policy: MlpPolicy\n  n_envs: 2\n  learning_rate: 0.001\n"
         "  n_steps: 8\n  env_kwargs: {segments: 10}\n"
-        "MagSoftCrawl-v0:\n  <<: *d\n  n_steps: 16\n  env_kwargs: {robot: paper-5a}\n"
+        "MagSoftCrawl-v1:\n  <<: *d\n  n_steps: 16\n  env_kwargs: {robot: paper-5a}\n"
     )
-    cfg = load_hyperparams(f, "MagSoftCrawl-v0", "ppo")
+    cfg = load_hyperparams(f, "MagSoftCrawl-v1", "ppo")
     assert cfg == {"n_timesteps": 100, "policy": "MlpPolicy", "n_envs": 2, "learning_rate": 0.001, "n_steps": 16,
                    "env_kwargs": {"robot": "paper-5a"}}  # rl-zoo: one block, merged one level deep
     other = load_hyperparams(f, "MagSoftShape-v0", "ppo")  # registered id without its own block
@@ -55,52 +56,81 @@ def test_shipped_hyperparams_are_what_rl_zoo_reads():
             assert ours["n_timesteps"] >= 1
 
 
+#: Constructor arguments that choose how a task is simulated or shown, not the task itself.
+NUMERICS = {"fidelity", "segments", "sim_dt", "render_mode", "width", "height"}
+
+
+def test_shipped_hyperparams_train_the_registered_task_of_their_id():
+    import inspect
+
+    import gymnasium as gym
+
+    from magsoft_env.envs import ENV_SPECS
+
+    for algo, path in (("ppo", PPO_FILE), ("sac", SAC_FILE)):
+        for env_id in ENV_SPECS:
+            spec = gym.spec(env_id)
+            cls = spec.entry_point.split(":")
+            cls = getattr(importlib.import_module(cls[0]), cls[1])
+            defaults = {}
+            for klass in reversed(cls.__mro__):
+                init = klass.__dict__.get("__init__")
+                if init is not None:
+                    defaults.update({n: p.default for n, p in inspect.signature(init).parameters.items()
+                                     if p.default is not inspect.Parameter.empty})
+            defaults.update(spec.kwargs)
+            for key, value in (load_hyperparams(path, env_id, algo).get("env_kwargs") or {}).items():
+                assert key in NUMERICS or value == defaults.get(key, object()), (
+                    f"{path.name}: {env_id}'s env_kwargs set {key}={value!r}, a task its id registers as "
+                    f"{defaults.get(key)!r}")
+
+
 def test_hyperparams_refuse_yaml_exponent_strings(tmp_path):
     # YAML 1.1 (rl-zoo3's reader) reads 2e-3 (no dot) as a string and would hand the env a string
     f = tmp_path / "h.yml"
     f.write_text("default:\n  n_timesteps: 10\n  policy: MlpPolicy\n  env_kwargs: {field_limit: 2e-3}\n")
     with pytest.raises(ValueError, match=r"field_limit = '2e-3' is a string in YAML 1\.1.*0\.002"):
-        load_hyperparams(f, "MagSoftCrawl-v0", "ppo")
+        load_hyperparams(f, "MagSoftCrawl-v1", "ppo")
 
 
 def test_hyperparams_errors(tmp_path):
-    with pytest.raises(ValueError, match="Did you mean 'MagSoftCrawl-v0'"):
+    with pytest.raises(ValueError, match="Did you mean 'MagSoftCrawl-v1'"):
         load_hyperparams(PPO_FILE, "MagSoftCrawl-v9", "ppo")
     with pytest.raises(ValueError, match="algo must be one of .*got 'ppp'.* Did you mean 'ppo'"):
-        load_hyperparams(PPO_FILE, "MagSoftCrawl-v0", "ppp")
+        load_hyperparams(PPO_FILE, "MagSoftCrawl-v1", "ppp")
     f = tmp_path / "h.yml"
     f.write_text("default:\n  n_timesteps: 10\n  policy: MlpPolicy\n  learnin_rate: 0.001\n")
     with pytest.raises(ValueError, match="unknown PPO hyperparameter 'learnin_rate'. Did you mean 'learning_rate'"):
-        load_hyperparams(f, "MagSoftCrawl-v0", "ppo")
+        load_hyperparams(f, "MagSoftCrawl-v1", "ppo")
     f.write_text("default:\n  n_timesteps: 10\n  policy: MlpPolicy\n  policy_kwargs: {net_ach: [8]}\n")
     with pytest.raises(ValueError, match="policy_kwargs key 'net_ach'. Did you mean 'net_arch'"):
-        load_hyperparams(f, "MagSoftCrawl-v0", "ppo")
+        load_hyperparams(f, "MagSoftCrawl-v1", "ppo")
     f.write_text("default:\n  n_timesteps: 10\n  policy: MlpPolicy\n  env_kwargs: {fieldlimit: 0.004}\n")
     with pytest.raises(ValueError, match="no argument 'fieldlimit'. Did you mean 'field_limit'"):
-        load_hyperparams(f, "MagSoftChannel-v0", "ppo")
+        load_hyperparams(f, "MagSoftChannel-v1", "ppo")
     f.write_text("default:\n  n_timesteps: 0\n  policy: MlpPolicy\n")
     with pytest.raises(ValueError, match="n_timesteps must be a whole number >= 1, got 0"):
-        load_hyperparams(f, "MagSoftCrawl-v0", "ppo")
+        load_hyperparams(f, "MagSoftCrawl-v1", "ppo")
     f.write_text("MagSoftShape-v0:\n  n_timesteps: 10\n")
-    with pytest.raises(ValueError, match="no block for 'MagSoftCrawl-v0' and no 'default' block"):
-        load_hyperparams(f, "MagSoftCrawl-v0", "ppo")
+    with pytest.raises(ValueError, match="no block for 'MagSoftCrawl-v1' and no 'default' block"):
+        load_hyperparams(f, "MagSoftCrawl-v1", "ppo")
 
 
 def test_zoo_argv_gives_the_eval_env_the_files_env_kwargs():
     # rl-zoo3 2.9.2 builds the evaluation env from the command line's env kwargs only
     from magsoft_env.rl import zoo_argv
 
-    argv = zoo_argv("MagSoftCrawl-v0", "h.yml", "runs/x", eval_env_kwargs={"robot": "paper-5c", "segments": 6})
+    argv = zoo_argv("MagSoftCrawl-v1", "h.yml", "runs/x", eval_env_kwargs={"robot": "paper-5c", "segments": 6})
     k = argv.index("--eval-env-kwargs")
     assert argv[k + 1:k + 3] == ["robot:'paper-5c'", "segments:6"]
-    assert "--eval-env-kwargs" not in zoo_argv("MagSoftCrawl-v0", "h.yml", "runs/x")
+    assert "--eval-env-kwargs" not in zoo_argv("MagSoftCrawl-v1", "h.yml", "runs/x")
 
 
 # ---------------------------------------------------------------------------- episodes
 def test_open_loop_gait_in_the_env_matches_its_definition():
     import gymnasium as gym
 
-    env = gym.make("MagSoftCrawl-v0", segments=6, robot="paper-5c")
+    env = gym.make("MagSoftCrawl-v1", segments=6, robot="paper-5c")
     env = gym.wrappers.TimeLimit(env.unwrapped, max_episode_steps=5)
     res = run_episodes(env, open_loop_actor(), episodes=1)
     assert res.episode_seconds == pytest.approx(0.1)
@@ -150,15 +180,15 @@ def _untrained(env_id: str, folder: Path, **env_kwargs) -> Path:
 def test_policy_refused_in_another_env(tmp_path):
     from magsoft_env.rl import load_policy
 
-    path = _untrained("MagSoftCrawl-v0", tmp_path / "crawl", segments=6)
-    policy = load_policy(path, env="MagSoftCrawl-v0")  # made with the run's env_kwargs (6 segments)
-    assert policy.env_id == "MagSoftCrawl-v0" and policy.env_kwargs == {"segments": 6}
+    path = _untrained("MagSoftCrawl-v1", tmp_path / "crawl", segments=6)
+    policy = load_policy(path, env="MagSoftCrawl-v1")  # made with the run's env_kwargs (6 segments)
+    assert policy.env_id == "MagSoftCrawl-v1" and policy.env_kwargs == {"segments": 6}
     action = policy(np.zeros(2 * 7 + 6, dtype=np.float32))
     assert action.shape == (2,) and np.all(np.abs(action) <= 1.0)
-    with pytest.raises(ValueError, match="was trained on MagSoftCrawl-v0, not MagSoftChannel-v0"):
-        load_policy(path, env="MagSoftChannel-v0")
+    with pytest.raises(ValueError, match="was trained on MagSoftCrawl-v1, not MagSoftChannel-v1"):
+        load_policy(path, env="MagSoftChannel-v1")
     with pytest.raises(ValueError, match=r"observation space is Box.*\(20,\).*\(48,\)"):
-        load_policy(path, env="MagSoftCrawl-v0", env_kwargs={})  # 20 segments: another observation
+        load_policy(path, env="MagSoftCrawl-v1", env_kwargs={})  # 20 segments: another observation
     (tmp_path / "bare").mkdir()
     bare = tmp_path / "bare" / "model.zip"  # no run recorded: the spaces are still checked
     path.rename(bare)
@@ -170,7 +200,7 @@ def test_policy_refused_in_another_env(tmp_path):
 def test_train_refuses_an_existing_run_id_before_any_work(tmp_path, capsys):
     (tmp_path / "taken").mkdir()
     (tmp_path / "taken" / "keep.txt").write_text("an earlier run")
-    rc = _script("train").main(["--env", "MagSoftCrawl-v0", "--runs", str(tmp_path), "--run-id", "taken"])
+    rc = _script("train").main(["--env", "MagSoftCrawl-v1", "--runs", str(tmp_path), "--run-id", "taken"])
     assert rc == 2
     err = capsys.readouterr().err
     assert "exists already; a run is never overwritten" in err and "another --run-id" in err
@@ -180,21 +210,21 @@ def test_train_refuses_an_existing_run_id_before_any_work(tmp_path, capsys):
 def test_train_refuses_an_unknown_vec_before_any_work(tmp_path):
     from magsoft_env.rl import load_hyperparams, train
 
-    block = load_hyperparams(ROOT / "train" / "hyperparams.yml", "MagSoftCrawl-v0")
+    block = load_hyperparams(ROOT / "train" / "hyperparams.yml", "MagSoftCrawl-v1")
     with pytest.raises(ValueError, match="vec must be one of threads, dummy, subproc, got 'gpu'"):
-        train(block, "MagSoftCrawl-v0", tmp_path / "r", vec="gpu")
+        train(block, "MagSoftCrawl-v1", tmp_path / "r", vec="gpu")
     assert not (tmp_path / "r").exists()
 
 
 @pytest.mark.parametrize("option, item, message", [
     ("--set", "learnin_rate=1e-3", "unknown PPO hyperparameter 'learnin_rate'. Did you mean 'learning_rate'"),
     ("--set", "n_step=64", "Did you mean 'n_steps'"),
-    ("--env-kwarg", "fieldlimit=0.004", "MagSoftCrawl-v0 has no argument 'fieldlimit'. Did you mean 'field_limit'"),
+    ("--env-kwarg", "fieldlimit=0.004", "MagSoftCrawl-v1 has no argument 'fieldlimit'. Did you mean 'field_limit'"),
     ("--env-kwarg", "field_limit=0.5", "field_limit must be <= 0.1 T"),
     ("--set", "learning_rate", "--set expects KEY=VALUE"),
 ])
 def test_train_misspelt_overrides_get_suggestions(tmp_path, capsys, option, item, message):
-    rc = _script("train").main(["--env", "MagSoftCrawl-v0", "--runs", str(tmp_path), "--run-id", "r", option, item])
+    rc = _script("train").main(["--env", "MagSoftCrawl-v1", "--runs", str(tmp_path), "--run-id", "r", option, item])
     assert rc == 2
     assert message in capsys.readouterr().err
     assert not (tmp_path / "r").exists()
@@ -203,12 +233,12 @@ def test_train_misspelt_overrides_get_suggestions(tmp_path, capsys, option, item
 def test_train_runs_rl_zoo_prints_progress_and_refuses_a_second_run(tmp_path, capsys):
     pytest.importorskip("rl_zoo3")
     train = _script("train")
-    args = ["--env", "MagSoftCrawl-v0", "--runs", str(tmp_path), "--run-id", "t", "--timesteps", "64",
+    args = ["--env", "MagSoftCrawl-v1", "--runs", str(tmp_path), "--run-id", "t", "--timesteps", "64",
             "--set", "n_steps=32", "batch_size=32", "n_epochs=1", "--env-kwarg", "segments=6",
             "--eval-freq", "64", "--eval-episodes", "1", "--no-eval"]
     assert train.main(args) == 0
     out = capsys.readouterr().out
-    assert "python -m rl_zoo3.train --algo ppo --env MagSoftCrawl-v0 --gym-packages magsoft_env" in out
+    assert "python -m rl_zoo3.train --algo ppo --env MagSoftCrawl-v1 --gym-packages magsoft_env" in out
     assert "total_timesteps" in out and "Eval num_timesteps=64" in out  # log tables, evaluation callback
     assert "[envs on threads: ThreadedVecEnv]" in out  # the default --vec threads
     from rl_zoo3.exp_manager import ExperimentManager
@@ -217,17 +247,17 @@ def test_train_runs_rl_zoo_prints_progress_and_refuses_a_second_run(tmp_path, ca
     run = tmp_path / "t"
     assert (run / "zoo_command.txt").read_text().startswith("# stepped by magsoft_env.rl.ThreadedVecEnv")
     assert json.loads((run / "train.json").read_text())["vec"] == "threads"
-    log = run / "ppo" / "MagSoftCrawl-v0_1"
+    log = run / "ppo" / "MagSoftCrawl-v1_1"
     for p in ("hyperparams.yml", "zoo_command.txt", "train.json"):
         assert (run / p).is_file(), p
-    for p in ("MagSoftCrawl-v0.zip", "best_model.zip", "evaluations.npz", "MagSoftCrawl-v0/args.yml",
-              "MagSoftCrawl-v0/config.yml", "MagSoftCrawl-v0/vecnormalize.pkl"):
+    for p in ("MagSoftCrawl-v1.zip", "best_model.zip", "evaluations.npz", "MagSoftCrawl-v1/args.yml",
+              "MagSoftCrawl-v1/config.yml", "MagSoftCrawl-v1/vecnormalize.pkl"):
         assert (log / p).is_file(), p
     from magsoft_env.rl import find_run, learning_curve
 
     rec = find_run(run)
-    assert rec.log_dir == log and rec.env_id == "MagSoftCrawl-v0" and rec.algo == "ppo"
-    assert rec.env_kwargs["segments"] == 6 and rec.env_kwargs["field_limit"] == 0.004  # the file's, and the override
+    assert rec.log_dir == log and rec.env_id == "MagSoftCrawl-v1" and rec.algo == "ppo"
+    assert rec.env_kwargs == {"segments": 6}  # the override (the file trains the registered task: no env_kwargs)
     assert rec.args["eval_env_kwargs"] == rec.env_kwargs  # the evaluation callback played the same env
     curve = learning_curve(rec, tmp_path / "c.png")
     assert curve["eval_timesteps"] == [64] and curve["eval_mean_ep_length"][0] > 0
@@ -242,12 +272,12 @@ def test_policy_of_a_run_before_rl_zoo_loads_and_is_checked(tmp_path):
 
     from magsoft_env.rl import load_policy
 
-    path = _untrained("MagSoftCrawl-v0", tmp_path / "zoo", segments=6)
+    path = _untrained("MagSoftCrawl-v1", tmp_path / "zoo", segments=6)
     (tmp_path / "old").mkdir()
     old = tmp_path / "old" / "model.zip"  # train/train.py's former layout: config.yml with env_id beside
     path.rename(old)
     (tmp_path / "old" / "config.yml").write_text(yaml.safe_dump(
-        {"env_id": "MagSoftCrawl-v0", "algo": "ppo", "env_kwargs": {"segments": 6}}))
-    assert load_policy(old, env="MagSoftCrawl-v0").env_kwargs == {"segments": 6}
-    with pytest.raises(ValueError, match="was trained on MagSoftCrawl-v0, not MagSoftObstacle-v0"):
-        load_policy(old, env="MagSoftObstacle-v0")
+        {"env_id": "MagSoftCrawl-v1", "algo": "ppo", "env_kwargs": {"segments": 6}}))
+    assert load_policy(old, env="MagSoftCrawl-v1").env_kwargs == {"segments": 6}
+    with pytest.raises(ValueError, match="was trained on MagSoftCrawl-v1, not MagSoftObstacle-v1"):
+        load_policy(old, env="MagSoftObstacle-v1")

@@ -45,7 +45,7 @@ def _robot(info: dict, i: int) -> dict:
 def test_every_robot_is_the_single_env_through_episode_ends(num_threads, block):
     # block 3: each robot's 20-substep control step runs as 7 native blocks, interleaved with the others'
     kw = {**FAST, "max_episode_steps": 25}  # time limits as well as tumbles
-    envs = gym.make_vec("MagSoftCrawl-v0", num_envs=3, num_threads=num_threads, block=block, **kw)
+    envs = gym.make_vec("MagSoftCrawl-v1", num_envs=3, num_threads=num_threads, block=block, **kw)
     assert isinstance(envs, MagSoftCrawlVecEnv) and envs.num_threads == num_threads and envs.block == block
     assert envs.envs[0].n_substeps == 20
     assert envs.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
@@ -57,7 +57,7 @@ def test_every_robot_is_the_single_env_through_episode_ends(num_threads, block):
     envs.close()
     ended = 0
     for i in range(3):  # robot i: the single env seeded 11 + i, as SyncVectorEnv seeds
-        want = _single_run("MagSoftCrawl-v0", 11 + i, actions[:, i], **kw)
+        want = _single_run("MagSoftCrawl-v1", 11 + i, actions[:, i], **kw)
         for t, ((obs, info, r, term, trunc), (w_obs, w_info, w_r, w_term, w_trunc)) in enumerate(
                 zip(got, want, strict=True)):
             np.testing.assert_array_equal(obs[i], w_obs, err_msg=f"robot {i}, step {t}")  # bit for bit
@@ -76,19 +76,19 @@ def test_every_robot_is_the_single_env_through_episode_ends(num_threads, block):
 def test_waveform_robots_are_the_single_env_in_rollout_blocks():
     # waveform mode: a whole field period per step, in mujoco.rollout blocks of 100 interleaved on two threads
     kw = {"segments": 4, "sim_dt": 1e-3}
-    envs = gym.make_vec("MagSoftCrawlWaveform-v0", num_envs=2, num_threads=2, **kw)
+    envs = gym.make_vec("MagSoftCrawlWaveform-v1", num_envs=2, num_threads=2, **kw)
     assert envs.block == 100
     actions = np.random.default_rng(5).uniform(-1, 1, (4, 2, 4)).astype(np.float32)
     got = [envs.reset(seed=3)[0]] + [envs.step(a)[0] for a in actions]
     envs.close()
     for i in range(2):
-        want = [w[0] for w in _single_run("MagSoftCrawlWaveform-v0", 3 + i, actions[:, i], **kw)]
+        want = [w[0] for w in _single_run("MagSoftCrawlWaveform-v1", 3 + i, actions[:, i], **kw)]
         for t, (obs, w) in enumerate(zip(got, want, strict=True)):
             np.testing.assert_array_equal(obs[i], w, err_msg=f"robot {i}, step {t}")
 
 
 def test_robots_are_independent():
-    envs = gym.make_vec("MagSoftCrawl-v0", num_envs=3, **FAST)
+    envs = gym.make_vec("MagSoftCrawl-v1", num_envs=3, **FAST)
     obs, _ = envs.reset(seed=[5, 5, 5])
     assert np.array_equal(obs[0], obs[1]) and np.array_equal(obs[1], obs[2])
     a = np.array([[0.0, 0.8], [0.0, 0.8], [0.6, -0.3]], dtype=np.float32)
@@ -101,7 +101,7 @@ def test_robots_are_independent():
 
 
 def test_reset_mask_resets_only_the_chosen_robots():
-    envs = gym.make_vec("MagSoftCrawl-v0", num_envs=2, **FAST)
+    envs = gym.make_vec("MagSoftCrawl-v1", num_envs=2, **FAST)
     obs0, _ = envs.reset(seed=0)
     for _ in range(3):
         moved, *_ = envs.step(np.full((2, 2), 0.5, dtype=np.float32))
@@ -117,13 +117,13 @@ def test_reset_mask_resets_only_the_chosen_robots():
 def test_an_unphysical_robot_truncates_alone_with_the_single_envs_info():
     # 100 mT pressed straight down at 1 ms: the contact penetrates 2.3 h in the first step (docs/envs.md)
     kw = {"segments": 4, "sim_dt": 1e-3, "field_limit": 0.1}
-    envs = gym.make_vec("MagSoftCrawl-v0", num_envs=2, **kw)
+    envs = gym.make_vec("MagSoftCrawl-v1", num_envs=2, **kw)
     envs.reset(seed=0)
     a = np.array([[0.0, -1.0], [0.0, 0.0]], dtype=np.float32)
     obs, r, term, trunc, info = envs.step(a)
     assert trunc.tolist() == [True, False] and not term.any()
     assert info["_unphysical"].tolist() == [True, False]
-    single = gym.make("MagSoftCrawl-v0", **kw)
+    single = gym.make("MagSoftCrawl-v1", **kw)
     single.reset(seed=0)
     w_obs, w_r, _, w_trunc, w_info = single.step(a[0])
     assert w_trunc and info["truncation_reason"][0] == w_info["truncation_reason"]
@@ -141,7 +141,7 @@ def test_mujoco_warnings_reach_the_robot_that_raised_them(block):
     t = np.arange(30)
     wild = np.stack([np.sin(t), np.cos(1.3 * t)], axis=1).astype(np.float32)
     actions = np.stack([wild, np.zeros_like(wild), wild[::-1].copy()], axis=1)
-    envs = gym.make_vec("MagSoftCrawl-v0", num_envs=3, num_threads=2, block=block, **kw)
+    envs = gym.make_vec("MagSoftCrawl-v1", num_envs=3, num_threads=2, block=block, **kw)
     envs.reset(seed=[0, 0, 0])
     reasons = [None, None, None]
     for a in actions:
@@ -150,7 +150,7 @@ def test_mujoco_warnings_reach_the_robot_that_raised_them(block):
             reasons[i] = reasons[i] or info["truncation_reason"][i]
     envs.close()
     for i in range(3):
-        single = gym.make("MagSoftCrawl-v0", **kw)
+        single = gym.make("MagSoftCrawl-v1", **kw)
         single.reset(seed=0)
         want = None
         for a in actions[:, i]:
@@ -163,22 +163,22 @@ def test_mujoco_warnings_reach_the_robot_that_raised_them(block):
 
 
 def test_make_vec_takes_the_single_envs_kwargs():
-    envs = gym.make_vec("MagSoftCrawl-v0", num_envs=2, robot="paper-5a", field_limit=1e-3, segments=4)
+    envs = gym.make_vec("MagSoftCrawl-v1", num_envs=2, robot="paper-5a", field_limit=1e-3, segments=4)
     assert isinstance(envs, MagSoftCrawlVecEnv) and envs.max_episode_steps == 250
     assert envs.get_attr("robot") == ("paper-5a", "paper-5a") and envs.envs[1].field_limit == 1e-3
     assert envs.observation_space.shape == (2, 2 * 4 + 8) and envs.single_action_space.shape == (2,)
-    assert envs.spec.id == "MagSoftCrawl-v0"
+    assert envs.spec.id == "MagSoftCrawl-v1"
     envs.close()
-    same = gym.make_vec("MagSoftCrawl-v0", num_envs=1, vectorization_mode="vector_entry_point", segments=4)
+    same = gym.make_vec("MagSoftCrawl-v1", num_envs=1, vectorization_mode="vector_entry_point", segments=4)
     assert isinstance(same, MagSoftCrawlVecEnv) and same.num_threads == 1
-    wave = gym.make_vec("MagSoftCrawlWaveform-v0", num_envs=2, segments=4)
+    wave = gym.make_vec("MagSoftCrawlWaveform-v1", num_envs=2, segments=4)
     assert wave.envs[0].action_mode == "waveform" and wave.action_space.shape == (2, 4)
     assert wave.max_episode_steps == 20
-    for env_id, cls, single in (("MagSoftChannel-v0", MagSoftChannelVecEnv, MagSoftChannelEnv),
-                                ("MagSoftObstacle-v0", MagSoftObstacleVecEnv, MagSoftObstacleEnv)):
+    for env_id, cls, single in (("MagSoftChannel-v1", MagSoftChannelVecEnv, MagSoftChannelEnv),
+                                ("MagSoftObstacle-v1", MagSoftObstacleVecEnv, MagSoftObstacleEnv)):
         v = gym.make_vec(env_id, num_envs=1, segments=4)
         assert isinstance(v, cls) and type(v.envs[0]) is single and v.max_episode_steps == 1500
-    sync = gym.make_vec("MagSoftCrawl-v0", num_envs=1, vectorization_mode="sync", segments=4)
+    sync = gym.make_vec("MagSoftCrawl-v1", num_envs=1, vectorization_mode="sync", segments=4)
     assert isinstance(sync, gym.vector.SyncVectorEnv)  # Gymnasium's own, on request
 
 
@@ -192,7 +192,7 @@ def test_make_vec_takes_the_single_envs_kwargs():
 ])
 def test_bad_arguments_are_refused(kwargs, match):
     with pytest.raises(ValueError, match=match):
-        gym.make_vec("MagSoftCrawl-v0", num_envs=2, **kwargs)
+        gym.make_vec("MagSoftCrawl-v1", num_envs=2, **kwargs)
 
 
 def test_bad_num_envs_and_actions_are_refused():
@@ -213,7 +213,7 @@ def test_sb3_adapter_autoresets_the_sb3_way_and_ppo_trains():
 
     from magsoft_env.rl import SB3VecAdapter, make_sb3_vec_env
 
-    venv = SB3VecAdapter(gym.make_vec("MagSoftCrawl-v0", num_envs=2, max_episode_steps=4, **FAST))
+    venv = SB3VecAdapter(gym.make_vec("MagSoftCrawl-v1", num_envs=2, max_episode_steps=4, **FAST))
     venv.seed(0)
     obs = venv.reset()
     assert obs.shape == (2, 16)
@@ -229,7 +229,7 @@ def test_sb3_adapter_autoresets_the_sb3_way_and_ppo_trains():
     assert not dones.any() and "terminal_observation" not in infos[0]
     venv.close()
 
-    env = make_sb3_vec_env("MagSoftCrawl-v0", 2, seed=0, **FAST)
+    env = make_sb3_vec_env("MagSoftCrawl-v1", 2, seed=0, **FAST)
     model = PPO("MlpPolicy", env, n_steps=32, batch_size=32, n_epochs=1, seed=0, device="cpu")
     model.learn(total_timesteps=128)
     assert model.num_timesteps == 128 and len(model.ep_info_buffer) > 0  # episodes ended and were logged
@@ -240,7 +240,7 @@ def test_vec_bench_runs_its_rows(capsys):
     # the benchmark's numbers are not checked (timings never are), only that its rows run and print
     from magsoft_env.bench import vec_bench
 
-    assert vec_bench.main(["--env-id", "MagSoftCrawl-v0", "--seconds", "0.05", "--rounds", "2", "--sizes", "1", "2",
+    assert vec_bench.main(["--env-id", "MagSoftCrawl-v1", "--seconds", "0.05", "--rounds", "2", "--sizes", "1", "2",
                            "--only", "single,batched,machine,bound", "--bound-steps", "3"]) == 0
     out = capsys.readouterr().out
     assert "single env, robots in turn (baseline)" in out and out.count("| batched |") == 1
@@ -256,8 +256,8 @@ def test_vec_bench_baseline_runs_the_batched_envs_trajectories():
     # the fixed-work comparison holds only if the baseline's robots are the batched env's, step for step
     from magsoft_env.bench.vec_bench import _Single, _Vector
 
-    single = _Single("MagSoftCrawl-v0", 3, **FAST)
-    batched = _Vector("batched", "MagSoftCrawl-v0", 3, **FAST)
+    single = _Single("MagSoftCrawl-v1", 3, **FAST)
+    batched = _Vector("batched", "MagSoftCrawl-v1", 3, **FAST)
     for _ in range(40):  # through episode ends (FAST tumbles within tens of steps)
         single.step()
         batched.step()
@@ -275,8 +275,8 @@ def test_threaded_dummy_vec_env_is_dummy_vec_env_on_threads():
 
     from magsoft_env.rl import ThreadedVecEnv
 
-    threaded = make_vec_env("MagSoftCrawl-v0", n_envs=3, seed=5, vec_env_cls=ThreadedVecEnv, env_kwargs=FAST)
-    dummy = make_vec_env("MagSoftCrawl-v0", n_envs=3, seed=5, vec_env_cls=DummyVecEnv, env_kwargs=FAST)
+    threaded = make_vec_env("MagSoftCrawl-v1", n_envs=3, seed=5, vec_env_cls=ThreadedVecEnv, env_kwargs=FAST)
+    dummy = make_vec_env("MagSoftCrawl-v1", n_envs=3, seed=5, vec_env_cls=DummyVecEnv, env_kwargs=FAST)
     assert threaded.num_threads == min(3, usable_cpus())
     np.testing.assert_array_equal(threaded.reset(), dummy.reset())
     rng = np.random.default_rng(0)
@@ -299,4 +299,4 @@ def test_threaded_dummy_vec_env_is_dummy_vec_env_on_threads():
     threaded.close()
     dummy.close()
     with pytest.raises(ValueError, match="num_threads must be an integer >= 1"):
-        ThreadedVecEnv([lambda: gym.make("MagSoftCrawl-v0", **FAST)], num_threads=0)
+        ThreadedVecEnv([lambda: gym.make("MagSoftCrawl-v1", **FAST)], num_threads=0)

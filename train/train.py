@@ -1,6 +1,6 @@
 """Train a magsoft_env environment with rl-zoo3 into runs/<run-id>/ (never overwriting a run), then evaluate.
 
-    python train/train.py --env MagSoftCrawl-v0 [--algo ppo] [--timesteps N] [--run-id ID] [--set k=v] [--env-kwarg k=v]
+    python train/train.py --env MagSoftCrawl-v1 [--algo ppo] [--timesteps N] [--run-id ID] [--set k=v] [--env-kwarg k=v]
 
 The same as ``python -m rl_zoo3.train --algo ALGO --env ID --gym-packages magsoft_env -conf
 train/hyperparams.yml`` (printed, and kept in zoo_command.txt), plus: the run folder is refused if it
@@ -42,7 +42,7 @@ def main(argv=None) -> int:
     from magsoft_env.rl.training import VEC_CHOICES
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--env", required=True, help="environment id, e.g. MagSoftCrawl-v0")
+    p.add_argument("--env", required=True, help="environment id, e.g. MagSoftCrawl-v1")
     p.add_argument("--algo", default="ppo", choices=sorted(CONF))
     p.add_argument("--hyperparams", type=Path, default=None,
                    help="rl-zoo hyperparameter file (default: train/hyperparams.yml for ppo, hyperparams_sac.yml)")

@@ -6,7 +6,7 @@
 1. design a magnetization profile that bends a 5 x 1.13 mm strip into the built-in "ball" contour
    (``design_profile``), 2. save the designed beam as a robot file with a drive (``Robot.save``),
 3. check the design in MuJoCo (``mujoco_check``), 4. run the robot's open-loop gait on the floor
-(``run_gait``), 5. train PPO (Stable-Baselines3 defaults) on ``MagSoftCrawl-v0`` with this robot, and
+(``run_gait``), 5. train PPO (Stable-Baselines3 defaults) on ``MagSoftCrawl-v1`` with this robot, and
 6. render the trained policy to an MP4 with the side panel. Every step prints what it measured.
 """
 
@@ -64,7 +64,7 @@ def main(argv=None) -> int:
           f"speed {gait.speed * 1e3:+.3f} mm/s ({gait.direction}); whole periods: {gait.whole_periods}")
 
     # 5. PPO with Stable-Baselines3's defaults on the floor env with this robot
-    env = gym.make("MagSoftCrawl-v0", robot=str(path))
+    env = gym.make("MagSoftCrawl-v1", robot=str(path))
     model = PPO("MlpPolicy", env, seed=0, verbose=0, n_steps=min(2048, max(64, args.timesteps)))
     model.learn(total_timesteps=args.timesteps, progress_bar=False)
     model.save(args.out / "ppo_ball_crawler.zip")
@@ -74,7 +74,7 @@ def main(argv=None) -> int:
     def policy(obs):
         return model.predict(obs, deterministic=True)[0]
 
-    _, video = render_policy("MagSoftCrawl-v0", policy, args.seconds, args.out / "ball_crawler.mp4",
+    _, video = render_policy("MagSoftCrawl-v1", policy, args.seconds, args.out / "ball_crawler.mp4",
                              env_kwargs={"robot": str(path)}, panel=True)
     print(f"6. video {video['path']}: {video['steps']} steps, policy moved the robot "
           f"{video['x_displacement_mm']:+.3f} mm")

@@ -88,8 +88,8 @@ SENSITIVITY_NUMERICS = {"paper-5a": (80, 0.05), "paper-5b": (80, 0.025), "paper-
 
 
 #: Where the ``--scene`` runs put each scene's feature (its left edge, m), so that the scene's own robot meets it
-#: from the start: the channel (``MagSoftChannel-v0``'s robot, paper-5a) with the whole beam inside, 8.5 mm from the
-#: entrance; the block (``MagSoftObstacle-v0``'s robot, paper-5b, which crawls left) 1 mm left of the beam's end.
+#: from the start: the channel (``MagSoftChannel-v1``'s robot, paper-5a) with the whole beam inside, 8.5 mm from the
+#: entrance; the block (``MagSoftObstacle-v1``'s robot, paper-5b, which crawls left) 1 mm left of the beam's end.
 SCENES = {"channel": -8.5e-3, "obstacle": -8e-3}
 
 

@@ -105,14 +105,14 @@ def main(argv=None) -> int:
     print("## single environment vs the Simulator it wraps (same model, same field sequence)")
     print(f"{'env':>24} {'N':>3} {'substeps':>8} {'dt ms':>6} {'env st/s':>9} {'Simulator st/s':>15} "
           f"{'raw mj_step st/s':>17} {'overhead':>9} {'RTF':>5}")
-    for env_id in ("MagSoftCrawl-v0", "MagSoftShape-v0"):
+    for env_id in ("MagSoftCrawl-v1", "MagSoftShape-v0"):
         r = bench_single(env_id, args.steps, segments=args.segments)
         print(f"{env_id:>24} {args.segments:>3} {r['substeps']:>8} {r['sim_dt'] * 1e3:>6.2f} "
               f"{r['env_steps_per_s']:>9.1f} {r['sim_steps_per_s']:>15.1f} {r['raw_steps_per_s']:>17.1f} "
               f"{100 * r['overhead_vs_simulator']:>8.1f}% {r['real_time_factor']:>5.2f}")
-    print(f"\n## vectorized MagSoftCrawl-v0, {args.num_envs} envs (total env steps/s)")
+    print(f"\n## vectorized MagSoftCrawl-v1, {args.num_envs} envs (total env steps/s)")
     for mode in ("sync", "async"):
-        sps = bench_vector("MagSoftCrawl-v0", args.steps // 2, mode, args.num_envs, segments=args.segments)
+        sps = bench_vector("MagSoftCrawl-v1", args.steps // 2, mode, args.num_envs, segments=args.segments)
         print(f"{mode:>6}: {sps:8.1f} env steps/s")
     return 0
 

@@ -4,7 +4,7 @@ environment itself at its default numerics, within 5 % of a converged answer?
     python -m magsoft_env.bench.env_defaults [--robots paper-5a,paper-5b,paper-5c] [--fidelity LEVEL]
                                              [--seconds 3] [--json out.json]
 
-For each robot, ``MagSoftCrawl-v0`` (the floor) is built with that robot and nothing else changed except what a
+For each robot, ``MagSoftCrawl-v1`` (the floor) is built with that robot and nothing else changed except what a
 gait measurement needs: ``action_mode="waveform"`` with the robot's own drive as every action (one field period
 per env step, the same sine :func:`~magsoft_env.sim.gait.run_gait` applies), no reset noise, and no crawl limit
 (``crawl_mode="none"``, ``max_clearance=None``: the check measures the gait, not the task). Two criteria:
@@ -41,13 +41,13 @@ ROBOTS = tuple(REFERENCE_SPEED)
 
 
 def env_gait(robot: str, seconds: float, **env_kwargs) -> dict:
-    """The robot's drive played through ``MagSoftCrawl-v0`` for ``seconds``; displacement (mm), speed over the whole
+    """The robot's drive played through ``MagSoftCrawl-v1`` for ``seconds``; displacement (mm), speed over the whole
     periods after the first (mm/s), the numerics the env used, wall time, and whether the run stayed physical."""
     import gymnasium as gym
 
     import magsoft_env  # noqa: F401  (registers the environments)
 
-    env = gym.make("MagSoftCrawl-v0", robot=robot, action_mode="waveform", reset_noise_scale=0.0,
+    env = gym.make("MagSoftCrawl-v1", robot=robot, action_mode="waveform", reset_noise_scale=0.0,
                    crawl_mode="none", max_clearance=None, max_episode_steps=10**6, **env_kwargs)
     base = env.unwrapped
     env.reset(seed=0)
@@ -101,7 +101,7 @@ def main(argv=None) -> int:
     if not (a.seconds >= 1.0 and math.isfinite(a.seconds)):
         raise SystemExit(f"env_defaults: --seconds must be >= 1 (one period to skip, then whole periods), got "
                          f"{a.seconds}.")
-    print(f"MagSoftCrawl-v0 at {'its defaults' if a.fidelity is None else 'fidelity=' + a.fidelity}, each robot's "
+    print(f"MagSoftCrawl-v1 at {'its defaults' if a.fidelity is None else 'fidelity=' + a.fidelity}, each robot's "
           f"drive for {a.seconds:g} s; tolerance {100 * TOLERANCE:g} %", flush=True)
     rows = []
     print("\n| robot | numerics | displacement (mm) | N 80, dt / 4 (mm) | (a) error | speed (mm/s) | reference "

@@ -8,11 +8,11 @@ Every run is :func:`magsoft_env.bench.crawl_convergence.crawl_run`: a paper gait
 contact, capsules, elliptic cone, native magnetics), 3 s, only N and dt changed (plus the scene). The scenes and
 their robots (each scene's environment's own robot where it crawls):
 
-* ``floor`` (``MagSoftCrawl-v0``): paper-5a, paper-5b, paper-5c on the open floor;
-* ``channel`` (``MagSoftChannel-v0``): paper-5c inside the paper's 7.6 mm high box (beam 8.5 mm past the
+* ``floor`` (``MagSoftCrawl-v1``): paper-5a, paper-5b, paper-5c on the open floor;
+* ``channel`` (``MagSoftChannel-v1``): paper-5c inside the paper's 7.6 mm high box (beam 8.5 mm past the
   entrance), whose ceiling its 7.9 mm lift meets every period. The channel env's own robot, paper-5a, does not
   crawl in the box (under 0.05 mm in 3 s at N >= 40): a relative error of nothing is no measure, so it is left out;
-* ``obstacle`` (``MagSoftObstacle-v0``): paper-5b crawling left into the paper's 7 x 5.5 x 2 mm block, 1 mm away.
+* ``obstacle`` (``MagSoftObstacle-v1``): paper-5b crawling left into the paper's 7 x 5.5 x 2 mm block, 1 mm away.
 
 Grid: N = 10, 20, 40, 80 x dt = 0.4, 0.2, 0.1, 0.05, 0.025 ms, plus N = 80 at 0.0125 ms and N = 160 at 0.05 and
 0.025 ms for the reference (paper-5b on the floor also 0.00625 ms at N = 80). The reference and its uncertainty are

@@ -1,6 +1,6 @@
 """Vector-env throughput: the batched floor env against the single env, Gymnasium and SB3 vector envs, the C bound.
 
-    python -m magsoft_env.bench.vec_bench [--env-id MagSoftCrawl-v0] [--seconds 3] [--sizes 1 2 8 32]
+    python -m magsoft_env.bench.vec_bench [--env-id MagSoftCrawl-v1] [--seconds 3] [--sizes 1 2 8 32]
                                           [--only single,batched,sync,async,subproc,bound]
 
 Every row steps its robots with random actions, uniform in [-1, 1]^2 (the default +-2 mT field
@@ -311,7 +311,7 @@ def _load() -> str:
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--env-id", default="MagSoftCrawl-v0")
+    p.add_argument("--env-id", default="MagSoftCrawl-v1")
     p.add_argument("--seconds", type=float, default=3.0,
                    help="wall time of the single env per table column, in --rounds rounds (s, default 3)")
     p.add_argument("--rounds", type=int, default=45, help="interleaved rounds per table column (default 45)")

@@ -30,7 +30,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     )
     src = p.add_mutually_exclusive_group()
     src.add_argument("--preset", help="gait preset (paper-5a, paper-5b, paper-5c)")
-    src.add_argument("--env", help="environment id, e.g. MagSoftCrawl-v0")
+    src.add_argument("--env", help="environment id, e.g. MagSoftCrawl-v1")
     p.add_argument("--robot", default=None,
                    help="robot file (.yml, .yaml, .json) or built-in name: rendered like --preset, or with --env the "
                         "environment's robot")

@@ -2,11 +2,15 @@
 
 Ids (see each class docstring for the spec sheet):
 
-- ``MagSoftCrawl-v0``: free beam on a floor, action = field (B_x, B_z) each 20 ms.
-- ``MagSoftCrawlWaveform-v0``: the same robot, action = one period of a waveform (gait design).
-- ``MagSoftChannel-v0``: crawl through the paper's 42 x 8.5 x 7.6 mm hollow box.
-- ``MagSoftObstacle-v0``: crawl over the paper's 7 x 5.5 x 2 mm block.
+- ``MagSoftCrawl-v1``: free beam on a floor, action = field (B_x, B_z) each 20 ms.
+- ``MagSoftCrawlWaveform-v1``: the same robot, action = one period of a waveform (gait design).
+- ``MagSoftChannel-v1``: crawl through the paper's 42 x 8.5 x 7.6 mm hollow box.
+- ``MagSoftObstacle-v1``: crawl over the paper's 7 x 5.5 x 2 mm block.
 - ``MagSoftShape-v0``: a clamped beam reaches a target tip pose by choosing the field.
+
+The floor ids' v0 (crawl limits checked only at the end of each control step; the channel and obstacle
+observing 48 numbers) are no longer registered: ``gym.make("MagSoftCrawl-v0")`` raises Gymnasium's
+``DeprecatedEnv``, which names the v1 id.
 
 The floor ids (crawl, waveform, channel, obstacle) also have a ``vector_entry_point``:
 ``gym.make_vec(id, num_envs=n)`` returns a :class:`~magsoft_env.envs.vector.MagSoftCrawlVecEnv`, which
@@ -20,18 +24,20 @@ from gymnasium.envs.registration import register, registry
 
 #: id -> (entry point, max_episode_steps, kwargs)
 ENV_SPECS = {
-    "MagSoftCrawl-v0": ("magsoft_env.envs.crawl:MagSoftCrawlEnv", 250, {}),
-    "MagSoftCrawlWaveform-v0": ("magsoft_env.envs.crawl:MagSoftCrawlEnv", 20, {"action_mode": "waveform"}),
-    "MagSoftChannel-v0": ("magsoft_env.envs.channel:MagSoftChannelEnv", 1500, {}),
-    "MagSoftObstacle-v0": ("magsoft_env.envs.obstacle:MagSoftObstacleEnv", 1500, {}),
+    "MagSoftCrawl-v1": ("magsoft_env.envs.crawl:MagSoftCrawlEnv", 250, {}),
+    # 1-4 Hz: one step (a period) lasts at most 1 s of simulated time
+    "MagSoftCrawlWaveform-v1": ("magsoft_env.envs.crawl:MagSoftCrawlEnv", 20,
+                                {"action_mode": "waveform", "frequency_range": (1.0, 4.0)}),
+    "MagSoftChannel-v1": ("magsoft_env.envs.channel:MagSoftChannelEnv", 1500, {}),
+    "MagSoftObstacle-v1": ("magsoft_env.envs.obstacle:MagSoftObstacleEnv", 1500, {}),
     "MagSoftShape-v0": ("magsoft_env.envs.shape:MagSoftShapeEnv", 100, {}),
 }
 #: id -> vector entry point (``gym.make_vec``): the floor envs, batched on threads (envs/vector.py)
 VECTOR_ENTRY_POINTS = {
-    "MagSoftCrawl-v0": "magsoft_env.envs.vector:MagSoftCrawlVecEnv",
-    "MagSoftCrawlWaveform-v0": "magsoft_env.envs.vector:MagSoftCrawlVecEnv",
-    "MagSoftChannel-v0": "magsoft_env.envs.vector:MagSoftChannelVecEnv",
-    "MagSoftObstacle-v0": "magsoft_env.envs.vector:MagSoftObstacleVecEnv",
+    "MagSoftCrawl-v1": "magsoft_env.envs.vector:MagSoftCrawlVecEnv",
+    "MagSoftCrawlWaveform-v1": "magsoft_env.envs.vector:MagSoftCrawlVecEnv",
+    "MagSoftChannel-v1": "magsoft_env.envs.vector:MagSoftChannelVecEnv",
+    "MagSoftObstacle-v1": "magsoft_env.envs.vector:MagSoftObstacleVecEnv",
 }
 
 

@@ -1,4 +1,4 @@
-"""MagSoftChannel-v0: crawl through the paper's hollow box (Fig. 5a: 42 x 8.5 x 7.6 mm inside)."""
+"""MagSoftChannel-v1: crawl through the paper's hollow box (Fig. 5a: 42 x 8.5 x 7.6 mm inside)."""
 
 from __future__ import annotations
 
@@ -23,16 +23,16 @@ class MagSoftChannelEnv(MagSoftCrawlEnv):
 
     ## Action Space, Observation Space
 
-    As ``MagSoftCrawl-v0`` (field mode by default).
+    As ``MagSoftCrawl-v1`` (field mode by default).
 
     ## Rewards
 
-    As ``MagSoftCrawl-v0`` (target direction +x) plus ``reward_success = success_reward`` on
+    As ``MagSoftCrawl-v1`` (target direction +x) plus ``reward_success = success_reward`` on
     the step the beam's base end passes the far end of the box.
 
     ## Starting State
 
-    As ``MagSoftCrawl-v0``; the entrance is at ``x = L + entrance_gap``.
+    As ``MagSoftCrawl-v1``; the entrance is at ``x = L + entrance_gap``.
 
     ## Episode End
 
@@ -42,12 +42,12 @@ class MagSoftChannelEnv(MagSoftCrawlEnv):
     ## Arguments
 
     ``entrance_gap`` (m, default 2e-3, in [0, 1]: the beam starts outside the box),
-    ``success_reward`` (default 100), and every argument of ``MagSoftCrawl-v0``. Default
+    ``success_reward`` (default 100), and every argument of ``MagSoftCrawl-v1``. Default
     ``crawl_mode="height"``.
 
     ## Numerics
 
-    As ``MagSoftCrawl-v0``: the robot's own for this scene (a robot file's ``simulation: {scenes: {channel:
+    As ``MagSoftCrawl-v1``: the robot's own for this scene (a robot file's ``simulation: {scenes: {channel:
     ...}}``, else its floor numerics; paper-5a: 80 segments at 0.1 ms, 1.9 % on the floor). Under the ceiling
     the contact events change, and so does what converges (docs/convergence.md, section 5, measured with the
     beam inside the box): paper-5c, 20 segments at 0.2 ms on the floor (2 %), is 27 % off inside the box, where
@@ -59,8 +59,9 @@ class MagSoftChannelEnv(MagSoftCrawlEnv):
     ## Version History
 
     - v0: initial version (magsoft_env 0.1).
-    - v0, magsoft_env 0.4: the robot's own numerics by default: paper-5a runs 80 segments at 0.1 ms (was 20 at
-      0.2 ms), so the observation has 168 entries (was 48); ``fidelity="fast"`` restores the old numerics.
+    - v1 (v0 removed): the robot's own numerics by default: paper-5a runs 80 segments at 0.1 ms (was 20 at
+      0.2 ms), so the observation has 168 entries (was 48); ``fidelity="fast"`` restores the old numerics. The
+      crawl limits hold at every substep, with part of the beam on the floor (as ``MagSoftCrawl-v1``).
     """
 
     _scene = "channel"

@@ -1,4 +1,4 @@
-"""MagSoftCrawl-v0: a free hard-magnetic beam on a floor, driven by the applied field (B_x, B_z)."""
+"""MagSoftCrawl-v1: a free hard-magnetic beam on a floor, driven by the applied field (B_x, B_z)."""
 
 from __future__ import annotations
 
@@ -247,6 +247,10 @@ class MagSoftCrawlEnv(gym.Env):
     - v0, magsoft_env 0.4: ``sim_dt`` and ``segments`` default to the robot's own numerics (paper-5c: 20 and
       0.2 ms, as before); ``fidelity`` added. Waveform mode and ``slew_rate`` step in ``mujoco.rollout``
       blocks (the same trajectories), with energy checks every 100 substeps in waveform mode (was 50).
+    - v1 (``MagSoftCrawl-v1``, ``MagSoftCrawlWaveform-v1``; v0 removed): the crawl limits hold at every substep
+      (were checked at the end of each control step only), and the crawl modes require part of the beam on
+      the floor at every substep (``max_clearance`` 0.01 mm; was 2 mm); ``info`` carries ``highest_clearance``
+      and ``airborne_fraction``. ``MagSoftCrawlWaveform-v1`` plays 1-4 Hz periods (was 0.5-4 Hz).
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 50}

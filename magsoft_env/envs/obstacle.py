@@ -1,4 +1,4 @@
-"""MagSoftObstacle-v0: crawl over the paper's block (Fig. 5b: 7 x 5.5 x 2 mm)."""
+"""MagSoftObstacle-v1: crawl over the paper's block (Fig. 5b: 7 x 5.5 x 2 mm)."""
 
 from __future__ import annotations
 
@@ -21,16 +21,16 @@ class MagSoftObstacleEnv(MagSoftCrawlEnv):
 
     ## Action Space, Observation Space
 
-    As ``MagSoftCrawl-v0`` (field mode by default).
+    As ``MagSoftCrawl-v1`` (field mode by default).
 
     ## Rewards
 
-    As ``MagSoftCrawl-v0`` (target direction +x) plus ``reward_success = success_reward`` on
+    As ``MagSoftCrawl-v1`` (target direction +x) plus ``reward_success = success_reward`` on
     the step the beam's base end passes the block.
 
     ## Starting State
 
-    As ``MagSoftCrawl-v0``; the block's left face is at ``x = L + obstacle_gap``.
+    As ``MagSoftCrawl-v1``; the block's left face is at ``x = L + obstacle_gap``.
 
     ## Episode End
 
@@ -41,13 +41,15 @@ class MagSoftObstacleEnv(MagSoftCrawlEnv):
 
     ``obstacle_gap`` (m, default 2e-3, in [h/2, 1]: h/2 = 0.565 mm, where the block's face
     touches the resting beam's rounded end), ``success_reward`` (default 100), and every
-    argument of ``MagSoftCrawl-v0``. Default robot ``"paper-5b"`` (the paper's climber).
+    argument of ``MagSoftCrawl-v1``. Default robot ``"paper-5b"`` (the paper's climber).
 
     ## Version History
 
     - v0: initial version (magsoft_env 0.1).
-    - v0, magsoft_env 0.4: the robot's own numerics by default: paper-5b runs 80 segments at 0.025 ms (was 20 at
+    - v1 (v0 removed): the robot's own numerics by default: paper-5b runs 80 segments at 0.025 ms (was 20 at
       0.2 ms, 31 % off), so the observation has 168 entries (was 48); ``fidelity="fast"`` restores the old numerics.
+      The rotation limit holds at every substep (as ``MagSoftCrawl-v1``; no floor-contact limit here: on the
+      block the whole beam is off the floor).
     """
 
     _scene = "obstacle"

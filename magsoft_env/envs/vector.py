@@ -161,7 +161,7 @@ class MagSoftCrawlVecEnv(VectorEnv):
     ``num_envs`` independent copies of :class:`~magsoft_env.envs.crawl.MagSoftCrawlEnv` (or of
     :attr:`env_class`: the channel and obstacle envs in the subclasses) as one Gymnasium
     :class:`~gymnasium.vector.VectorEnv`, the ``vector_entry_point`` of the floor ids:
-    ``gym.make_vec("MagSoftCrawl-v0", num_envs=8)`` returns one, with the same keyword arguments as
+    ``gym.make_vec("MagSoftCrawl-v1", num_envs=8)`` returns one, with the same keyword arguments as
     ``gym.make``. Each call steps every robot with the single env's own code (its ``step``: the field,
     :meth:`Simulator.step <magsoft_env.sim.Simulator.step>` with every health check, observation, reward,
     termination, info), on ``num_threads`` threads: a held field runs as ``mj_step(m, d, k)`` blocks in
@@ -224,11 +224,13 @@ class MagSoftCrawlVecEnv(VectorEnv):
     ## Version History
 
     - v0: initial version (magsoft_env 0.4.0); robots interleaved block by block (``block``), same results.
+    - v1: the single envs' v1 (crawl limits at every substep, ``highest_clearance`` and ``airborne_fraction`` in
+      ``info``).
 
     Examples
     --------
     >>> import gymnasium as gym, numpy as np, magsoft_env
-    >>> envs = gym.make_vec("MagSoftCrawl-v0", num_envs=2, segments=4, sim_dt=1e-3)
+    >>> envs = gym.make_vec("MagSoftCrawl-v1", num_envs=2, segments=4, sim_dt=1e-3)
     >>> obs, info = envs.reset(seed=0)
     >>> obs.shape
     (2, 16)
@@ -427,13 +429,13 @@ class MagSoftCrawlVecEnv(VectorEnv):
 
 
 class MagSoftChannelVecEnv(MagSoftCrawlVecEnv):
-    """:class:`MagSoftCrawlVecEnv` of :class:`~magsoft_env.envs.channel.MagSoftChannelEnv` (``MagSoftChannel-v0``)."""
+    """:class:`MagSoftCrawlVecEnv` of :class:`~magsoft_env.envs.channel.MagSoftChannelEnv` (``MagSoftChannel-v1``)."""
 
     env_class = MagSoftChannelEnv
 
 
 class MagSoftObstacleVecEnv(MagSoftCrawlVecEnv):
-    """:class:`MagSoftCrawlVecEnv` of :class:`~magsoft_env.envs.obstacle.MagSoftObstacleEnv` (``MagSoftObstacle-v0``).
+    """:class:`MagSoftCrawlVecEnv` of :class:`~magsoft_env.envs.obstacle.MagSoftObstacleEnv` (``MagSoftObstacle-v1``).
     """
 
     env_class = MagSoftObstacleEnv

@@ -56,7 +56,7 @@ class SB3VecAdapter(VecEnv):
     --------
     >>> import gymnasium as gym, magsoft_env
     >>> from stable_baselines3 import PPO
-    >>> venv = SB3VecAdapter(gym.make_vec("MagSoftCrawl-v0", num_envs=2, segments=4, sim_dt=1e-3))
+    >>> venv = SB3VecAdapter(gym.make_vec("MagSoftCrawl-v1", num_envs=2, segments=4, sim_dt=1e-3))
     >>> model = PPO("MlpPolicy", venv, n_steps=16, batch_size=16, n_epochs=1).learn(32)
     >>> venv.close()
     """
@@ -181,7 +181,7 @@ class ThreadedVecEnv(DummyVecEnv):
     --------
     >>> import gymnasium as gym, magsoft_env
     >>> from stable_baselines3.common.env_util import make_vec_env
-    >>> venv = make_vec_env("MagSoftCrawl-v0", n_envs=2, vec_env_cls=ThreadedVecEnv,
+    >>> venv = make_vec_env("MagSoftCrawl-v1", n_envs=2, vec_env_cls=ThreadedVecEnv,
     ...                     env_kwargs={"segments": 4, "sim_dt": 1e-3})
     >>> venv.num_threads <= 2
     True
