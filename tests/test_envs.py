@@ -379,3 +379,25 @@ def test_the_floor_ids_v0_are_removed_with_an_error_naming_v1(name):
         warnings.simplefilter("ignore", DeprecationWarning)
         with pytest.raises(gym.error.DeprecatedEnv, match=f"Please use `{name}-v1`"):
             gym.make(f"{name}-v0")
+
+
+@pytest.mark.parametrize("env_id", ["MagSoftCrawl-v1", "MagSoftShape-v0"])
+@pytest.mark.parametrize("action", [np.zeros(3), "ab", ["x", "y"], [0.0, np.nan], None])
+def test_an_action_of_the_wrong_shape_or_type_is_named_with_the_expected_shape(env_id, action):
+    env = make(env_id)
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=r"action must be a float array of shape \(2,\) \(dtype float32, in \[-1, 1\]\)"):
+        env.step(action)
+
+
+def test_an_absurd_frequency_range_is_named_with_its_valid_range():
+    with pytest.raises(ValueError, match=r"frequency_range must lie within \[0\.0005, 5e\+03\] Hz at sim_dt = 0\.0002 s"):
+        make("MagSoftCrawlWaveform-v1", frequency_range=(1.0, 1e9))
+
+
+@pytest.mark.parametrize("target", [(1e30, 0.0, 0.0), (0.02, 0.02, 0.0), (0.01, 0.0, 90.0)])
+def test_a_shape_target_out_of_the_beams_reach_is_refused(target):
+    env = make("MagSoftShape-v0")
+    with pytest.raises(ValueError, match=r"options\['target'\] must lie within the beam's reach: .* L = 0\.025 m"):
+        env.reset(seed=0, options={"target": target})
+    env.reset(seed=0, options={"target": (0.02, -0.01, -0.5)})  # within reach

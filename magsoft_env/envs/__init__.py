@@ -72,6 +72,23 @@ def refuse_unknown_kwargs(env, unknown: dict, *, classes: tuple = ()) -> None:
     )
 
 
+def as_action(space, action):
+    """``action`` as a float64 array of ``space``'s shape, or a ValueError naming the action, the shape and dtype
+    expected and what was given (numpy's own reshape or float conversion errors name neither)."""
+    import numpy as np
+
+    expected = f"a float array of shape {space.shape} (dtype {space.dtype}, in [-1, 1])"
+    try:
+        a = np.asarray(action, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"action must be {expected}, got {action!r}.") from None
+    if a.size != int(np.prod(space.shape)):
+        raise ValueError(f"action must be {expected}, got shape {a.shape}: {action!r}.")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"action must be {expected} of finite numbers, got {action!r}.")
+    return a.reshape(space.shape)
+
+
 def register_all() -> None:
     """Register every id with Gymnasium; ids already registered are left alone."""
     for env_id, (entry_point, steps, kwargs) in ENV_SPECS.items():
@@ -81,4 +98,5 @@ def register_all() -> None:
                  vector_entry_point=VECTOR_ENTRY_POINTS.get(env_id))
 
 
-__all__ = ["ENV_SPECS", "VECTOR_ENTRY_POINTS", "constructor_arguments", "refuse_unknown_kwargs", "register_all"]
+__all__ = ["ENV_SPECS", "VECTOR_ENTRY_POINTS", "as_action", "constructor_arguments", "refuse_unknown_kwargs",
+           "register_all"]

@@ -13,12 +13,12 @@ from ..cases.gaits import numerics
 from ..cases.robots import resolve_robot
 from ..sim import PhaseShifted, Ramp, SimulationError, Simulator
 from ..sim.gait import gait_rod_options
-from ..sim.health import UnphysicalError, check_steps
+from ..sim.health import MAX_STEPS, UnphysicalError, check_steps
 from ..sim.model import CONTACT_HISTORY, MAX_TIMESTEP, NODE_SENSOR
 from ..sim.readouts import is_flipped, orientation
 from ..spec.drive import Waveparams
 from ..validate import choice, finite_number, nonnegative, positive
-from . import refuse_unknown_kwargs
+from . import as_action, refuse_unknown_kwargs
 
 #: Default coil limit per axis (T): +-2 mT. The paper's crawlers crawl at 1.5-2 mT and tumble end over end
 #: from about 2.5-3 mT: random actions at +-2 mT keep paper-5c crawling for 216 of 250 steps on average
@@ -328,10 +328,12 @@ class MagSoftCrawlEnv(gym.Env):
         if not 0.0 < f_lo <= f_hi:
             raise ValueError(f"frequency_range must satisfy 0 < f_min <= f_max (Hz), got {frequency_range!r}.")
         if self.action_mode == "waveform":
-            if 1.0 / f_hi < self.sim_dt:
-                raise ValueError(f"sim_dt must be <= the shortest period 1 / f_max ({1.0 / f_hi:g} s), got {sim_dt!r}.")
-            check_steps(f"1 / (f_min sim_dt) = 1 / ({f_lo:g} Hz x {self.sim_dt:g} s) per env step (one period)",
-                        1.0 / (f_lo * self.sim_dt), "Use a larger f_min or a larger sim_dt.")
+            # a period (one env step) of at least one simulation step and at most MAX_STEPS of them
+            lo, hi = 1.0 / (MAX_STEPS * self.sim_dt), 1.0 / self.sim_dt
+            if not lo <= f_lo <= f_hi <= hi:
+                raise ValueError(
+                    f"frequency_range must lie within [{lo:.3g}, {hi:.3g}] Hz at sim_dt = {self.sim_dt:g} s (one period "
+                    f"per env step: at least one and at most {MAX_STEPS:.0e} simulation steps), got {frequency_range!r}.")
         self.frequency_range = (f_lo, f_hi)
         self.clock_frequency = positive("clock_frequency", clock_frequency, unit="Hz")
         self.reset_noise_scale = nonnegative("reset_noise_scale", reset_noise_scale, unit="rad")
@@ -539,7 +541,7 @@ class MagSoftCrawlEnv(gym.Env):
         batched environments interleave their robots' blocks with it (:mod:`magsoft_env.envs.vector`)."""
         if self._broken:
             raise RuntimeError("step() called after the simulation became unstable; call reset() first.")
-        action = np.asarray(action, dtype=np.float64).reshape(self.action_space.shape)
+        action = as_action(self.action_space, action)
         try:
             duration, power = yield from self._advance(action, block)
         except SimulationError as err:

@@ -14,7 +14,7 @@ from ..sim.health import check_steps
 from ..sim.model import MAX_TIMESTEP
 from ..spec import Beam
 from ..validate import nonnegative, positive
-from . import refuse_unknown_kwargs
+from . import as_action, refuse_unknown_kwargs
 
 #: Default coil limit per axis (T).
 DEFAULT_FIELD_LIMIT = 20e-3
@@ -236,9 +236,18 @@ class MagSoftShapeEnv(gym.Env):
         super().reset(seed=seed)
         target = None if options is None else options.get("target")
         if target is not None:
-            t = np.asarray(target, dtype=float)
+            try:
+                t = np.asarray(target, dtype=float)
+            except (TypeError, ValueError):
+                t = np.full(1, np.nan)
             if t.shape != (3,) or not np.all(np.isfinite(t)):
                 raise ValueError(f"options['target'] must be finite (x m, z m, angle rad), got {target!r}.")
+            # the tip stays within the beam's length of the clamp (the origin); angles are radians
+            L = self.beam.length
+            if math.hypot(t[0], t[1]) > L or abs(t[2]) > 2.0 * math.pi:
+                raise ValueError(
+                    f"options['target'] must lie within the beam's reach: sqrt(x^2 + z^2) <= L = {L:g} m from the "
+                    f"clamp and |angle| <= 2 pi rad (radians: 90 deg is 1.571), got {target!r}.")
             self._target = t
             self._target_field = np.full(2, np.nan)
         else:
@@ -266,7 +275,7 @@ class MagSoftShapeEnv(gym.Env):
     def step(self, action):
         if self._broken:
             raise RuntimeError("step() called after the simulation became unstable; call reset() first.")
-        target_b = np.clip(np.asarray(action, dtype=float).reshape(2), -1.0, 1.0) * self.field_limit
+        target_b = np.clip(as_action(self.action_space, action), -1.0, 1.0) * self.field_limit
         try:
             if self.slew_rate is not None:
                 from ..sim import Ramp
