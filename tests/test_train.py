@@ -137,6 +137,26 @@ def test_open_loop_gait_in_the_env_matches_its_definition():
     assert np.isfinite(res.speed) and res.crawl_violations == 0
 
 
+def test_run_episodes_name_the_gait_crawl_hop_or_tumble():
+    import gymnasium as gym
+
+    from magsoft_env.rl import locomotion_mode
+
+    env = gym.make("MagSoftCrawl-v1", segments=6)  # paper-5c's gait at 6 segments stays on the floor too
+    res = run_episodes(env, open_loop_actor(), episodes=1, seed=0, name="open loop")
+    assert res.locomotion == "crawl" and res.airborne_fraction == 0.0 and res.crawl_violations == 0
+    assert res.to_dict()["locomotion"] == "crawl" and res.to_dict()["highest_clearance_mm"] < 0.01
+    # a beam thrown off the floor at 4 mT (tests/test_envs.py::HOP_ACTIONS), tumbling allowed
+    hop = gym.make("MagSoftCrawl-v1", field_limit=0.004, crawl_mode="none", max_clearance=None,
+                   max_episode_steps=3)
+    actions = iter([(0.0, -1.0), (1.0, 0.0), (0.0, 1.0)])
+    res = run_episodes(hop, lambda obs, e: np.array(next(actions), dtype=np.float32), episodes=1, name="hop")
+    assert res.locomotion == "hop" and 0.0 < res.airborne_fraction < 1.0 and res.highest_clearance > 2.5e-3
+    assert [locomotion_mode(1e-3, 0.0, 2.5), locomotion_mode(0.0, 0.0, 0.1), locomotion_mode(1e-3, 0.0, 0.1)] == \
+        ["tumble", "still", "crawl"]
+    assert locomotion_mode(1e-3, float("nan"), float("nan")) == ""  # the shape env reports neither
+
+
 def test_run_episodes_counts_successes_and_their_times():
     import gymnasium as gym
 

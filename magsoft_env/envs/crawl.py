@@ -187,9 +187,10 @@ class MagSoftCrawlEnv(gym.Env):
       :mod:`magsoft_env.sim.readouts`), ``flipped``, True once it has been past vertical (|orientation| >
       pi / 2) at the end of a step of this episode (a tumble; crawl mode "none" lets the episode go on),
       ``highest_clearance`` (m), the highest the lowest point of the beam has been above the floor at any
-      substep of the episode so far (minus the contact depth while it touches), and ``airborne_fraction``,
-      the fraction of the episode's substeps that started with the whole beam more than
-      :data:`AIRBORNE_TOLERANCE` (0.01 mm) above the floor.
+      substep of the episode so far (minus the contact depth while it touches), ``airborne_fraction``, the
+      fraction of the episode's substeps that started with the whole beam more than :data:`AIRBORNE_TOLERANCE`
+      (0.01 mm) above the floor, and ``largest_piece_angle`` (rad), the largest angle of any piece from the
+      floor at any substep.
 
     ## Arguments
 
@@ -383,6 +384,7 @@ class MagSoftCrawlEnv(gym.Env):
         self._flipped = False
         self._samples: list = []
         self._highest_clearance = 0.0
+        self._lowest_cos = 1.0
         self._airborne = 0
         self._substeps = 0
 
@@ -445,6 +447,7 @@ class MagSoftCrawlEnv(gym.Env):
         self._flipped = False
         x, z = self.sim.centerline()
         self._highest_clearance = float(np.min(z)) - 0.5 * self.gait.beam.thickness
+        self._lowest_cos = float(self._limits_of(x[:, None], z[:, None])[2, 0])
         self._airborne = 0
         self._substeps = 0
         self._last_obs = self._get_obs()
@@ -587,6 +590,7 @@ class MagSoftCrawlEnv(gym.Env):
         lim = np.concatenate([*self._samples, end], axis=1)
         self._samples = []
         self._highest_clearance = max(self._highest_clearance, float(lim[0].max()))
+        self._lowest_cos = min(self._lowest_cos, float(lim[2].min()))
         self._airborne += int(np.count_nonzero(lim[0, :-1] > AIRBORNE_TOLERANCE))
         self._substeps += lim.shape[1] - 1
         return lim
@@ -638,6 +642,7 @@ class MagSoftCrawlEnv(gym.Env):
             "is_success": self._is_success(), "max_penetration": self.sim.max_penetration,
             "highest_clearance": self._highest_clearance,
             "airborne_fraction": self._airborne / self._substeps if self._substeps else 0.0,
+            "largest_piece_angle": math.acos(max(-1.0, min(1.0, self._lowest_cos))),
         }
 
     def open_loop_action(self, t: float, wave: Waveparams | None = None) -> np.ndarray:

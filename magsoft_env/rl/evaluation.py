@@ -9,6 +9,25 @@ from pathlib import Path
 
 import numpy as np
 
+#: Largest piece angle from the floor (rad) beyond which a floor gait is a tumble: the crawl envs' rotation limit
+#: (``envs.crawl.DEFAULT_MAX_LINK_ROTATION``, 120 deg; a curl that lifts one end stays below it).
+TUMBLE_ANGLE = 2.0 * math.pi / 3.0
+#: Mean speed (m/s) below which a gait is called still: a tenth of the slowest open-loop paper gait (0.38 mm/s).
+STILL_SPEED = 0.04e-3
+
+
+def locomotion_mode(speed: float, airborne_fraction: float, largest_piece_angle: float) -> str:
+    """What a floor gait does: ``"tumble"`` (a piece past :data:`TUMBLE_ANGLE`), ``"hop"`` (the whole beam off
+    the floor at some substeps), ``"still"`` (absolute speed below :data:`STILL_SPEED`, m/s) or ``"crawl"``; ``""``
+    where the env reports neither (the shape env)."""
+    if math.isnan(airborne_fraction) or math.isnan(largest_piece_angle):
+        return ""
+    if largest_piece_angle > TUMBLE_ANGLE:
+        return "tumble"
+    if airborne_fraction > 0.0:
+        return "hop"
+    return "still" if abs(speed) < STILL_SPEED else "crawl"
+
 
 @dataclass(frozen=True)
 class EvalResult:
@@ -34,6 +53,15 @@ class EvalResult:
         Episodes that ended with ``info["is_success"]`` (channel, obstacle, shape envs; count).
     success_seconds : float
         Mean simulated time to success over the successful episodes (s); NaN if none.
+    airborne_fraction : float
+        Floor envs: mean over the episodes of the fraction of substeps with the whole beam off the floor
+        (``info["airborne_fraction"]``); NaN otherwise.
+    highest_clearance : float
+        Floor envs: highest the beam's lowest point rose above the floor at any substep (m); NaN otherwise.
+    largest_piece_angle : float
+        Floor envs: largest angle of any piece from the floor at any substep (rad); NaN otherwise.
+    locomotion : str
+        :func:`locomotion_mode` of the above: ``"crawl"``, ``"hop"``, ``"tumble"``, ``"still"``, or ``""``.
     """
 
     name: str
@@ -45,13 +73,19 @@ class EvalResult:
     final_error: float = math.nan
     successes: int = 0
     success_seconds: float = math.nan
+    airborne_fraction: float = math.nan
+    highest_clearance: float = math.nan
+    largest_piece_angle: float = math.nan
+    locomotion: str = ""
 
     def to_dict(self) -> dict:
         """JSON-ready summary with units in the keys (mm, mm/s, s); NaN becomes None."""
         d = {"name": self.name, "speed_mm_s": self.speed * 1e3, "return": self.episode_return,
              "episode_s": self.episode_seconds, "crawl_violations": self.crawl_violations,
              "max_com_height_mm": self.max_com_height * 1e3, "final_error_mm": self.final_error * 1e3,
-             "successes": self.successes, "success_s": self.success_seconds}
+             "successes": self.successes, "success_s": self.success_seconds, "locomotion": self.locomotion,
+             "airborne_fraction": self.airborne_fraction, "highest_clearance_mm": self.highest_clearance * 1e3,
+             "largest_piece_angle_deg": math.degrees(self.largest_piece_angle)}
         return {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in d.items()}
 
 
@@ -59,6 +93,7 @@ def run_episodes(env, act, *, episodes: int = 2, seed: int = 0, name: str = "pol
     """Run ``episodes`` episodes of ``env`` (a Gymnasium env, time limit included) with
     ``act(obs, env) -> action``; measure centre-of-mass speed (m/s, along +x)."""
     speeds, returns, lengths, violations, zmax, errors, success_t = [], [], [], 0, -math.inf, [], []
+    airborne, clearance, angle = [], [], []
     for k in range(int(episodes)):
         obs, info = env.reset(seed=seed + k)
         x0, t0 = info.get("x_position", math.nan), info["time"]
@@ -72,14 +107,19 @@ def run_episodes(env, act, *, episodes: int = 2, seed: int = 0, name: str = "pol
         if info.get("is_success"):
             success_t.append(info["time"] - t0)
         errors.append(float(info.get("position_error", math.nan)))
+        airborne.append(float(info.get("airborne_fraction", math.nan)))
+        clearance.append(float(info.get("highest_clearance", math.nan)))
+        angle.append(float(info.get("largest_piece_angle", math.nan)))
         dt = info["time"] - t0
         speeds.append((info.get("x_position", math.nan) - x0) / dt if dt > 0 else 0.0)
         returns.append(total)
         lengths.append(dt)
     zmax = zmax if math.isfinite(zmax) else math.nan
-    return EvalResult(name, float(np.mean(speeds)), float(np.mean(returns)), float(np.mean(lengths)), violations,
+    speed, air, top, ang = float(np.mean(speeds)), float(np.mean(airborne)), float(np.max(clearance)), float(np.max(angle))
+    return EvalResult(name, speed, float(np.mean(returns)), float(np.mean(lengths)), violations,
                       zmax, float(np.mean(errors)), len(success_t),
-                      float(np.mean(success_t)) if success_t else math.nan)
+                      float(np.mean(success_t)) if success_t else math.nan, air, top, ang,
+                      locomotion_mode(speed, air, ang))
 
 
 def open_loop_actor(wave=None):
