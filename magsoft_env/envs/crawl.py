@@ -21,8 +21,10 @@ from ..validate import choice, finite_number, nonnegative, positive
 from . import as_action, refuse_unknown_kwargs
 
 #: Default coil limit per axis (T): +-2 mT. The paper's crawlers crawl at 1.5-2 mT and tumble end over end
-#: from about 2.5-3 mT: random actions at +-2 mT keep paper-5c crawling for 216 of 250 steps on average
-#: (6 seeds), at +-4 mT for 12, at +-20 mT for 2 (docs/training.md, "Registered defaults").
+#: from about 2.5-3 mT: with hops of up to 2 mm allowed, random actions at +-2 mT keep paper-5c on the floor
+#: for 197 of 250 steps on average (6 seeds; the v0 end-of-step limits: 216), at +-4 mT (v0) for 12, at +-20 mT
+#: (v0) for 2; under the default floor-contact limit they lift the whole beam within 10 (docs/training.md,
+#: "Registered defaults").
 DEFAULT_FIELD_LIMIT = 2e-3
 #: Default control interval in "field" mode (s).
 DEFAULT_CTRL_DT = 0.02
