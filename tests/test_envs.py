@@ -401,3 +401,28 @@ def test_a_shape_target_out_of_the_beams_reach_is_refused(target):
     with pytest.raises(ValueError, match=r"options\['target'\] must lie within the beam's reach: .* L = 0\.025 m"):
         env.reset(seed=0, options={"target": target})
     env.reset(seed=0, options={"target": (0.02, -0.01, -0.5)})  # within reach
+
+
+def test_waveform_substeps_are_all_read():
+    # a whole 4 Hz period per step (1250 substeps in blocks), whose samples repeat at the symmetric peak
+    env = make("MagSoftCrawlWaveform-v1", crawl_mode="none", max_clearance=None, field_limit=0.004).unwrapped
+    env.reset(seed=0)
+    half_h = 0.5 * env.gait.beam.thickness
+    clear = [np.min(env.sim.centerline()[1]) - half_h]
+    steps = env._stepping(np.array([0.0, 1.0, 0.0, 1.0], dtype=np.float32), block=1)
+    while True:
+        try:
+            next(steps)
+        except StopIteration as done:
+            info = done.value[-1]
+            break
+        clear.append(np.min(env.sim.centerline()[1]) - half_h)
+    clear.append(np.min(env.sim.centerline()[1]) - half_h)
+    assert len(clear) == 1251 and info["time"] == pytest.approx(0.25)
+    assert info["highest_clearance"] == pytest.approx(max(clear), abs=1e-12)
+    assert info["airborne_fraction"] == pytest.approx(np.count_nonzero(np.array(clear[:-1]) > AIRBORNE_TOLERANCE) / 1250)
+    # the default blocks read the same substeps
+    again = make("MagSoftCrawlWaveform-v1", crawl_mode="none", max_clearance=None, field_limit=0.004)
+    again.reset(seed=0)
+    info2 = again.step(np.array([0.0, 1.0, 0.0, 1.0], dtype=np.float32))[-1]
+    assert (info2["highest_clearance"], info2["airborne_fraction"]) == (info["highest_clearance"], info["airborne_fraction"])

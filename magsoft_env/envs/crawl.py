@@ -21,10 +21,10 @@ from ..validate import choice, finite_number, nonnegative, positive
 from . import as_action, refuse_unknown_kwargs
 
 #: Default coil limit per axis (T): +-2 mT. The paper's crawlers crawl at 1.5-2 mT and tumble end over end
-#: from about 2.5-3 mT: with hops of up to 2 mm allowed, random actions at +-2 mT keep paper-5c on the floor
-#: for 197 of 250 steps on average (6 seeds; the v0 end-of-step limits: 216), at +-4 mT (v0) for 12, at +-20 mT
-#: (v0) for 2; under the default floor-contact limit they lift the whole beam within 10 (docs/training.md,
-#: "Registered defaults").
+#: from about 2.5-3 mT: with hops of up to 2 mm allowed (``max_clearance=2e-3``), episodes of random actions at
+#: +-2 mT last 197 of 250 steps on average (6 seeds; under v0's end-of-step limits: 216; at +-4 mT 12, at +-20 mT
+#: 2); under the default floor-contact limit they lift the whole beam off the floor within 10 steps on average
+#: (docs/training.md, "Registered defaults").
 DEFAULT_FIELD_LIMIT = 2e-3
 #: Default control interval in "field" mode (s).
 DEFAULT_CTRL_DT = 0.02
@@ -460,15 +460,13 @@ class MagSoftCrawlEnv(gym.Env):
         <magsoft_env.sim.Simulator.stepping>`'s blocks, at most ``block`` steps each) that returns
         (duration s, mean normalized field power)."""
         sim = self.sim
-        waveform = None
         if self.action_mode == "field":
             target = self.field_of_action(action)
             if self.slew_rate is not None:
                 dmax = self.slew_rate * self.n_substeps * self.sim_dt
                 target = self._field + np.clip(target - self._field, -dmax, dmax)
                 start = self._field.copy()
-                waveform = Ramp(tuple(start), tuple(target), duration=self.n_substeps * self.sim_dt)
-                sim.set_waveform(waveform)
+                sim.set_waveform(Ramp(tuple(start), tuple(target), duration=self.n_substeps * self.sim_dt))
                 # mean of the squared linear ramp
                 power = float(np.sum(start**2 + start * target + target**2) / 3.0)
             else:
@@ -479,8 +477,7 @@ class MagSoftCrawlEnv(gym.Env):
         else:
             wave = self.waveparams_of_action(action)
             self._last_action = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
-            waveform = PhaseShifted(wave.amplitude_x, wave.amplitude_z, wave.frequency, wave.phase, 0.0)
-            sim.set_waveform(waveform)
+            sim.set_waveform(PhaseShifted(wave.amplitude_x, wave.amplitude_z, wave.frequency, wave.phase, 0.0))
             n = max(1, int(round(1.0 / (wave.frequency * self.sim_dt))))
             power = 0.5 * (wave.amplitude_x**2 + wave.amplitude_z**2)
             self._field = np.zeros(2)  # a whole period ends where it began
@@ -488,36 +485,20 @@ class MagSoftCrawlEnv(gym.Env):
         # overwrites it)
         self._samples = []
         done = sim.nstep
-        for c, k in enumerate(self._calls(n, waveform)):
-            if c:
-                yield
-            for _ in sim.stepping(k, block=block):
-                done = self._read_block(done)
-                yield
+        for _ in sim.stepping(n, block=block):
             done = self._read_block(done)
+            yield
+        self._read_block(done)
         return n * self.sim_dt, power / self.field_limit**2
-
-    def _calls(self, n: int, waveform) -> list[int]:
-        """The substeps of each ``Simulator.stepping`` call of a step: one call, unless the field runs in pieces
-        of equal fields (a waveform whose samples repeat somewhere, e.g. at a symmetric peak): the simulator
-        yields within a piece but not between pieces, so the step then runs in calls of at most the
-        centreline history's length."""
-        if waveform is not None:
-            f = waveform.sample(self.sim.timestep * np.arange(n))  # the fields stepping() samples (t0 = now)
-            same = np.all(f[1:] == f[:-1], axis=1)
-            if same.any() and not same.all():
-                h = self._nodes.nsample
-                return [h] * (n // h) + ([n % h] if n % h else [])
-        return [n]
 
     def _read_block(self, start: int) -> int:
         """Reduce the substeps since step count ``start`` to their clearance, height and rotation (cos of the
         largest piece angle); returns the present step count."""
         k = self.sim.nstep - start
         if k > self._nodes.nsample:
-            raise RuntimeError(f"{k} substeps ran without a native block boundary; the crawl limits read at most "
-                               f"{self._nodes.nsample} from the centreline sensors' history (keep the simulator's "
-                               "native blocks: rollout_blocks=True).")
+            raise RuntimeError(f"{k} substeps ran in one native block; the crawl limits read at most "
+                               f"{self._nodes.nsample} from the centreline sensors' history (Simulator.stepping "
+                               "blocks are at most sim.model.CONTACT_HISTORY steps).")
         if k > 0:
             self._samples.append(self._limits_of(*self._nodes.last(k)))
         return self.sim.nstep
