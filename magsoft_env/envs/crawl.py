@@ -335,8 +335,9 @@ class MagSoftCrawlEnv(gym.Env):
             lo, hi = 1.0 / (MAX_STEPS * self.sim_dt), 1.0 / self.sim_dt
             if not lo <= f_lo <= f_hi <= hi:
                 raise ValueError(
-                    f"frequency_range must lie within [{lo:.3g}, {hi:.3g}] Hz at sim_dt = {self.sim_dt:g} s (one period "
-                    f"per env step: at least one and at most {MAX_STEPS:.0e} simulation steps), got {frequency_range!r}.")
+                    f"frequency_range must lie within [{lo:.3g}, {hi:.3g}] Hz at sim_dt = {self.sim_dt:g} s (one "
+                    f"period per env step: at least one and at most {MAX_STEPS:.0e} simulation steps), got "
+                    f"{frequency_range!r}.")
         self.frequency_range = (f_lo, f_hi)
         self.clock_frequency = positive("clock_frequency", clock_frequency, unit="Hz")
         self.reset_noise_scale = nonnegative("reset_noise_scale", reset_noise_scale, unit="rad")

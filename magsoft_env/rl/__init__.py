@@ -48,7 +48,8 @@ def __getattr__(name: str):
 __all__ = ["ALGOS", "GYM_PACKAGE", "ZOO_KEYS", "EvalResult", "Policy", "RunRecord", "SB3VecAdapter", "ThreadedVecEnv",
            "algo_arguments",
            "algo_class", "check_algo_kwargs", "check_env_id", "check_env_kwargs", "check_hyperparams",
-           "check_policy_env", "env_arguments", "evaluate_open_loop", "evaluate_run", "find_run", "learning_curve", "locomotion_mode",
+           "check_policy_env", "env_arguments", "evaluate_open_loop", "evaluate_run", "find_run", "learning_curve",
+           "locomotion_mode",
            "load_hyperparams", "load_policy", "make_sb3_vec_env", "open_loop_actor", "parse_override",
            "policy_run_info", "read_zoo_yaml", "run_episodes", "run_zoo", "split_hyperparams", "summarize_run",
            "train", "unbatch_infos", "zoo_argv"]

@@ -115,7 +115,8 @@ def run_episodes(env, act, *, episodes: int = 2, seed: int = 0, name: str = "pol
         returns.append(total)
         lengths.append(dt)
     zmax = zmax if math.isfinite(zmax) else math.nan
-    speed, air, top, ang = float(np.mean(speeds)), float(np.mean(airborne)), float(np.max(clearance)), float(np.max(angle))
+    speed, air = float(np.mean(speeds)), float(np.mean(airborne))
+    top, ang = float(np.max(clearance)), float(np.max(angle))
     return EvalResult(name, speed, float(np.mean(returns)), float(np.mean(lengths)), violations,
                       zmax, float(np.mean(errors)), len(success_t),
                       float(np.mean(success_t)) if success_t else math.nan, air, top, ang,
