@@ -339,15 +339,8 @@ def test_substep_clearance_and_airborne_fraction_are_the_states_own():
     half_h = 0.5 * env.gait.beam.thickness
     clear = [np.min(env.sim.centerline()[1]) - half_h]
     for a in HOP_ACTIONS:
-        steps = env._stepping(np.array(a, dtype=np.float32), block=1)
-        while True:
-            try:
-                next(steps)
-            except StopIteration as done:
-                info = done.value[-1]
-                break
-            clear.append(np.min(env.sim.centerline()[1]) - half_h)
-        clear.append(np.min(env.sim.centerline()[1]) - half_h)  # the step's end state
+        more, info = _substep_clearances(env, a, half_h)
+        clear += more
     clear = np.array(clear)
     assert info["highest_clearance"] == pytest.approx(clear.max(), abs=1e-12)
     n = len(HOP_ACTIONS) * env.n_substeps
@@ -411,15 +404,8 @@ def test_waveform_substeps_are_all_read():
     env.reset(seed=0)
     half_h = 0.5 * env.gait.beam.thickness
     clear = [np.min(env.sim.centerline()[1]) - half_h]
-    steps = env._stepping(np.array([0.0, 1.0, 0.0, 1.0], dtype=np.float32), block=1)
-    while True:
-        try:
-            next(steps)
-        except StopIteration as done:
-            info = done.value[-1]
-            break
-        clear.append(np.min(env.sim.centerline()[1]) - half_h)
-    clear.append(np.min(env.sim.centerline()[1]) - half_h)
+    more, info = _substep_clearances(env, [0.0, 1.0, 0.0, 1.0], half_h)
+    clear += more
     assert len(clear) == 1251 and info["time"] == pytest.approx(0.25)
     assert info["highest_clearance"] == pytest.approx(max(clear), abs=1e-12)
     airborne = np.count_nonzero(np.array(clear[:-1]) > AIRBORNE_TOLERANCE)
@@ -430,3 +416,19 @@ def test_waveform_substeps_are_all_read():
     info2 = again.step(np.array([0.0, 1.0, 0.0, 1.0], dtype=np.float32))[-1]
     for key in ("highest_clearance", "airborne_fraction"):
         assert info2[key] == info[key]
+
+
+def _substep_clearances(env, action, half_h):
+    """One env step driven a substep at a time: the lowest point's clearance after every substep (the step's
+    end state last) and the step's info."""
+    clear = []
+    steps = env._stepping(np.array(action, dtype=np.float32), block=1)
+    while True:
+        try:
+            next(steps)
+        except StopIteration as done:
+            info = done.value[-1]
+            break
+        clear.append(np.min(env.sim.centerline()[1]) - half_h)
+    clear.append(np.min(env.sim.centerline()[1]) - half_h)  # the step's end state
+    return clear, info
