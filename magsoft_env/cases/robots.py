@@ -45,7 +45,7 @@ from ..assets import assets_dir
 from ..io import write_text_atomic
 from ..spec import Beam, Field, as_field
 from ..spec.drive import WAVE_SHAPES, Waveparams
-from ..spec.field import field_pair
+from ..spec.field import field_pair, planar_field
 from ..units import MM
 from ..validate import checked_replace, choice, finite_number, in_range, integer, nonnegative
 from .beamfile import beam_from_dict, beam_to_dict, check_keys
@@ -162,7 +162,9 @@ class Robot:
         if self.drive is not None and not isinstance(self.drive, Waveparams):
             raise ValueError(f"Robot.drive must be a Waveparams or None, got {type(self.drive).__name__}.")
         if self.design_field is not None:
-            object.__setattr__(self, "design_field", as_field(self.design_field, "Robot.design_field"))
+            design = as_field(self.design_field, "Robot.design_field")
+            object.__setattr__(self, "design_field", planar_field(design, "Robot.design_field (a planar design's "
+                                                                          "held field)"))
         object.__setattr__(self, "segments", integer("Robot.segments", self.segments, *SEGMENTS_RANGE))
         object.__setattr__(self, "timestep", _timestep("Robot.timestep", self.timestep))
         object.__setattr__(self, "scene_numerics", _scene_numerics(self.scene_numerics))
@@ -336,7 +338,7 @@ def _milli(name: str, raw, unit: str) -> float:
 
 def _field_mT(name: str, raw) -> Field:
     """A ``[B_x, B_z]`` pair in mT of the file, in T from its digits (reads back exactly what was written)."""
-    bx, bz = field_pair(name, raw, "[B_x, B_z] in mT")
+    bx, bz = field_pair(name, raw, "[B_x, B_z] in mT", planar="design_field_mT values (a planar design's held field)")
     return Field(_milli(f"{name} B_x", bx, "mT"), _milli(f"{name} B_z", bz, "mT"))
 
 

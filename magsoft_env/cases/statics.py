@@ -286,5 +286,5 @@ def _path_from_list(items, *, where: str) -> tuple[PathSegment, ...]:
 
 
 def _field_mT(value, name: str) -> Field:
-    bx, bz = field_pair(name, value, "[B_x, B_z] in mT")
+    bx, bz = field_pair(name, value, "[B_x, B_z] in mT", planar="preset files")
     return Field.from_mT(finite_number(f"{name} B_x", bx, unit="mT"), finite_number(f"{name} B_z", bz, unit="mT"))

@@ -1,10 +1,11 @@
 """Specification layer: what a user describes (material, beam, profiles, fields), validated once."""
 
 from .beam import Beam
-from .field import MAX_FIELD, Field, as_field, as_fields, ramp
+from .field import MAX_FIELD, Field, as_field, as_fields, planar_field, ramp
 from .material import MAX_VOLUME_FRACTION, MU0, Material
 from .profiles import (
     Constant,
+    Direction,
     Function,
     JigProfile,
     PiecewiseConstant,
@@ -12,6 +13,7 @@ from .profiles import (
     Profile,
     Sampled,
     alternating_cells,
+    as_magnetization,
     as_profile,
     jig_curve,
     jig_from_function,
@@ -26,6 +28,7 @@ __all__ = [
     "MU0",
     "Beam",
     "Constant",
+    "Direction",
     "Field",
     "Function",
     "JigProfile",
@@ -37,11 +40,13 @@ __all__ = [
     "alternating_cells",
     "as_field",
     "as_fields",
+    "as_magnetization",
     "as_profile",
     "jig_curve",
     "jig_from_function",
     "jig_from_points",
     "jig_from_polyline",
+    "planar_field",
     "sample_profile",
     "ramp",
 ]

@@ -11,7 +11,18 @@ import numpy as np
 from ..validate import MAX_ANGLE, AngleRangeError, checked_replace, degrees_message, nonnegative, positive
 from .field import as_field
 from .material import MAX_VOLUME_FRACTION, Material
-from .profiles import Constant, Function, PiecewiseConstant, PiecewiseLinear, Profile, Sampled, as_profile
+from .profiles import (
+    DIRECTION_COMPONENTS,
+    Constant,
+    Direction,
+    Function,
+    PiecewiseConstant,
+    PiecewiseLinear,
+    Profile,
+    Sampled,
+    as_magnetization,
+    as_profile,
+)
 
 _PROBE = 257  # samples used to check that the magnetization is finite
 _PHI_PROBE = 16385  # samples used to check the range of a volume fraction given as a function
@@ -27,6 +38,8 @@ MIN_SLENDERNESS = 1.0
 #: Below this slenderness L/h the beam is accepted with a warning: the model (Euler-Bernoulli, no shear)
 #: is accurate for slender beams only; shear adds about 0.9 (h/L)^2 of the bending deflection (4 % at L/h = 5).
 SLENDER = 5.0
+#: Relative size (of the sum) below which the Saint-Venant torsion series stops.
+_TORSION_RTOL = 1e-16
 
 
 @dataclass(frozen=True)
@@ -36,18 +49,24 @@ class Beam:
     Parameters
     ----------
     length, width, thickness : float
-        Reference length L, width w and thickness h (m), each in (0, 1] m. Bending is about the
-        width axis, so ``I = w h^3 / 12``. The beam must be slender: L/h >= 1 is required and
-        L/h < 5 warns (the model neglects shear, which grows as (h/L)^2). The width only scales
+        Reference length L, width w and thickness h (m), each in (0, 1] m. Planar bending is about the
+        width axis, so ``I = w h^3 / 12``; the 3D rod also bends about the thickness axis
+        (:attr:`second_moments`) and twists (:attr:`torsion_constant`). The beam must be slender:
+        L/h >= 1 is required and L/h < 5 warns (the model neglects shear, which grows as (h/L)^2). The width only scales
         A and I; a strip wider than it is long is a plate, up to 1/(1 - nu^2) = 4/3 stiffer than
         the beam model says, so it is not refused.
     material : Material
         Matrix and particle properties (paper values by default).
     volume_fraction : float, callable or Profile
         Particle volume fraction phi(s), in [0, 0.5].
-    magnetization : float, callable or Profile
+    magnetization : float, callable, Profile, Direction or sequence of three
         Angle beta(s) (rad) of the remanent magnetization in the undeformed beam, measured
-        from +x toward +z. A callable takes s in metres.
+        from +x toward +z (planar). A callable takes s in metres. Or its direction in 3D:
+        a :class:`~magsoft_env.spec.profiles.Direction`, or ``(axial, width, thickness)``, each a
+        number, callable of s or Profile: the components along the undeformed strip (x), across its
+        width (y) and through its thickness (z). Only the direction counts (normalized pointwise; the
+        magnitude comes from the volume fraction and M_p); a zero vector anywhere is refused. The
+        angle beta is the direction ``(cos beta, 0, sin beta)``.
 
     Examples
     --------
@@ -61,7 +80,7 @@ class Beam:
     thickness: float
     material: Material = field(default_factory=Material)
     volume_fraction: float | Profile = 0.2
-    magnetization: float | Profile = 0.0
+    magnetization: float | Profile | Direction = 0.0
 
     def __post_init__(self):
         for name in ("length", "width", "thickness"):
@@ -88,7 +107,7 @@ class Beam:
         if not isinstance(self.material, Material):
             raise ValueError(f"Beam.material must be a Material, got {self.material!r}.")
         phi = as_profile(self.volume_fraction, "Beam.volume_fraction")
-        beta = as_profile(self.magnetization, "Beam.magnetization")
+        beta = as_magnetization(self.magnetization, "Beam.magnetization")
         phi.check_covers(self.length, "Beam.volume_fraction")
         beta.check_covers(self.length, "Beam.magnetization")
         object.__setattr__(self, "volume_fraction", phi)
@@ -102,6 +121,9 @@ class Beam:
                 f"Beam.volume_fraction must lie in [0, {MAX_VOLUME_FRACTION}] along the beam "
                 f"(the modulus law diverges at 0.74), got values in [{lo:.4g}, {hi:.4g}]."
             )
+        if isinstance(beta, Direction):
+            self._check_direction(beta)
+            return
         betas = _sample(beta, self._probe_points(_PROBE), self.length, "Beam.magnetization")
         if not np.all(np.isfinite(betas)):
             raise ValueError("Beam.magnetization must be a finite angle (rad) along the beam; got non-finite values.")
@@ -110,6 +132,22 @@ class Beam:
             kind = type(beta).__name__
             got = repr(beta.value) if type(beta) is Constant else f"a {kind} with |beta| up to {largest:g}"
             raise AngleRangeError(degrees_message("Beam.magnetization", got, largest), largest)
+
+    def _check_direction(self, direction: Direction) -> None:
+        """Each component finite on the probe points, and the vector nowhere zero."""
+        s = self._probe_points(_PROBE)
+        cols = []
+        for c, p in zip(DIRECTION_COMPONENTS, direction.components, strict=True):
+            v = _sample(p, s, self.length, f"Beam.magnetization {c}")
+            if not np.all(np.isfinite(v)):
+                raise ValueError(f"Beam.magnetization {c} must be finite along the beam; got non-finite values.")
+            cols.append(v)
+        zero = np.flatnonzero(np.linalg.norm(np.stack(cols, axis=-1), axis=-1) == 0.0)
+        if zero.size:
+            raise ValueError(
+                f"Beam.magnetization (axial, width, thickness) must be a non-zero vector everywhere (it gives only "
+                f"the direction), got (0, 0, 0) at s = {s[zero[0]] * 1e3:.6g} mm."
+            )
 
     def _probe_points(self, n: int) -> np.ndarray:
         L = self.length
@@ -139,6 +177,31 @@ class Beam:
     def second_moment(self) -> float:
         """Second moment of area I = w h^3 / 12 (m^4)."""
         return self.width * self.thickness**3 / 12.0
+
+    @property
+    def second_moments(self) -> tuple[float, float]:
+        """Second moments of area (I_w, I_s) = (w h^3 / 12, h w^3 / 12) (m^4): bending about the width axis
+        (d1, the weak one of a strip lying flat) and about the thickness axis (d2)."""
+        w, h = self.width, self.thickness
+        return (w * h**3 / 12.0, h * w**3 / 12.0)
+
+    @property
+    def torsion_constant(self) -> float:
+        """Saint-Venant torsion constant J of the w x h rectangle (m^4).
+
+        With a = max(w, h) and b = min(w, h)::
+
+            J = a b^3 [1/3 - (64 / pi^5) (b / a) sum_{n = 1, 3, 5, ...} tanh(n pi a / (2 b)) / n^5]
+
+        summed over odd n while the terms stay above 1e-16 of the first one (n up to about 1600). A square gives
+        0.1406 a^4; a thin strip a b^3 / 3 (1 - 0.630 b / a); the paper's 5 x 1.13 mm strip 2.062e-12 m^4.
+        """
+        a, b = max(self.width, self.thickness), min(self.width, self.thickness)
+        n = np.arange(1.0, 2.0 * math.ceil(_TORSION_RTOL ** -0.2) + 3.0, 2.0)
+        terms = np.tanh(n * math.pi * a / (2.0 * b)) / n**5
+        terms = terms[terms >= _TORSION_RTOL * terms[0]]
+        series = float(np.sum(terms[::-1]))  # smallest first
+        return a * b**3 * (1.0 / 3.0 - 64.0 / math.pi**5 * (b / a) * series)
 
     @property
     def slenderness(self) -> float:
@@ -181,8 +244,48 @@ class Beam:
             )
         return v
 
+    @property
+    def is_planar(self) -> bool:
+        """True when the magnetization has no component across the width: an angle profile beta(s), or a
+        :class:`~magsoft_env.spec.profiles.Direction` whose width component is identically zero."""
+        m = self.magnetization
+        return not (isinstance(m, Direction) and m.has_width)
+
+    def require_planar(self, what: str) -> Beam:
+        """This beam if :attr:`is_planar`, else a ValueError naming ``what`` (the planar part that would take it,
+        e.g. "the MuJoCo hinge-chain rod")."""
+        if not self.is_planar:
+            raise ValueError(
+                f"{what} is planar (x-z plane), but this beam's magnetization has a component across the width "
+                f"({self.magnetization!r}). The 3D analytical model (solve_equilibrium) takes it."
+            )
+        return self
+
     def beta(self, s) -> np.ndarray:
-        return self.magnetization.values(np.asarray(s, dtype=float), self.length)
+        """Magnetization angle beta(s) (rad) from +x toward +z in the undeformed beam, at arc lengths ``s`` (m).
+
+        For a :class:`~magsoft_env.spec.profiles.Direction` without a width component it is
+        ``atan2(thickness, axial)``; with one, a ValueError (the planar model cannot take it)."""
+        s = np.asarray(s, dtype=float)
+        m = self.magnetization
+        if not isinstance(m, Direction):
+            return m.values(s, self.length)
+        if m.has_width:
+            raise ValueError("this beam's magnetization has a component across the width; the planar model "
+                             "(x-z plane) cannot take it: use the 3D solver (Beam.magnetization_direction gives the "
+                             "direction).")
+        v = m.vectors(s, self.length)
+        return np.arctan2(v[..., 2], v[..., 0])
+
+    def magnetization_direction(self, s) -> np.ndarray:
+        """Unit vectors of the remanent magnetization in the undeformed beam's frame (axial, width, thickness) at
+        arc lengths ``s`` (m), shape (n, 3) (``s.shape + (3,)``); for an angle profile ``(cos beta, 0, sin beta)``."""
+        s = np.asarray(s, dtype=float)
+        m = self.magnetization
+        if isinstance(m, Direction):
+            return m.vectors(s, self.length)
+        b = np.asarray(m.values(s, self.length), dtype=float)
+        return np.stack([np.cos(b), np.zeros_like(b), np.sin(b)], axis=-1)
 
     def youngs_modulus(self, s) -> np.ndarray:
         return self.material.youngs_modulus(self.phi(s))
@@ -190,6 +293,20 @@ class Beam:
     def bending_stiffness(self, s) -> np.ndarray:
         """E(s) I (N m^2)."""
         return self.youngs_modulus(s) * self.second_moment
+
+    def shear_modulus(self, s) -> np.ndarray:
+        """G(s) = E(s) / (2 (1 + nu)) (Pa)."""
+        return self.material.shear_modulus(self.phi(s))
+
+    def stiffnesses(self, s) -> np.ndarray:
+        """Stiffnesses of the 3D rod at arc lengths ``s`` (m), shape (n, 3) (``s.shape + (3,)``):
+        ``[E I_w, E I_s, G J]`` (N m^2), in the material frame's order (d1 across the width, d2 through the
+        thickness, d3 the tangent): bending about d1 (E I_w), about d2 (E I_s), and twisting (G J)."""
+        phi = self.phi(s)
+        E = np.asarray(self.material.youngs_modulus(phi), dtype=float)
+        i_w, i_s = self.second_moments
+        return np.stack([E * i_w, E * i_s, E / (2.0 * (1.0 + self.material.poisson_ratio)) * self.torsion_constant],
+                        axis=-1)
 
     def axial_stiffness(self, s) -> np.ndarray:
         """E(s) A (N)."""
@@ -213,9 +330,10 @@ class Beam:
 
     # dimensionless groups ---------------------------------------------------------------
     def nondimensional_groups(self, field=(0.0, 0.0), *, gravity: float = 9.81) -> dict[str, float]:
-        """Lambda = A M B_a L^2 / (E I) and G = rho A g L^3 / (E I), at the mean of each profile.
+        """Lambda = A M |B_a| L^2 / (E I) and G = rho A g L^3 / (E I), at the mean of each profile.
 
-        Lambda is the paper's normalized field P for a uniform beam.
+        Lambda is the paper's normalized field P for a uniform beam; |B_a| is the norm of all three
+        components, ``alpha_deg`` the angle of the field's projection on the x-z plane (deg).
         """
         f = as_field(field)
         g = nonnegative("gravity", gravity, unit="m/s^2")

@@ -25,6 +25,9 @@ ECOFLEX_DENSITY = 1070.0  # kg/m^3
 E0_RANGE = (1e2, 1e10)  # Pa: a soft gel to a stiff plastic; Ecoflex 00-10 is 6.2e4
 MAX_PARTICLE_MAGNETIZATION = 2e6  # A/m: NdFeB saturates near 1.3e6, iron at 1.7e6
 DENSITY_RANGE = (100.0, 30000.0)  # kg/m^3: a foam to tungsten; NdFeB is 7600
+#: Accepted Poisson ratios: an isotropic elastomer has nu in [0, 0.5] (0.5: incompressible), and a particle-filled
+#: silicone is not auxetic, so a negative value (allowed down to -1 for isotropic solids in general) is a mistake.
+POISSON_RANGE = (0.0, 0.5)
 
 
 @dataclass(frozen=True)
@@ -42,6 +45,10 @@ class Material:
         Density of the composite (kg/m^3): a number used as is (the paper's 1940 for its
         phi = 0.2 beams), or a function of the volume fraction phi, for beams whose
         fraction varies. :meth:`rule_of_mixtures` builds the latter.
+    poisson_ratio : float
+        Poisson ratio nu of the composite (dimensionless), in [0, 0.5]: an isotropic elastomer lies in that
+        range (0.5 is incompressible) and the filled silicone is not auxetic. Default 0.49 (silicone, nearly
+        incompressible). It sets the shear modulus ``G = E / (2 (1 + nu))`` (torsion of the 3D rod).
 
     Notes
     -----
@@ -59,8 +66,16 @@ class Material:
     E0: float = 0.062e6
     particle_magnetization: float = 575e3
     density: float | Callable[[float], float] = 1940.0
+    poisson_ratio: float = 0.49
 
     def __post_init__(self):
+        nu = finite_number("Material.poisson_ratio", self.poisson_ratio)
+        if not POISSON_RANGE[0] <= nu <= POISSON_RANGE[1]:
+            raise ValueError(
+                f"Material.poisson_ratio must lie in [{POISSON_RANGE[0]:g}, {POISSON_RANGE[1]:g}] (dimensionless: an "
+                f"isotropic elastomer, 0.5 incompressible; the composite is not auxetic), got {self.poisson_ratio!r}."
+            )
+        object.__setattr__(self, "poisson_ratio", nu)
         e0 = positive("Material.E0", self.E0, unit="Pa")
         if not E0_RANGE[0] <= e0 <= E0_RANGE[1]:
             raise ValueError(
@@ -123,6 +138,7 @@ class Material:
         matrix_density: float = ECOFLEX_DENSITY,
         E0: float = 0.062e6,
         particle_magnetization: float = 575e3,
+        poisson_ratio: float = 0.49,
     ) -> Material:
         """Material whose density follows ``rho = phi rho_p + (1 - phi) rho_m`` (kg/m^3).
 
@@ -131,12 +147,17 @@ class Material:
         """
         rp = positive("particle_density", particle_density, unit="kg/m^3")
         rm = positive("matrix_density", matrix_density, unit="kg/m^3")
-        return cls(E0=E0, particle_magnetization=particle_magnetization, density=_Mixture(rp, rm))
+        return cls(E0=E0, particle_magnetization=particle_magnetization, density=_Mixture(rp, rm),
+                   poisson_ratio=poisson_ratio)
 
     def youngs_modulus(self, phi):
         """E(phi) in Pa (eq. 3); accepts scalars or arrays."""
         phi = np.asarray(phi, dtype=float)
         return self.E0 * np.exp(2.5 * phi / (1.0 - 1.35 * phi))
+
+    def shear_modulus(self, phi):
+        """Shear modulus G(phi) = E(phi) / (2 (1 + nu)) in Pa (isotropic); accepts scalars or arrays."""
+        return self.youngs_modulus(phi) / (2.0 * (1.0 + self.poisson_ratio))
 
     def remanence(self, phi):
         """Remanent flux density B_r(phi) = mu0 M_p phi in T (eq. 2)."""

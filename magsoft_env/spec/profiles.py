@@ -1,4 +1,4 @@
-"""Profiles along the beam: magnetization angle beta(s) and volume fraction phi(s).
+"""Profiles along the beam: magnetization angle beta(s) or direction, and volume fraction phi(s).
 
 A profile is a scalar function of the reference arc length s (m). Some profiles are
 *relative* (uniform values, N equal cells): they stretch to any beam length. Others carry
@@ -510,6 +510,120 @@ def as_profile(value, name: str) -> Profile:
     if callable(value):
         return Function(value)
     raise ValueError(f"{name} must be a number, a callable of s (m) or a Profile, got {value!r}.")
+
+
+#: Names of a magnetization direction's components, in the undeformed cross-section's frame (x, y, z).
+DIRECTION_COMPONENTS = ("axial", "width", "thickness")
+
+
+@dataclass(frozen=True)
+class Direction:
+    """Direction of the remanent magnetization in the undeformed beam, one profile per component.
+
+    The components are along the undeformed strip's axes: ``axial`` along it (x, from the clamp), ``width``
+    across its width (y) and ``thickness`` through its thickness (z, up). Each is a number, a callable of s (m)
+    or a :class:`Profile` (any family: cells, :class:`PiecewiseLinear`, :class:`Sampled`, :class:`Function`,
+    a jig profile...), read by :func:`as_profile`. Only the direction counts: :meth:`vectors` normalizes
+    pointwise, the magnitude comes from the volume fraction and M_p (:class:`~magsoft_env.spec.material.Material`).
+    The planar angle beta is ``Direction(cos beta, 0, sin beta)``; a zero vector anywhere on the beam is refused
+    by :class:`~magsoft_env.spec.beam.Beam`, and by :meth:`vectors` where it is evaluated.
+
+    Examples
+    --------
+    >>> d = Direction(1.0, 0.0, PiecewiseConstant([1.0, -1.0]))   # 45 deg up, then 45 deg down
+    >>> (d.vectors([0.005, 0.015], 0.02) ** 2).round(3).tolist()
+    [[0.5, 0.0, 0.5], [0.5, 0.0, 0.5]]
+    >>> d.breakpoints(0.02)
+    (0.01,)
+    """
+
+    axial: Profile
+    width: Profile
+    thickness: Profile
+
+    def __post_init__(self):
+        for c in DIRECTION_COMPONENTS:
+            object.__setattr__(self, c, as_profile(getattr(self, c), f"Direction {c}"))
+
+    @property
+    def components(self) -> tuple[Profile, Profile, Profile]:
+        """The three profiles (axial, width, thickness)."""
+        return (self.axial, self.width, self.thickness)
+
+    @property
+    def length(self) -> float | None:
+        """Arc length (m) every component covers (the shortest of those that carry one), or None (relative)."""
+        own = [p.length for p in self.components if p.length is not None]
+        return min(own) if own else None
+
+    @property
+    def has_width(self) -> bool:
+        """False when the width component is identically zero (a planar direction in the x-z plane)."""
+        return not _identically_zero(self.width)
+
+    def components_at(self, s, length: float) -> np.ndarray:
+        """The raw components (not normalized) at arc lengths ``s`` (m), shape ``s.shape + (3,)``."""
+        s = np.asarray(s, dtype=float)
+        return np.stack([np.broadcast_to(np.asarray(p.values(s, length), dtype=float), s.shape)
+                         for p in self.components], axis=-1)
+
+    def vectors(self, s, length: float) -> np.ndarray:
+        """Unit vectors (axial, width, thickness) at arc lengths ``s`` (m) on a beam of ``length`` (m), shape
+        ``s.shape + (3,)`` ((n, 3) for n arc lengths). A ValueError where the direction is the zero vector."""
+        v = self.components_at(s, length)
+        norm = np.linalg.norm(v, axis=-1, keepdims=True)
+        if np.any(norm == 0.0):
+            bad = np.broadcast_to(np.asarray(s, dtype=float), norm.shape[:-1])[norm[..., 0] == 0.0]
+            raise ValueError(f"Direction is the zero vector at s = {float(bad.ravel()[0]) * 1e3:.6g} mm: a "
+                             "magnetization direction needs a non-zero (axial, width, thickness) everywhere.")
+        return v / norm
+
+    def values(self, s, length):
+        """Refused: a direction has three components, not one angle (see :meth:`vectors`)."""
+        raise ValueError("a magnetization Direction has three components (axial, width, thickness), not one angle "
+                         "beta; use Direction.vectors(s, length) (or Beam.magnetization_direction(s)).")
+
+    def breakpoints(self, length: float) -> tuple[float, ...]:
+        """Interior arc lengths (m) where any component is not smooth, sorted."""
+        return tuple(sorted({b for p in self.components for b in p.breakpoints(length)}))
+
+    def spline_knots(self, length: float) -> tuple[float, ...]:
+        """Interior spline knots (m) of every component, sorted."""
+        return tuple(sorted({k for p in self.components for k in p.spline_knots(length)}))
+
+    def check_covers(self, length: float, name: str) -> None:
+        """Raise ValueError if a component does not cover ``[0, length]``."""
+        for c, p in zip(DIRECTION_COMPONENTS, self.components, strict=True):
+            p.check_covers(length, f"{name} {c}")
+
+
+def _identically_zero(p: Profile) -> bool:
+    """True for a profile that is zero everywhere by construction (a constant 0, zero cells or knots)."""
+    if type(p) is Constant:
+        return p.value == 0.0
+    if type(p) is PiecewiseConstant:
+        return all(v == 0.0 for v in p.levels)
+    if type(p) is PiecewiseLinear:
+        return all(v == 0.0 for v in p.knot_values)
+    if type(p) is Sampled:
+        return all(v == 0.0 for v in p.sample_values)
+    return False
+
+
+def as_magnetization(value, name: str) -> Profile | Direction:
+    """A magnetization: an angle beta (a number in rad, a callable of s or a :class:`Profile`, see
+    :func:`as_profile`) or a direction: a :class:`Direction`, or a sequence of three entries (axial, width,
+    thickness), each a number, a callable of s or a Profile. Anything else is a ValueError naming ``name``."""
+    if isinstance(value, (Profile, Direction)):
+        return value
+    if isinstance(value, (tuple, list)) or (isinstance(value, np.ndarray) and value.ndim == 1):
+        if len(value) == 3:
+            return Direction(*(as_profile(v, f"{name} {c}") for c, v in zip(DIRECTION_COMPONENTS, value,
+                                                                              strict=True)))
+        raise ValueError(f"{name} must be a number, a callable of s (m) or a Profile (the angle beta, rad), or a "
+                         f"direction (axial, width, thickness) of three of those, got {len(value)} entries: "
+                         f"{value!r}.")
+    return as_profile(value, name)
 
 
 def _short(v) -> str:
