@@ -52,9 +52,9 @@ class Beam:
         Reference length L, width w and thickness h (m), each in (0, 1] m. Planar bending is about the
         width axis, so ``I = w h^3 / 12``; the 3D rod also bends about the thickness axis
         (:attr:`second_moments`) and twists (:attr:`torsion_constant`). The beam must be slender:
-        L/h >= 1 is required and L/h < 5 warns (the model neglects shear, which grows as (h/L)^2). The width only scales
-        A and I; a strip wider than it is long is a plate, up to 1/(1 - nu^2) = 4/3 stiffer than
-        the beam model says, so it is not refused.
+        L/h >= 1 is required and L/h < 5 warns (the model neglects shear, which grows as (h/L)^2). In
+        the planar model the width only scales A and I; a strip wider than it is long is a plate, up
+        to 1/(1 - nu^2) = 4/3 stiffer than the beam model says, so it is not refused.
     material : Material
         Matrix and particle properties (paper values by default).
     volume_fraction : float, callable or Profile
