@@ -21,7 +21,17 @@ optional ``cell_length_mm``), ``cells`` (``angles_deg``, optional ``fractions``)
 ``expression`` (``angle_deg``: an expression in ``s``, mm; optional ``kinks_s_mm``). A jig sets the
 beam length to its arc length unless ``length_mm`` says otherwise.
 
-``material.density_kg_per_m3`` is a number or ``{"rule_of_mixtures": {"particle_kg_per_m3": ..,
+A magnetization with a component across the width is of kind ``direction``: ``axial``, ``width`` and
+``thickness`` (each 0 when omitted), the components along the undeformed strip, across its width and
+through its thickness (dimensionless; only the direction counts), each written like a volume fraction:
+a number, ``{"cells": [...], "fractions": [...]}`` or an object with a ``kind``: ``piecewise_linear``
+(``s_mm``, ``values``), ``samples`` (``s_mm`` and ``values``, or ``pieces``; ``piecewise_constant`` for
+pieces held constant) or ``expression`` (``value``: an expression in ``s``, mm; optional ``kinks_s_mm``)::
+
+    "magnetization": {"kind": "direction", "axial": 1, "width": {"cells": [1, -1]}, "thickness": 0}
+
+``material.poisson_ratio`` (dimensionless, in [0, 0.5]; default 0.49) sets the shear modulus of the
+3D rod. ``material.density_kg_per_m3`` is a number or ``{"rule_of_mixtures": {"particle_kg_per_m3": ..,
 "matrix_kg_per_m3": ..}}``.
 
 :func:`beam_to_dict` writes every profile family this way. Numbers are written so that reading them
@@ -44,6 +54,7 @@ import numpy as np
 from ..spec import (
     Beam,
     Constant,
+    Direction,
     Function,
     JigProfile,
     Material,
@@ -56,14 +67,15 @@ from ..spec import (
     jig_from_polyline,
     sample_profile,
 )
-from ..spec.profiles import MAX_CELLS, MAX_SAMPLES
+from ..spec.material import POISSON_RANGE
+from ..spec.profiles import DIRECTION_COMPONENTS, MAX_CELLS, MAX_SAMPLES
 from ..units import MM
-from ..validate import AngleRangeError, choice, finite_array, finite_number, integer, positive
+from ..validate import AngleRangeError, choice, finite_array, finite_number, in_range, integer, positive
 from .expressions import compile_expression
 from .numbers import kilo, mega, milli, radians, same, to_degrees, to_milli, to_unit
 
 _BEAM_KEYS = ("length_mm", "width_mm", "thickness_mm", "volume_fraction", "material", "magnetization")
-_MATERIAL_KEYS = ("E0_MPa", "particle_magnetization_kA_per_m", "density_kg_per_m3")
+_MATERIAL_KEYS = ("E0_MPa", "particle_magnetization_kA_per_m", "density_kg_per_m3", "poisson_ratio")
 _MAG_KEYS = {
     "uniform": ("kind", "angle_deg"),
     "alternating_cells": ("kind", "cells", "angle_deg", "cell_length_mm"),
@@ -74,11 +86,19 @@ _MAG_KEYS = {
     "piecewise_linear": ("kind", "s_mm", "angles_deg"),
     "samples": ("kind", "s_mm", "angles_deg", "pieces", "piecewise_constant"),
     "expression": ("kind", "angle_deg", "kinks_s_mm"),
+    "direction": ("kind", "axial", "width", "thickness"),
 }
 _PHI_KEYS = {
     "piecewise_linear": ("kind", "s_mm", "values"),
     "samples": ("kind", "s_mm", "values", "pieces"),
     "expression": ("kind", "phi", "kinks_s_mm"),
+}
+#: A direction component's kinds: the volume fraction's, with the expression under ``value`` and the pieces of
+#: ``samples`` optionally held constant (``piecewise_constant``: a polyline jig's pieces).
+_COMPONENT_KEYS = {
+    "piecewise_linear": ("kind", "s_mm", "values"),
+    "samples": ("kind", "s_mm", "values", "pieces", "piecewise_constant"),
+    "expression": ("kind", "value", "kinks_s_mm"),
 }
 _DEG = math.pi / 180.0
 _JIG_SAMPLES = 4001  # jig_from_function's default
@@ -171,9 +191,17 @@ def _material_from_dict(d: dict, *, where: str) -> Material:
                        required=("particle_kg_per_m3", "matrix_kg_per_m3"))
             return Material.rule_of_mixtures(
                 particle_density=positive(f"{w} particle_kg_per_m3", mix["particle_kg_per_m3"], unit="kg/m^3"),
-                matrix_density=positive(f"{w} matrix_kg_per_m3", mix["matrix_kg_per_m3"], unit="kg/m^3"), **kw)
+                matrix_density=positive(f"{w} matrix_kg_per_m3", mix["matrix_kg_per_m3"], unit="kg/m^3"),
+                **kw, **_poisson(where, d))
         kw["density"] = positive(f"{where} density_kg_per_m3", rho, unit="kg/m^3")
-    return Material(**kw)
+    return Material(**kw, **_poisson(where, d))
+
+
+def _poisson(where: str, d: dict) -> dict:
+    """``{"poisson_ratio": nu}`` from the material block, or nothing (the default)."""
+    if "poisson_ratio" not in d:
+        return {}
+    return {"poisson_ratio": in_range(f"{where} poisson_ratio", d["poisson_ratio"], *POISSON_RANGE)}
 
 
 def _scalar(name: str, raw, to_si, check=finite_number, unit: str = "") -> float:
@@ -224,16 +252,22 @@ def _samples(d: dict, w: str, values_key: str, to_si, *, piecewise_constant: boo
 
 
 def _phi_from_dict(vf, *, where: str):
+    return _dimensionless_from_dict(vf, where=where, kinds=_PHI_KEYS, expression="phi")
+
+
+def _dimensionless_from_dict(vf, *, where: str, kinds: dict, expression: str):
+    """A dimensionless profile (a volume fraction, a direction component): a number, ``{"cells": [...]}`` or an
+    object with a ``kind`` among ``kinds``; the expression of kind ``expression`` is under the key ``expression``."""
     if isinstance(vf, bool) or not isinstance(vf, (int, float, dict)):
         raise ValueError(f"{where} must be a number, {{'cells': [...]}} or an object with a 'kind' among "
-                         f"{list(_PHI_KEYS)}, got {vf!r}.")
+                         f"{list(kinds)}, got {vf!r}.")
     if not isinstance(vf, dict):
         return vf
     if "kind" not in vf:
         check_keys(where, vf, ("cells", "fractions"), required=("cells",))
         return PiecewiseConstant(check_list(f"{where} cells", vf["cells"], min_len=1), vf.get("fractions"))
-    kind = choice(f"{where} kind", vf["kind"], list(_PHI_KEYS))
-    check_keys(where, vf, _PHI_KEYS[kind])
+    kind = choice(f"{where} kind", vf["kind"], list(kinds))
+    check_keys(where, vf, kinds[kind])
     if kind == "piecewise_linear":
         for k in ("s_mm", "values"):
             if k not in vf:
@@ -241,10 +275,13 @@ def _phi_from_dict(vf, *, where: str):
         return PiecewiseLinear(_list(f"{where} s_mm", vf["s_mm"], milli, min_len=2),
                                _list(f"{where} values", vf["values"], same, min_len=2))
     if kind == "samples":
-        return _samples(vf, where, "values", same)
-    if "phi" not in vf:
-        raise ValueError(f"{where} of kind 'expression' needs 'phi' (an expression in s, mm).")
-    return Function(ArcExpression(vf["phi"], 1.0), kinks=_kinks(where, vf, "kinks_s_mm"))
+        flat = vf.get("piecewise_constant", False)
+        if not isinstance(flat, bool):
+            raise ValueError(f"{where} piecewise_constant must be true or false, got {flat!r}.")
+        return _samples(vf, where, "values", same, piecewise_constant=flat)
+    if expression not in vf:
+        raise ValueError(f"{where} of kind 'expression' needs {expression!r} (an expression in s, mm).")
+    return Function(ArcExpression(vf[expression], 1.0), kinks=_kinks(where, vf, "kinks_s_mm"))
 
 
 def _magnetization_from_dict(d: dict, *, where: str):
@@ -254,6 +291,11 @@ def _magnetization_from_dict(d: dict, *, where: str):
         raise ValueError(f"{w} must be an object with a 'kind' among {list(_MAG_KEYS)}, got {d!r}.")
     kind = choice(f"{w} kind", d["kind"], list(_MAG_KEYS))
     check_keys(w, d, _MAG_KEYS[kind])
+    if kind == "direction":
+        parts = [_dimensionless_from_dict(d.get(c, 0.0), where=f"{w} {c}", kinds=_COMPONENT_KEYS, expression="value")
+                 for c in DIRECTION_COMPONENTS]
+        prof = Direction(*parts)
+        return prof, prof.length
     angle = _scalar(f"{w} angle_deg", d.get("angle_deg", 0.0), radians, unit="deg") \
         if kind != "expression" else 0.0
     if kind == "uniform":
@@ -346,6 +388,7 @@ def beam_to_dict(beam: Beam, *, sample_functions: bool = False, where: str = "be
         mat["density_kg_per_m3"] = {"rule_of_mixtures": {"particle_kg_per_m3": mix[0], "matrix_kg_per_m3": mix[1]}}
     else:
         mat["density_kg_per_m3"] = m.density
+    mat["poisson_ratio"] = m.poisson_ratio
     return {
         "length_mm": _mm(beam.length),
         "width_mm": _mm(beam.width),
@@ -382,8 +425,14 @@ def _portable(prof):
 
 
 def _phi_to_dict(prof, length: float, sample: bool, where: str):
+    return _dimensionless_to_dict(prof, length, sample, where, expression="phi")
+
+
+def _dimensionless_to_dict(prof, length: float, sample: bool, where: str, *, expression: str):
+    """A dimensionless profile as file data (the reader's forms); a direction component's kinds
+    (``expression="value"``) also hold a polyline jig's constant pieces."""
     if (alt := _portable(prof)) is not None:
-        return _phi_to_dict(alt, length, sample, where)
+        return _dimensionless_to_dict(alt, length, sample, where, expression=expression)
     if type(prof) is Constant:
         return prof.value
     if type(prof) is PiecewiseConstant:
@@ -392,19 +441,25 @@ def _phi_to_dict(prof, length: float, sample: bool, where: str):
         return {"kind": "piecewise_linear", "s_mm": _mm(prof.s_knots), "values": _plain(prof.knot_values)}
     if type(prof) is Sampled:
         return {"kind": "samples", "s_mm": _mm(prof.s_samples), "values": _plain(prof.sample_values)}
-    if type(prof) is JigProfile and not prof.piecewise_constant:
-        return {"kind": "samples", "pieces": _pieces(prof, "values", False)}
+    if type(prof) is JigProfile and (expression != "phi" or not prof.piecewise_constant):
+        out = {"kind": "samples", "pieces": _pieces(prof, "values", False)}
+        if prof.piecewise_constant:
+            out["piecewise_constant"] = True
+        return out
     if type(prof) is Function and isinstance(prof.func, ArcExpression) and prof.func.scale == 1.0 \
             and prof.length is None:
-        return {"kind": "expression", "phi": prof.func.text, "kinks_s_mm": _mm(prof.kinks)}
+        return {"kind": "expression", expression: prof.func.text, "kinks_s_mm": _mm(prof.kinks)}
     if sample:
-        return _phi_to_dict(sample_profile(prof, length), length, False, where)
+        return _dimensionless_to_dict(sample_profile(prof, length), length, False, where, expression=expression)
     raise _cannot(where, prof)
 
 
 def _magnetization_to_dict(prof, length: float, sample: bool, where: str) -> dict:
     if (alt := _portable(prof)) is not None:
         return _magnetization_to_dict(alt, length, sample, where)
+    if type(prof) is Direction:
+        return {"kind": "direction", **{c: _dimensionless_to_dict(p, length, sample, f"{where} {c}", expression="value")
+                                        for c, p in zip(DIRECTION_COMPONENTS, prof.components, strict=True)}}
     if type(prof) is Constant:
         return {"kind": "uniform", "angle_deg": _deg(prof.value)}
     if type(prof) is PiecewiseConstant:
