@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..sim.equilibrium import SimEquilibrium, mujoco_path
+from ..spec.field import planar_field
 
 
 @dataclass(frozen=True)
@@ -80,6 +81,10 @@ def crosscheck_preset(preset, segments=(10, 20, 40), *, grading: float | None = 
     """
     if preset.support != "cantilever":
         raise ValueError(f"preset {preset.name!r} has support={preset.support!r}; the MuJoCo rod is clamped only.")
+    what = f"crosscheck_preset (preset {preset.name!r} on the MuJoCo hinge-chain rod)"
+    preset.beam.require_planar(what)
+    for f in preset.fields:
+        planar_field(f, what)
     from ..sim.model import RodOptions
     from ..theory import solve_path
 

@@ -28,7 +28,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..spec import Beam, Field
+from ..spec import Beam, as_field
+from ..spec.field import planar_field
 from ..validate import finite_number, nonnegative, positive
 
 _SHELL_RADIUS = 0.25e-3  # capsule radius of the object's shell (m)
@@ -277,7 +278,8 @@ class GraspScene:
         self.options = o = GraspOptions() if options is None else options
         if not isinstance(o, GraspOptions):
             raise ValueError(f"options must be a GraspOptions, got {type(o).__name__}.")
-        f = field if isinstance(field, Field) else Field(*field)
+        beam.require_planar("the grasp scene (planar MuJoCo fingers)")
+        f = planar_field(as_field(field, "field"), "the grasp scene (planar MuJoCo fingers)")
         self.field = np.array([f.Bx, 0.0, f.Bz])
         tgt = validate_target(target_xz, name="target_xz")
         tgt = resample(tgt - tgt[0], _SHELL_POINTS)

@@ -142,7 +142,7 @@ class MagSoftShapeEnv(gym.Env):
         if robot is not None:
             from ..cases.robots import resolve_robot
 
-            beam = resolve_robot(robot).beam
+            beam = resolve_robot(robot).beam.require_planar("MagSoftShape (the MuJoCo hinge-chain rod)")
         else:
             beam = Beam(length=positive("length", DEFAULT_LENGTH if length is None else length, unit="m"),
                         width=5e-3, thickness=1.13e-3, volume_fraction=0.2)

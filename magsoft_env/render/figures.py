@@ -122,6 +122,9 @@ def shape_mm(result, n: int = _SHAPE_SAMPLES) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _field_label(field) -> str:
+    """``B = (B_x, B_z) mT`` of a planar field, ``B = (B_x, B_y, B_z) mT`` of one with a y component."""
+    if getattr(field, "By", 0.0) != 0.0:
+        return f"B = ({field.Bx / MT:.3g}, {field.By / MT:.3g}, {field.Bz / MT:.3g}) mT"
     return f"B = ({field.Bx / MT:.3g}, {field.Bz / MT:.3g}) mT"
 
 

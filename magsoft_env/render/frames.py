@@ -10,6 +10,8 @@ import mujoco
 import numpy as np
 
 from ..gl import bind_headless_context, context_error
+from ..spec import as_field
+from ..spec.field import planar_field
 from ..units import MM, MT
 from .figures import PALETTE, _rc
 
@@ -776,7 +778,7 @@ class RodRenderer:
         """
         sim = self.sim
         f = sim.field if field is None else field
-        b = np.array([f.Bx, f.Bz] if hasattr(f, "Bx") else f, dtype=float).ravel()[:2]
+        b = planar_field(as_field(f, "field"), "the frame's field arrow (drawn in the x-z plane)").as_array()
         self._record()
         view = self.view = self._view()
         if self.zoom:

@@ -19,6 +19,8 @@ import numpy as np
 
 from ..spec import Beam
 
+#: What the planar checks call the rod this package builds in MuJoCo (it bends in the x-z plane).
+PLANAR_ROD = "the MuJoCo hinge-chain rod"
 _GAUSS_ORDER = 8  # Gauss-Legendre points per smooth piece (exact for degree-15 polynomials)
 
 
@@ -111,6 +113,7 @@ def discretize(beam: Beam, segments: int, *, grading: float = 1.0) -> RodDiscret
     """
     if not isinstance(beam, Beam):
         raise ValueError(f"beam must be a magsoft_env.Beam, got {type(beam).__name__}.")
+    beam.require_planar(PLANAR_ROD)
     if isinstance(segments, bool) or not isinstance(segments, (int, np.integer)) or not 2 <= segments <= 1000:
         raise ValueError(f"segments must be an integer in [2, 1000], got {segments!r}.")
     if not (isinstance(grading, (int, float, np.floating)) and 0.1 <= grading <= 10.0):

@@ -8,7 +8,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..spec import Beam, Field, as_field, as_fields
+from ..spec.field import planar_field
 from ..validate import nonnegative, positive
+from .discretize import PLANAR_ROD
 from .health import MAX_STEPS, check_steps
 from .model import RodOptions
 from .simulator import SettleResult, Simulator
@@ -140,7 +142,8 @@ def mujoco_path(
     """
     if not isinstance(beam, Beam):
         raise ValueError(f"beam must be a Beam, got {type(beam).__name__}.")
-    flist = as_fields(fields)
+    beam.require_planar(PLANAR_ROD)
+    flist = [planar_field(f, PLANAR_ROD) for f in as_fields(fields)]
     nonnegative("gravity", gravity, unit="m/s^2")
     mstep = positive("max_field_step", max_field_step, unit="T")
     tol = positive("tol", tol, unit="rad")

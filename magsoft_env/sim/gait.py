@@ -41,6 +41,7 @@ def gait_rod_options(robot: Robot, *, scene: str = "floor", segments: int | None
     """
     if not isinstance(robot, Robot):
         raise ValueError(f"robot must be a magsoft_env.Robot (see load_robot), got {type(robot).__name__}.")
+    robot.beam.require_planar(f"robot {robot.name!r} on the MuJoCo hinge-chain rod (gaits, floor environments)")
     segments, timestep = numerics(robot, fidelity=fidelity, segments=segments, timestep=timestep, scene=scene)
     friction = robot.friction if friction is None else friction
     return RodOptions(scene=scene, segments=segments, timestep=timestep, friction=friction,

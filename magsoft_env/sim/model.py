@@ -620,7 +620,11 @@ def field_controls(fields) -> tuple[np.ndarray, np.ndarray]:
     (one field, plain floats) gives the same bits: the simulator, the batch and rollouts apply
     identical inputs.
     """
-    f = np.asarray(fields, dtype=float).reshape(-1, 2)
+    f = np.asarray(fields, dtype=float)
+    if f.ndim == 0 or f.shape[-1] != 2:
+        raise ValueError(f"field_controls takes planar fields (B_x, B_z) (T), shape (n, 2), got shape {f.shape}: the "
+                         "MuJoCo hinge-chain rod bends in the x-z plane.")
+    f = f.reshape(-1, 2)
     bx, bz = f[:, 0], f[:, 1]
     mag = np.sqrt(bx * bx + bz * bz)
     # (cos, sin)(alpha / 2) is along (|B| + B_x, B_z), or along (B_z, |B| - B_x) where B_x < 0 (no cancellation)

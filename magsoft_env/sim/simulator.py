@@ -16,9 +16,10 @@ import mujoco
 import numpy as np
 
 from ..spec import Beam, Field, as_field
-from ..spec.field import MAX_FIELD
+from ..spec.field import MAX_FIELD, planar_field
 from ..validate import finite_number, positive
 from .backend import RodBackend, rod_backend
+from .discretize import PLANAR_ROD as ROD
 from .health import (
     FIELD_FLOOR,
     MAX_STEPS,
@@ -181,7 +182,8 @@ class Simulator:
             raise ValueError(f"check_every must be a positive integer, got {check_every!r}.")
         if not (isinstance(penetration_limit, (int, float, np.floating)) and penetration_limit == math.inf):
             positive("penetration_limit", penetration_limit, unit="beam thicknesses")
-        as_field(field, "field")  # checked before the model is built
+        beam.require_planar(ROD)
+        planar_field(as_field(field, "field"), ROD)  # checked before the model is built
         options = RodOptions() if options is None else options
         self.backend: RodBackend = rod_backend(beam, options)
         self.rod: RodModel = self.backend.rod
@@ -296,14 +298,15 @@ class Simulator:
 
     # ------------------------------------------------------------------ field
     def set_field(self, field) -> None:
-        """Hold a constant applied field ``(B_x, B_z)`` (T) from now on."""
+        """Hold a constant applied field ``(B_x, B_z)`` (T) from now on (planar: a Field with B_y != 0 is a
+        ValueError)."""
         bx = bz = None
         if type(field) is tuple and len(field) == 2:  # fast path for the per-step caller (envs)
             bx, bz = field
             if not (type(bx) in _FLOATS and type(bz) in _FLOATS and abs(bx) <= MAX_FIELD and abs(bz) <= MAX_FIELD):
                 bx = bz = None  # (NaN fails the comparison) full validation below
         if bx is None:
-            f = as_field(field)
+            f = planar_field(as_field(field), ROD)
             bx, bz = f.Bx, f.Bz
         self._waveform = None
         self._B3[0], self._B3[2] = bx, bz

@@ -22,11 +22,12 @@ import numpy as np
 
 from ..spec import MAX_FIELD, as_field
 from ..spec.drive import Waveparams, switched_square
+from ..spec.field import planar_field
 from ..validate import finite_number, positive
 
 
 def _pair(name: str, value) -> tuple[float, float]:
-    f = as_field(value, name)
+    f = planar_field(as_field(value, name), f"{name} (a waveform of the MuJoCo hinge-chain rod, (B_x, B_z))")
     return (f.Bx, f.Bz)
 
 
