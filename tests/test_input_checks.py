@@ -719,14 +719,9 @@ def _preset_with_field(field_mT) -> dict:
             "path": [{"field_mT": field_mT}]}
 
 
-@pytest.mark.parametrize("make", [
-    lambda: ms.Field(0, 5e-3, 10e-3), lambda: ms.Field.from_mT(0, 5, 10), lambda: as_field((0, 5e-3, 10e-3)),
-    lambda: as_fields([(0, 1e-3, 2e-3)]), lambda: ms.ramp((0, 0), (0, 5e-3, 10e-3)),
-    lambda: preset_from_dict(_preset_with_field([0, 5, 10]), name="x"),
-])
-def test_three_component_field_says_3d_is_not_supported(make):
-    with pytest.raises(ValueError, match=r"3D fields are not supported yet.*\(B_x, B_z\)"):
-        make()
+def test_three_component_field_in_a_preset_file_says_files_are_planar():
+    with pytest.raises(ValueError, match=r"preset files take planar fields .*\(B_x, B_z\).*\(B_x, B_y, B_z\)"):
+        preset_from_dict(_preset_with_field([0, 5, 10]), name="x")
 
 
 @pytest.mark.parametrize("cmd", [["solve", "--field-mT", "0", "5", "10"],
@@ -734,7 +729,7 @@ def test_three_component_field_says_3d_is_not_supported(make):
 def test_cli_field_mT_with_three_numbers(cmd, tmp_path, capsys):
     assert main([*cmd, "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err
-    assert "--field-mT takes two numbers, BX BZ in mT, got 3: 0 5 10" in err and "3D fields are not supported" in err
+    assert "--field-mT takes two numbers, BX BZ in mT, got 3: 0 5 10" in err and "This part is planar" in err
     assert len(err.strip().splitlines()) == 1
 
 
@@ -744,7 +739,8 @@ def test_cli_field_mT_with_one_number(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("make, message", [
-    (lambda: as_field("ab"), r"field must be a pair \(B_x, B_z\) in tesla \(or a Field\), got 'ab'"),
+    (lambda: as_field("ab"), r"field must be a pair \(B_x, B_z\) in tesla \(or a triple \(B_x, B_y, B_z\), or a "
+                           r"Field\), got 'ab'"),
     (lambda: as_field(1.0), r"field must be a pair \(B_x, B_z\) in tesla"),
     (lambda: preset_from_dict(_preset_with_field([13]), name="x"), r"must be a pair \[B_x, B_z\] in mT, got \[13\]"),
     (lambda: ms.design_profile(builtin_target("ball"), ms.Beam(**BEAM_KW), field_bounds={1: 2}),

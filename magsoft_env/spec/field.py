@@ -179,7 +179,7 @@ def as_field(value, name: str = "field") -> Field:
     if _three_components(value):
         bx, by, bz = value
         return Field(*(field_component(f"{name} {c}", v) for c, v in zip(_NAMES, (bx, by, bz), strict=True)))
-    bx, bz = pair(name, value, "(B_x, B_z) or a triple (B_x, B_y, B_z) in tesla (or a Field)")
+    bx, bz = pair(name, value, "(B_x, B_z) in tesla (or a triple (B_x, B_y, B_z), or a Field)")
     return Field(field_component(f"{name} Bx", bx), field_component(f"{name} Bz", bz))
 
 
