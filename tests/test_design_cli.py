@@ -120,7 +120,7 @@ def test_robot_design_field_is_checked():
 
     beam = ms.Beam(25e-3, 5e-3, 1.13e-3)
     assert Robot("x", beam, design_field=(0.0, 0.02)).design_field == ms.Field(0.0, 0.02)
-    with pytest.raises(ValueError, match=r"Robot.design_field must be a pair \(B_x, B_z\) in tesla \(or a Field\)"):
+    with pytest.raises(ValueError, match=r"Robot.design_field must be a pair \(B_x, B_z\) in tesla \(or a triple"):
         Robot("x", beam, design_field="20 mT")
     with pytest.raises(ValueError, match=r"design_field_mT must be a pair \[B_x, B_z\] in mT, got 3 components.*3D"):
         Robot.from_dict({"name": "x", "beam": {"length_mm": 25, "width_mm": 5, "thickness_mm": 1.13},
