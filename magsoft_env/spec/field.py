@@ -99,10 +99,13 @@ class Field:
     Bz: float
 
     def __init__(self, *components, **named):
-        given = _components(components, named, "", "Field")
+        if not named and len(components) == 2:  # the planar Field(Bx, Bz) of most callers
+            given = {"Bx": components[0], "Bz": components[1]}
+        else:
+            given = _components(components, named, "", "Field")
+        setter = object.__setattr__
         for name in _NAMES:
-            value = field_component(f"field {name}", given.get(name, 0.0))
-            object.__setattr__(self, name, value)
+            setter(self, name, field_component(f"field {name}", given[name]) if name in given else 0.0)
 
     @classmethod
     def from_mT(cls, *components_mT, **named_mT) -> Field:
