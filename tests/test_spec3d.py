@@ -320,3 +320,31 @@ def test_gaits_and_grasp_refuse_a_width_magnetization():
         GraspScene(across, (0.0, 5e-3), hanging_target("ball"))
     with pytest.raises(ValueError, match=r"the grasp scene \(planar MuJoCo fingers\) is planar .*B_y"):
         GraspScene(paper_beam(), (0.0, 1e-3, 5e-3), hanging_target("ball"))
+
+
+def test_direction_of_python_functions_is_saved_as_samples():
+    beam = paper_beam(magnetization=(lambda s: 1.0 + 0.0 * s, lambda s: np.sin(300.0 * s), 0.2))
+    with pytest.raises(ValueError, match=r"beam magnetization axial is a Function of a Python function"):
+        beam_to_dict(beam)
+    back = beam_from_dict(beam_to_dict(beam, sample_functions=True))
+    s = np.linspace(0.0, 25e-3, 101)
+    assert back.magnetization_direction(s) == pytest.approx(beam.magnetization_direction(s), abs=1e-8)
+
+
+def test_crosscheck_and_field_controls_refuse_what_is_not_planar():
+    pytest.importorskip("mujoco")
+    from magsoft_env.cases.statics import PathSegment, Preset
+    from magsoft_env.compare import crosscheck_preset
+    from magsoft_env.sim.model import field_controls
+
+    def preset(beam, end):
+        return Preset("p", "d", beam, (PathSegment(ms.Field(), end, 2),))
+
+    with pytest.raises(ValueError, match=r"crosscheck_preset \(preset 'p' on the MuJoCo hinge-chain rod\) is planar"):
+        crosscheck_preset(preset(paper_beam(magnetization=ACROSS), ms.Field(0.0, 1e-3)))
+    with pytest.raises(ValueError, match=r"crosscheck_preset .* B_y = 0.001 T"):
+        crosscheck_preset(preset(paper_beam(), ms.Field(0.0, 1e-3, 0.0)))
+    with pytest.raises(ValueError, match=r"field_controls takes planar fields \(B_x, B_z\).*got shape \(4, 3\)"):
+        field_controls(np.zeros((4, 3)))
+    mag, _ = field_controls([(3e-3, 4e-3)])
+    assert mag.tolist() == [pytest.approx(5e-3, rel=1e-15)]
