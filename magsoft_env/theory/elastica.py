@@ -83,3 +83,21 @@ def elastica_tip(force: float, angle: float, EI: float, length: float, *, clamp_
     # report the tip angle on the branch nearest the clamp angle plus the bend
     thL = clamp_angle + math.remainder(thL - clamp_angle, 2 * math.pi)
     return thL, xL, zL
+
+
+def prandtl_field(beam) -> float:
+    """Prandtl's estimate of the transverse field (T) that buckles a uniformly, axially magnetized strip
+    out of its plane (lateral-torsional buckling).
+
+    A field B across the width puts a uniform couple ``A M B`` per length on the straight strip: the
+    bending moment of a tip load ``P = A M B``. Prandtl's critical tip load of a deep cantilever,
+    ``P_cr = 4.013 sqrt(E I_w G J) / L^2`` (the strip straight until it buckles, at the clamp's
+    stiffnesses), gives ``B_cr = P_cr / (A M)``. It is a first estimate: the in-plane deflection before
+    buckling and the couple turning with the cross-section move the true value
+    (:func:`magsoft_env.theory.rod_solver.critical_field`).
+    """
+    import numpy as np
+
+    k = np.asarray(beam.stiffnesses(np.array([0.0])), dtype=float)[0]
+    P = 4.013 * math.sqrt(k[0] * k[2]) / beam.length**2
+    return P / float(beam.moment_per_length(np.array([0.0]))[0])

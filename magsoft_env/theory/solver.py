@@ -18,7 +18,11 @@ from ..threads import single_threaded_blas
 from ..validate import boolean, choice, in_range, integer
 from .collocation import Grid, _grid_cached, make_grid
 from .model import BeamModel, Load
+from .rod_solver import MAX_ROD_NODES, RodResult, solve_rod_path
 from .verify import equation_residual
+
+#: The models :func:`solve_path` takes: the planar beam, the 3D rod, or the one the problem needs.
+MODELS = ("auto", "planar", "3d")
 
 TERMINATION_MESSAGES = {
     0: "Converged: equilibrium found along the loading path.",
@@ -886,12 +890,71 @@ def _regrid(grid: Grid, n: int) -> Grid:
 
 
 # ----------------------------------------------------------------------------------------------
-def _check_common(beam, gravity, support, coupling, extensible, clamp_angle, options):
+def _use_rod(beam, fields, model: str) -> bool:
+    """Whether a problem takes the 3D rod (see ``model`` in :func:`solve_path`)."""
+    model = choice("model", model, MODELS)
+    if not isinstance(beam, Beam):
+        raise ValueError(f"beam must be a magsoft_env.Beam, got {type(beam).__name__}.")
+    if model == "3d":
+        return True
+    if isinstance(fields, Field) or (_triple(fields)):
+        fields = [fields]  # one field given where a sequence is expected: as_fields says so
+    if isinstance(fields, np.ndarray):
+        three = fields.ndim == 2 and fields.shape[1] == 3
+        out_of_plane = three and bool(np.any(fields[:, 1] != 0))
+    else:
+        try:
+            items = list(fields)
+        except TypeError:
+            items = []
+        three = any(_triple(f) for f in items)
+        out_of_plane = any((isinstance(f, Field) and not f.is_planar) or (_triple(f) and _nonzero(f[1]))
+                           for f in items)
+        three = three or out_of_plane
+    if model == "planar":
+        if out_of_plane:
+            raise ValueError("model='planar' bends the beam in the x-z plane: every field must have B_y = 0, "
+                             "got a field with a B_y component; use model='3d' (or 'auto').")
+        if not beam.is_planar:
+            raise ValueError("model='planar' cannot take a magnetization with a component across the width; "
+                             "use model='3d' (or 'auto').")
+        return False
+    return three or not beam.is_planar
+
+
+def _triple(v) -> bool:
+    """Whether ``v`` is one field given by three numbers (not a sequence of three fields)."""
+    if isinstance(v, (str, bytes, dict, set, frozenset, Field)):
+        return False
+    try:
+        a = np.asarray(v, dtype=float)
+    except (TypeError, ValueError):
+        return False
+    return a.shape == (3,)
+
+
+def _nonzero(v) -> bool:
+    try:
+        return float(v) != 0.0
+    except (TypeError, ValueError):
+        return False  # as_fields reports it
+
+
+def _check_common(beam, gravity, support, coupling, extensible, clamp_angle, options, *, rod: bool = False):
     if not isinstance(beam, Beam):
         raise ValueError(f"beam must be a magsoft_env.Beam, got {type(beam).__name__}.")
     lo = check_loading(gravity=gravity, support=support, coupling=coupling, extensible=extensible,
                        clamp_angle=clamp_angle)
     g, support, coupling, th0 = lo["gravity"], lo["support"], lo["coupling"], lo["clamp_angle"]
+    if rod and coupling != "rotated":
+        raise ValueError(
+            "coupling='paper' is planar only: the paper's eq. (10) couples only the axial component "
+            "B_r cos(beta) of the magnetization, which has no meaning for a cross-section that turns in 3D. "
+            "The 3D rod uses the rotated coupling (A B_r / mu0) (R m_hat) x B; pass coupling='rotated'."
+        )
+    if rod and lo["extensible"]:
+        raise ValueError("extensible=True is planar only: the 3D rod is inextensible (axial strain is about 1 % "
+                         "at 13 mT); pass extensible=False.")
     if options is None:
         options = SolverOptions()
     elif not isinstance(options, SolverOptions):
@@ -900,6 +963,11 @@ def _check_common(beam, gravity, support, coupling, extensible, clamp_angle, opt
     edges = _edges(beam, options.split_at_knots)
     d = len(make_grid(beam.length, edges, n=8, max_domain=options.max_domain * beam.length).edges) - 1
     n_max = options.nodes if options.nodes is not None else options.max_nodes
+    if rod and d * 9 > MAX_ROD_NODES:
+        raise ValueError(
+            f"the beam has {d} smooth pieces (breakpoints of its profiles, max_domain): the 3D rod needs at least "
+            f"{9 * d} collocation nodes, more than {MAX_ROD_NODES}; use fewer cells or a larger max_domain."
+        )
     if d * 9 > MAX_TOTAL_NODES:
         raise ValueError(
             f"the beam has {d} smooth pieces (breakpoints of its profiles, max_domain): at least {9 * d} "
@@ -925,7 +993,8 @@ def solve_path(
     clamp_angle: float = 0.0,
     options: SolverOptions | None = None,
     progress: bool = False,
-) -> list[EquilibriumResult]:
+    model: str = "auto",
+) -> list[EquilibriumResult] | list[RodResult]:
     """Equilibria along a loading path, one result per field, in order.
 
     The path starts from the straight, unloaded beam: gravity is applied first (zero field),
@@ -941,8 +1010,8 @@ def solve_path(
     ----------
     beam : Beam
         The beam.
-    fields : sequence of Field or (B_x, B_z) pairs
-        Applied fields (T), in loading order.
+    fields : sequence of Field, (B_x, B_z) pairs or (B_x, B_y, B_z) triples
+        Applied fields (T), in loading order. A pair is (B_x, B_z), in the plane of bending.
     gravity : float
         Gravitational acceleration (m/s^2) along -z. Must be 0 for ``support="free"``.
     support : {"cantilever", "free"}
@@ -958,10 +1027,18 @@ def solve_path(
         Numerical settings.
     progress : bool
         Show a progress bar (tqdm).
+    model : {"auto", "planar", "3d"}
+        ``"planar"``: the beam bends in the x-z plane (theta(s), the paper's model). ``"3d"``: the
+        Kirchhoff rod in three dimensions (bending about both axes and twist,
+        :mod:`magsoft_env.theory.rod_solver`; rotated coupling, inextensible). ``"auto"``
+        (default) takes the 3D model when a field is given with three components (or as a Field
+        with B_y != 0) or the magnetization has a component across the width, and the planar one
+        otherwise. On a planar problem both give the same shape; the 3D model also tests
+        stability against out-of-plane bending and twist.
 
     Returns
     -------
-    list of EquilibriumResult
+    list of EquilibriumResult (planar) or of RodResult (3D)
 
     Examples
     --------
@@ -971,11 +1048,15 @@ def solve_path(
     >>> bool(res[-1].success), round(res[-1].tip_deflection / beam.length, 2)
     (True, 0.92)
     """
+    rod = _use_rod(beam, fields, model)
     g, support, coupling, extensible, th0, options = _check_common(
-        beam, gravity, support, coupling, extensible, clamp_angle, options
+        beam, gravity, support, coupling, extensible, clamp_angle, options, rod=rod
     )
     fields = as_fields(fields)
     with single_threaded_blas():
+        if rod:
+            return solve_rod_path(beam, fields, g, support, th0, options, _edges(beam, options.split_at_knots),
+                                  TERMINATION_MESSAGES, progress)
         return _solve_path(beam, fields, g, support, coupling, extensible, th0, options, progress)
 
 
@@ -1017,7 +1098,8 @@ def solve_equilibrium(
     clamp_angle: float = 0.0,
     start: str = "path",
     options: SolverOptions | None = None,
-) -> EquilibriumResult:
+    model: str = "auto",
+) -> EquilibriumResult | RodResult:
     """Equilibrium shape of a beam under a uniform field (T) and gravity.
 
     Solves, for the cantilever (``theta(0) = clamp_angle``, ``theta'(L) = 0``)::
@@ -1030,19 +1112,20 @@ def solve_equilibrium(
     Parameters
     ----------
     beam : Beam
-    field : Field or (B_x, B_z)
-        Applied field (T).
+    field : Field, (B_x, B_z) or (B_x, B_y, B_z)
+        Applied field (T). Three components (or a magnetization across the width) take the 3D
+        rod and return a :class:`~magsoft_env.theory.rod_solver.RodResult` (``model``).
     start : {"path", "straight"}
         ``"path"`` (default) follows the loading path: gravity first, then the field ramped
         from zero, as the real beam experiences it. ``"straight"`` runs Newton once from the
         straight beam at the full load; it can land on an unstable or unreachable
         equilibrium and exists to show why the path matters.
-    gravity, support, coupling, extensible, clamp_angle, options
+    gravity, support, coupling, extensible, clamp_angle, options, model
         As in :func:`solve_path`.
 
     Returns
     -------
-    EquilibriumResult
+    EquilibriumResult, or RodResult in 3D
 
     Examples
     --------
@@ -1052,8 +1135,12 @@ def solve_equilibrium(
     >>> r.success, r.stable
     (True, True)
     """
+    rod = _use_rod(beam, [field], model)
     fld = as_field(field)
     start = choice("start", start, ["path", "straight"])
+    if rod and start != "path":
+        raise ValueError("start='straight' is planar only (it shows why the loading path matters); the 3D rod "
+                         "follows the loading path: pass start='path'.")
     if start == "path":
         return solve_path(
             beam,
@@ -1064,6 +1151,7 @@ def solve_equilibrium(
             extensible=extensible,
             clamp_angle=clamp_angle,
             options=options,
+            model="3d" if rod else "planar",
         )[0]
     g, support, coupling, extensible, th0, options = _check_common(
         beam, gravity, support, coupling, extensible, clamp_angle, options
