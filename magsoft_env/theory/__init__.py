@@ -1,13 +1,18 @@
 """Analytical side: equilibrium shapes of hard-magnetic beams along loading paths."""
 
-from .elastica import elastica_tip
+from .elastica import elastica_tip, prandtl_field
+from .rod_solver import CriticalField, RodResult, critical_field
 from .solver import TERMINATION_MESSAGES, EquilibriumResult, SolverOptions, solve_equilibrium, solve_path
 
 __all__ = [
     "TERMINATION_MESSAGES",
+    "CriticalField",
     "EquilibriumResult",
+    "RodResult",
     "SolverOptions",
+    "critical_field",
     "elastica_tip",
+    "prandtl_field",
     "solve_equilibrium",
     "solve_path",
 ]

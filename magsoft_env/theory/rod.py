@@ -59,8 +59,7 @@ class Load3(NamedTuple):
 
 
 # quaternions, scalar first, on the last axis ------------------------------------------------------
-def qmul(p, q):
-    """Quaternion product p q (arrays (..., 4), real or complex)."""
+def _qmul_slow(p, q):
     pw, px, py, pz = p[..., 0], p[..., 1], p[..., 2], p[..., 3]
     qw, qx, qy, qz = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     return np.stack([pw * qw - px * qx - py * qy - pz * qz,
@@ -69,18 +68,44 @@ def qmul(p, q):
                      pw * qz + px * qy - py * qx + pz * qw], axis=-1)
 
 
+_I4 = np.eye(4)
+#: Structure constants: (p q)_i = C_ijk p_j q_k.
+_C = np.stack([_qmul_slow(_I4[j], _I4[k]) for j in range(4) for k in range(4)]).reshape(4, 4, 4).transpose(2, 0, 1)
+_CL = np.ascontiguousarray(_C.transpose(1, 0, 2).reshape(4, 16))  # p -> L(p) flattened: L(p)_ik = C_ijk p_j
+_CR = np.ascontiguousarray(_C.transpose(2, 0, 1).reshape(4, 16))  # q -> R(q) flattened: R(q)_ij = C_ijk q_k
+_CONJ = np.array([1.0, -1.0, -1.0, -1.0])
+#: Rotation matrix as a quadratic form: R(q)_ab = Q_abjk q_j q_k for unit q.
+_Q = np.zeros((3, 3, 4, 4))
+for _j in range(4):
+    for _k in range(4):
+        _e = 0.5 * (np.outer(_I4[_j], _I4[_k]) + np.outer(_I4[_k], _I4[_j]))
+        for _a in range(3):
+            # R v = vec(q (0, v) conj(q)): column a from v = e_a
+            _v = np.zeros(4)
+            _v[_a + 1] = 1.0
+            _Q[:, _a, _j, _k] = np.einsum("ijk,j,k->i", _C, np.einsum("ijk,j,k->i", _C, _I4[_j], _v),
+                                          _I4[_k] * _CONJ)[1:]
+_Q = 0.5 * (_Q + _Q.transpose(0, 1, 3, 2))
+_QF = np.ascontiguousarray(_Q.reshape(9, 16))
+_EPS = np.zeros((3, 3, 3))
+_EPS[0, 1, 2] = _EPS[1, 2, 0] = _EPS[2, 0, 1] = 1.0
+_EPS[0, 2, 1] = _EPS[2, 1, 0] = _EPS[1, 0, 2] = -1.0
+_SK = np.ascontiguousarray((-_EPS).transpose(2, 0, 1).reshape(3, 9))  # v -> [v]x flattened
+
+
+def qmul(p, q):
+    """Quaternion product p q (arrays (..., 4), real or complex)."""
+    return np.einsum("...ik,...k->...i", _left(p), q)
+
+
 def qconj(q):
-    return q * np.array([1.0, -1.0, -1.0, -1.0])
+    return q * _CONJ
 
 
 def qmat(q):
-    """Rotation matrices (..., 3, 3) of unit quaternions (a polynomial: exact under a complex step)."""
-    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], axis=-1),
-        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], axis=-1),
-        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=-1),
-    ], axis=-2)
+    """Rotation matrices (..., 3, 3) of unit quaternions (a quadratic form: exact under a complex step)."""
+    qq = (q[..., :, None] * q[..., None, :]).reshape(q.shape[:-1] + (16,))
+    return (qq @ _QF.T).reshape(q.shape[:-1] + (3, 3))
 
 
 def qexp(psi):
@@ -104,23 +129,17 @@ def clamp_quaternion(clamp_angle: float) -> np.ndarray:
 
 def _left(q):
     """Matrices (..., 4, 4) of left multiplication by q: q p = L(q) p."""
-    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    return np.stack([np.stack([w, -x, -y, -z], -1), np.stack([x, w, -z, y], -1),
-                     np.stack([y, z, w, -x], -1), np.stack([z, -y, x, w], -1)], -2)
+    return (q @ _CL).reshape(q.shape[:-1] + (4, 4))
 
 
 def _right(q):
     """Matrices (..., 4, 4) of right multiplication by q: p q = R(q) p."""
-    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    return np.stack([np.stack([w, -x, -y, -z], -1), np.stack([x, w, z, -y], -1),
-                     np.stack([y, -z, w, x], -1), np.stack([z, y, -x, w], -1)], -2)
+    return (q @ _CR).reshape(q.shape[:-1] + (4, 4))
 
 
 def _skew(v):
     """Cross-product matrices (..., 3, 3): [v]x u = v x u."""
-    x, y, z = v[..., 0], v[..., 1], v[..., 2]
-    o = np.zeros_like(x)
-    return np.stack([np.stack([o, -z, y], -1), np.stack([z, o, -x], -1), np.stack([-y, x, o], -1)], -2)
+    return (v @ _SK).reshape(v.shape[:-1] + (3, 3))
 
 
 def angle_between(q1, q2) -> np.ndarray:

@@ -635,8 +635,10 @@ def critical_field(beam: Beam, field, *, gravity: float = 0.0, support: str = "c
     beam : Beam
     field : Field or (B_x, B_y, B_z)
         End of the ramp (T); the direction of the field is kept.
-    gravity, support, clamp_angle, options
+    gravity, clamp_angle, options
         As in :func:`magsoft_env.solve_path` (``options.nodes`` is set per grid).
+    support : {"cantilever"}
+        Only the clamped strip has a loading branch to follow.
     degrees : sequence of int
         Chebyshev degrees per subdomain, coarse to fine (at least two, each in [8, 400]).
 
@@ -660,6 +662,9 @@ def critical_field(beam: Beam, field, *, gravity: float = 0.0, support: str = "c
         raise ValueError(f"critical_field degrees needs at least two grids to state an error, got {degrees!r}.")
     g, support, _, _, th0, options = _check_common(beam, gravity, support, "rotated", False, clamp_angle,
                                                    options or SolverOptions(), rod=True)
+    if support != "cantilever":
+        raise ValueError("critical_field follows the branch of a clamped strip (support='cantilever'); a free "
+                         f"strip is relaxed field by field and has no loading branch to follow, got {support!r}.")
     Bx, By, Bz = (float(v) for v in fld.vector())
     target = Load3(Bx, By, Bz, g)
     found = []
@@ -671,7 +676,7 @@ def critical_field(beam: Beam, field, *, gravity: float = 0.0, support: str = "c
         if g > 0 and support == "cantilever" and not solver.continue_to(Load3(0.0, 0.0, 0.0, g)):
             raise ValueError(f"critical_field: the strip found no equilibrium under gravity alone ({solver.note}).")
         start = solver.load
-        solver.continue_to(target) if support == "cantilever" else solver.relax(target)
+        solver.continue_to(target)
         if not solver.events:
             return None
         ev = solver.events[0]

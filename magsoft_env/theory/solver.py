@@ -186,6 +186,9 @@ class EquilibriumResult:
         (property) Smallest eigenvalue of the discrete second variation in units of EI/L^2.
     min_eigenvalue_uncertainty : float
         (property) Its change on a 1.5 times finer grid (EI/L^2): how well the grid resolves it.
+    tip_position, tip_twist, centreline
+        (properties) The 3D readings of :class:`~magsoft_env.theory.rod_solver.RodResult`: (x_L, 0, z_L),
+        0.0 and (n, 3), so that code written for either result reads both.
     """
 
     success: bool
@@ -239,6 +242,21 @@ class EquilibriumResult:
     @property
     def length(self) -> float:
         return float(self.s[-1])
+
+    @property
+    def tip_position(self) -> np.ndarray:
+        """(x, y, z) of the tip (m), y = 0: the same reading as the 3D :class:`RodResult`'s."""
+        return np.array([self.x[-1], 0.0, self.z[-1]])
+
+    @property
+    def tip_twist(self) -> float:
+        """0.0 (rad): a planar beam does not twist (as the 3D :class:`RodResult` reports it)."""
+        return 0.0
+
+    @property
+    def centreline(self) -> np.ndarray:
+        """(n, 3) deformed centreline (m), y = 0: the same reading as the 3D result's."""
+        return np.column_stack([self.x, np.zeros_like(self.x), self.z])
 
     def sample(self, n: int = 101):
         """Centreline at ``n`` evenly spaced arc lengths: (s, x, z, theta) arrays (m, m, m, rad)."""
