@@ -345,7 +345,48 @@ class RodModel:
 
     def hessian(self, q, load: Load3):
         """Gradient and second variation (symmetrized) of the discrete energy with respect to psi on the
-        distinct nodes: the complex-step derivative of :meth:`gradient` (exact to rounding)."""
+        distinct nodes: the linearization of :meth:`gradient` (``d q_j = T_j psi_j``,
+        ``d q' = D d q``, then each product rule in turn), checked against :meth:`hessian_cs`."""
+        M = q.shape[0]
+        n3 = 3 * M
+        dq = self.D @ q
+        k = 2.0 * qmul(qconj(q), dq)[:, 1:]
+        Kk = np.concatenate([np.zeros((M, 1)), self.K * k], axis=1)
+        u = qmul(q, Kk)
+        V = self.D.T @ (self.w[:, None] * u)
+        R, lam = self.loads(q, load)
+        g = -self.w[:, None] * qmul(u, qconj(dq))[:, 1:] + qmul(V, qconj(q))[:, 1:] - self.w[:, None] * lam
+        # unit rotations psi at every node (columns), as quaternion changes (M, 4, 3 M)
+        T = 0.5 * _right(q)[:, :, 1:]
+        X = np.zeros((M, 4, n3))
+        idx = np.arange(M)
+        for c in range(3):
+            X[idx, :, 3 * idx + c] = T[:, :, c]
+        Xp = (self.D @ X.reshape(M, 4 * n3)).reshape(M, 4, n3)
+        Lcq, Rdq = _left(qconj(q)), _right(dq)
+        dk = 2.0 * (np.matmul(Lcq[:, 1:, :], Xp) + np.matmul(Rdq[:, 1:, :] * _CONJ, X))
+        du = np.matmul(_right(Kk), X) + np.matmul(_left(q)[:, :, 1:] * self.K[:, None, :], dk)
+        H = -self.w[:, None, None] * (np.matmul(_right(qconj(dq))[:, 1:, :], du)
+                                      + np.matmul(_left(u)[:, 1:, :] * _CONJ, Xp))
+        dV = (self.D.T @ (self.w[:, None, None] * du).reshape(M, 4 * n3)).reshape(M, 4, n3)
+        H += np.matmul(_right(qconj(q))[:, 1:, :], dV) + np.matmul(_left(V)[:, 1:, :] * _CONJ, X)
+        ma = np.einsum("mij,mj->mi", R, self.a)
+        Lam = _skew(np.broadcast_to(load.B, ma.shape)) @ _skew(ma)
+        if load.g:
+            nf = np.zeros_like(ma)
+            nf[:, 2] = -load.g * self.W1
+            Lam = Lam + _skew(nf) @ _skew(R[:, :, 2])
+        Hb = H.reshape(M, 3, M, 3)
+        Hb[idx, :, idx, :] -= self.w[:, None, None] * Lam
+        # onto the distinct nodes
+        Hd = np.tensordot(self.E, Hb, axes=([0], [0]))  # (n, 3, M, 3)
+        Hd = np.tensordot(Hd, self.E, axes=([2], [0])).transpose(0, 1, 3, 2)  # (n, 3, n, 3)
+        nU = self.E.shape[1]
+        Hd = Hd.reshape(3 * nU, 3 * nU)
+        return (self.E.T @ g).reshape(-1), 0.5 * (Hd + Hd.T)
+
+    def hessian_cs(self, q, load: Load3):
+        """:meth:`hessian` by a complex step of :meth:`gradient` (exact to rounding; slower): its check."""
         g = self.gradient(q, load)
         Ht = self.gradient(self._perturbed(q, self.pdirs), load).imag / _H
         return g, 0.5 * (Ht + Ht.T)
