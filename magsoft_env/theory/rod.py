@@ -395,7 +395,7 @@ class RodModel:
         """H in the mass-normalized basis, in units E I_w / L^2 (its eigenvalues are the planar solver's).
 
         On a free beam the rigid rotations that leave the energy unchanged (about the field; all
-        three without one) are neutral: given ``load``, they are lifted to eigenvalue 1 so that
+        three without one) are neutral: given ``load``, they are lifted to eigenvalue 1e6 so that
         stability tests and the smallest eigenvalue see only the deformations."""
         r = 1.0 / np.sqrt(self.mass)
         Hs = H * np.outer(r, r) * (self.L**2 / self.EI_ref)
@@ -406,7 +406,7 @@ class RodModel:
             for a in axes:
                 v = (np.sqrt(self.mass).reshape(-1, 3) * a).ravel()
                 v /= np.linalg.norm(v)
-                Hs += np.outer(v, v)
+                Hs += 1e6 * np.outer(v, v)
         return Hs
 
     def min_eigen(self, q, load: Load3):

@@ -304,15 +304,22 @@ class RodSolver:
         for _ in range(MAX_DESCENT):
             g, H = mdl.hessian(q, load)
             Hs = mdl.scaled(H, load)
-            r = (mdl.L**2 / mdl.EI_ref) / np.sqrt(mdl.mass)
-            lam0 = float(scipy.linalg.eigvalsh(Hs, subset_by_index=[0, 0], check_finite=False)[0])
-            if float(np.max(np.abs(g / np.sqrt(mdl.mass)))) < tol and lam0 > -_NEUTRAL:
+            r = 1.0 / np.sqrt(mdl.mass)
+            lam, vec = scipy.linalg.eigh(Hs, subset_by_index=[0, 0], check_finite=False)
+            lam0 = float(lam[0])
+            if float(np.max(np.abs(g * r))) < tol and lam0 > -_NEUTRAL:
                 break
-            shift = max(0.0, -lam0) * 1.5 + 1e-3
-            Hs.flat[:: Hs.shape[0] + 1] += shift
-            step = -r * scipy.linalg.solve(Hs, r * g / (mdl.L**2 / mdl.EI_ref), assume_a="pos", check_finite=False)
+            Hs.flat[:: Hs.shape[0] + 1] += max(0.0, -lam0) * 1.5 + 1e-3
+            step = -r * scipy.linalg.solve(Hs, r * g * (mdl.L**2 / mdl.EI_ref), assume_a="pos", check_finite=False)
             psi = mdl.E @ step.reshape(-1, 3)
             big = float(np.max(np.abs(psi)))
+            if lam0 < -_NEUTRAL and big < 1e-3:
+                # near a saddle the gradient has no part along the unstable mode (a symmetric state):
+                # go down along the mode itself, the way that lowers the energy more
+                mode = mdl.E @ (r * vec[:, 0]).reshape(-1, 3)
+                mode *= _KICK_RAD / float(np.max(np.abs(mode)))
+                psi = min((mode, -mode), key=lambda p: mdl.energy(rotate(q, p), load))
+                big = _KICK_RAD
             if big > _MAX_STEP_RAD:
                 psi *= _MAX_STEP_RAD / big
             alpha, moved = 1.0, False
