@@ -193,7 +193,7 @@ class RodModel:
         """Frames R (..., M, 3, 3), load couple density l = c + d3 x n (..., M, 3) (N)."""
         R = qmat(q)
         ma = np.einsum("...ij,...j->...i", R, self.a)
-        lam = np.cross(ma, load.B)
+        lam = ma @ _skew(load.B)  # ma x B
         if load.g:
             d3 = R[..., :, 2]
             gw = load.g * self.W1
