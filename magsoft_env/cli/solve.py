@@ -27,6 +27,7 @@ BEAM_FLAGS = (
     ("--phi", 0.2, "particle volume fraction in [0, 0.5]"),
     ("--beta-deg", 0.0, "uniform magnetization angle in deg, from +x toward +z"),
     ("--density-kg-per-m3", 1940.0, "composite density in kg/m^3, in [100, 30000]"),
+    ("--poisson", 0.49, "Poisson's ratio nu in [0, 0.5]: the shear modulus G = E / (2 (1 + nu)) of the torsion (3D)"),
 )
 #: Largest --gravity accepted by every command (m/s^2): 100 g; 9810 would be mm/s^2.
 MAX_GRAVITY = 1000.0
@@ -236,11 +237,19 @@ def add_parser(subparsers) -> None:
     src.add_argument("--list", action="store_true", help="list the presets and exit")
     for flag, default, text in BEAM_FLAGS:
         src.add_argument(flag, type=float, default=None, help=f"{text} (default {default:g})")
-    src.add_argument("--field-mT", type=float, nargs="+", metavar=("BX", "BZ"), default=None,
-                     help="final applied field in mT (default 0 13); with --preset, replaces its path")
+    src.add_argument("--magnetization", type=float, nargs=3, metavar=("AXIAL", "WIDTH", "THICKNESS"), default=None,
+                     help="uniform magnetization direction in the strip's frame (along it, across its width, through "
+                          "its thickness), instead of --beta-deg; a width component solves in 3D")
+    src.add_argument("--field-mT", type=float, nargs="+", metavar="B", default=None,
+                     help="final applied field in mT: BX BZ (default 0 13), or BX BY BZ, which solves in 3D; with "
+                          "--preset, replaces its path")
     src.add_argument("--steps", type=int, default=None,
                      help="states along each ramp of the path (default: the preset's; 14 for parameters)")
     add_solver_flags(p, preset_defaults=True)
+    p.add_argument("--critical", action="store_true",
+                   help="solve in 3D and report the first loss of stability along the ramp from zero (critical field "
+                        "in mT, its discretization error, bifurcation or fold; Prandtl's estimate beside it for a "
+                        "uniform, axially magnetized strip)")
     p.add_argument("--out", default=DEFAULT_OUT, help=f"output folder (default {DEFAULT_OUT}/)")
     p.add_argument("--no-plot", action="store_true", help="skip the PNG")
     p.set_defaults(run=run)
@@ -254,8 +263,14 @@ def build_case(args):
     _check_flag("--steps", args.steps, lo=2, hi=10_000, integer=True)
     field = None
     if args.field_mT is not None:
-        field = field_mT_flag(args.field_mT)
+        field = field_mT_flag(args.field_mT, three=True)
+    three = args.field_mT is not None and len(args.field_mT) == 3
     given = [flag for flag, _, _ in BEAM_FLAGS if getattr(args, _dest(flag)) is not None]
+    if getattr(args, "magnetization", None) is not None:
+        if args.beta_deg is not None:
+            raise ValueError("give --beta-deg (an angle in the x-z plane) or --magnetization AXIAL WIDTH THICKNESS "
+                             "(a direction), not both.")
+        given.append("--magnetization")
     if args.preset and given:
         raise ValueError(f"give --preset or beam parameters, not both: got --preset {args.preset} and {given}.")
     robot = getattr(args, "robot", None)
@@ -263,7 +278,7 @@ def build_case(args):
         raise ValueError(f"give --robot, --preset or beam parameters, one of them: got --robot {robot} and "
                          f"{'--preset ' + args.preset if args.preset else given}.")
     if robot is not None:
-        return apply_overrides(robot_preset(robot, field, args.steps), args)
+        return apply_overrides(robot_preset(robot, field, args.steps, three=three), args)
     for flag, default, _ in BEAM_FLAGS:
         if getattr(args, _dest(flag)) is None:
             setattr(args, _dest(flag), default)
@@ -278,25 +293,34 @@ def build_case(args):
         _check_flag("--phi", args.phi, lo=0.0, hi=0.5)
         _check_flag("--beta-deg", args.beta_deg, lo=-360.0, hi=360.0)
         _check_flag("--density-kg-per-m3", args.density_kg_per_m3, lo=100.0, hi=30000.0)
+        _check_flag("--poisson", args.poisson, lo=0.0, hi=0.5)
+        mag = magnetization_flag(args.magnetization)
         beam = Beam(
             length=args.length_mm * MM,
             width=args.width_mm * MM,
             thickness=args.thickness_mm * MM,
-            material=Material(density=args.density_kg_per_m3),
+            material=Material(density=args.density_kg_per_m3, poisson_ratio=args.poisson),
             volume_fraction=args.phi,
-            magnetization=math.radians(args.beta_deg),
+            magnetization=math.radians(args.beta_deg) if mag is None else mag,
         )
         field = field if field is not None else Field.from_mT(0.0, 13.0)
-        preset = Preset(
-            name="custom",
-            description=(f"uniform beam L = {args.length_mm:g} mm, w = {args.width_mm:g} mm, "
-                         f"h = {args.thickness_mm:g} mm, phi = {args.phi:g}, beta = {args.beta_deg:g} deg"),
-            beam=beam,
-            path=(PathSegment(Field(), field, args.steps or 14),),
-            config={"length_mm": args.length_mm, "width_mm": args.width_mm, "thickness_mm": args.thickness_mm,
-                    "phi": args.phi, "beta_deg": args.beta_deg, "density_kg_per_m3": args.density_kg_per_m3,
-                    "field_mT": [field.Bx / MT, field.Bz / MT]},
-        )
+        description = (f"uniform beam L = {args.length_mm:g} mm, w = {args.width_mm:g} mm, "
+                       f"h = {args.thickness_mm:g} mm, phi = {args.phi:g}")
+        config = {"length_mm": args.length_mm, "width_mm": args.width_mm, "thickness_mm": args.thickness_mm,
+                  "phi": args.phi}
+        if mag is None:
+            description += f", beta = {args.beta_deg:g} deg"
+            config["beta_deg"] = args.beta_deg
+        else:
+            description += f", magnetization ({' '.join(f'{v:g}' for v in mag)})"
+            config["magnetization"] = list(mag)
+        if "--poisson" in given:
+            description += f", nu = {args.poisson:g}"
+            config["poisson"] = args.poisson
+        config["density_kg_per_m3"] = args.density_kg_per_m3
+        config["field_mT"] = field_list_mT(field, three)
+        preset = Preset(name="custom", description=description, beam=beam,
+                        path=(PathSegment(Field(), field, args.steps or 14),), config=config)
     if args.steps is not None and field is None:
         preset = preset.with_steps(args.steps)
     return apply_overrides(preset, args)
@@ -306,10 +330,11 @@ def build_case(args):
 ROBOT_FIELD_MT = (0.0, 13.0)
 
 
-def robot_preset(source, field=None, steps: int | None = None):
+def robot_preset(source, field=None, steps: int | None = None, *, three: bool = False):
     """A cantilever :class:`~magsoft_env.cases.Preset` of a robot's beam (a robot file, name or Robot): the field
     ramped from zero to ``field`` in ``steps`` states (default 14). Without ``field``: the robot's design field
-    (``design_field_mT`` in its file, written by ``magsoft design``), else :data:`ROBOT_FIELD_MT`."""
+    (``design_field_mT`` in its file, written by ``magsoft design``), else :data:`ROBOT_FIELD_MT`. ``three``:
+    the config names the field by three components (it was given so)."""
     from magsoft_env.cases import PathSegment, Preset
     from magsoft_env.cases.robots import load_robot
     from magsoft_env.spec import Field
@@ -319,15 +344,44 @@ def robot_preset(source, field=None, steps: int | None = None):
         field = robot.design_field if robot.design_field is not None else Field.from_mT(*ROBOT_FIELD_MT)
     return Preset(name=robot.name, description=robot.description or f"robot {robot.name}", beam=robot.beam,
                   path=(PathSegment(Field(), field, steps or 14),), source=str(source),
-                  config={"robot": str(source), "field_mT": [field.Bx / MT, field.Bz / MT]})
+                  config={"robot": str(source), "field_mT": field_list_mT(field, three)})
 
 
-def field_mT_flag(values, flag: str = "--field-mT"):
+def field_list_mT(field, three: bool = False) -> list[float]:
+    """A field in mT as written in configs: [B_x, B_z] for a planar one, [B_x, B_y, B_z] otherwise (or if ``three``)."""
+    if three or not field.is_planar:
+        return [field.Bx / MT, field.By / MT, field.Bz / MT]
+    return [field.Bx / MT, field.Bz / MT]
+
+
+def magnetization_flag(values, flag: str = "--magnetization"):
+    """The direction (axial, width, thickness) of a ``--magnetization`` flag (None: not given), each component
+    checked; only the direction counts, so it must not be (0, 0, 0)."""
+    if values is None:
+        return None
+    if len(values) != 3:
+        raise ValueError(f"{flag} takes three numbers, AXIAL WIDTH THICKNESS, got {len(values)}.")
+    for name, v in zip(("AXIAL", "WIDTH", "THICKNESS"), values, strict=True):
+        _check_flag(f"{flag} {name}", v, lo=-1e6, hi=1e6)
+    if not any(values):
+        raise ValueError(f"{flag} gives a direction and must not be 0 0 0.")
+    return tuple(float(v) for v in values)
+
+
+def field_mT_flag(values, flag: str = "--field-mT", *, three: bool = False):
     """The Field of a ``--field-mT BX BZ`` flag (taken as ``nargs="+"`` so that three numbers get this message,
-    not argparse's "unrecognized arguments"), each component checked by name."""
+    not argparse's "unrecognized arguments"), each component checked by name. ``three``: ``BX BY BZ`` is
+    accepted too (the 3D solve)."""
     from magsoft_env.spec import Field
     from magsoft_env.spec.field import PLANAR_FIELD_NOTE
 
+    if three and len(values) == 3:
+        for name, v in zip(("BX", "BY", "BZ"), values, strict=True):
+            _check_flag(f"{flag} {name}", v, lo=-1000.0, hi=1000.0)
+        return Field.from_mT(*values)
+    if three and len(values) != 2:
+        raise ValueError(f"{flag} takes two numbers, BX BZ, or three, BX BY BZ, in mT, got {len(values)}: "
+                         f"{' '.join(f'{v:g}' for v in values)}.")
     if len(values) != 2:
         note = f" {PLANAR_FIELD_NOTE}" if len(values) == 3 else ""
         raise ValueError(f"{flag} takes two numbers, BX BZ in mT, got {len(values)}: "
@@ -365,6 +419,10 @@ def run(args) -> int:
         return 0
     out = out_dir(args.out)
     preset = build_case(args)
+    if args.critical or (args.field_mT is not None and len(args.field_mT) == 3) or not preset.beam.is_planar:
+        from .rod import run_rod
+
+        return run_rod(args, preset, out)
     results = solve_path(preset.beam, preset.fields, **preset.solver_options())
     rows = [metrics_row(r, preset.beam, axis=preset.sweep_axis) for r in results]
 

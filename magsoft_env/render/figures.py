@@ -365,3 +365,121 @@ def frontier_figure(results: dict, path, *, tolerance: float = 0.05) -> Path:
     axes[0][0].set_ylabel("crawl error against the reference (%)")
     fig.suptitle(f"Time against error (3 s crawls; ring: the robot's own numerics; dashed: {100 * tolerance:g} %)")
     return save_figure(fig, path)
+
+
+# ---------------------------------------------------------------------------------------------
+# 3D shapes (the Kirchhoff rod)
+
+#: (title, horizontal axis, vertical axis) of the three projections of :func:`rod_figure`: 0 x, 1 y, 2 z.
+ROD_VIEWS = (("side view (x-z)", 0, 2), ("top view (x-y)", 0, 1), ("end view (y-z)", 1, 2))
+
+
+def rod_edges_mm(result, width: float | None, n: int = _SHAPE_SAMPLES):
+    """Centreline (n, 3) and the strip's two long edges (n, 3) each, in mm, of a 3D equilibrium: the edges are
+    the centreline -+ (w / 2) d1 (d1 the cross-section's direction across the width), so that twist shows.
+    ``width`` in m; None gives the centreline for both edges."""
+    _, r, frames = result.sample(n)
+    r = np.asarray(r, dtype=float)
+    half = 0.0 if width is None else 0.5 * float(width)
+    d1 = np.asarray(frames, dtype=float)[:, :, 0]
+    return r / MM, (r - half * d1) / MM, (r + half * d1) / MM
+
+
+@styled
+def rod_figure(results: Sequence, path, *, width: float | None = None, max_shapes: int = 8,
+               title: str | None = None) -> Path:
+    """Shapes of a strip in 3D along a loading path: a 3D view and its three projections; saved to ``path``.
+
+    Parameters
+    ----------
+    results : sequence of RodResult
+        Equilibria along a path (:func:`magsoft_env.solve_path` with a 3D field, or ``model="3d"``), SI units.
+    path : str or Path
+        Output file; the format follows the suffix (PNG, SVG, PDF).
+    width : float, optional
+        Strip width (m), e.g. ``beam.width``. Each shape is drawn as a ribbon of this width, its edges at
+        centreline +- (w / 2) d1 (d1 across the width), so that twist about the tangent is visible; None
+        draws the centreline alone.
+    max_shapes : int
+        Most shapes drawn, spread over the path and always with the last; coloured by the step, the last
+        one opaque. Unstable or failed states are dotted.
+    title : str, optional
+        Figure title.
+
+    Panels: the 3D view (top left), the side view (x-z, top right), the top view (x-y) and the end view (y-z,
+    looking along -x from the tip). Axes in mm, equal aspect; the undeformed strip is dashed, the clamp at
+    the origin. Returns ``path``.
+    """
+    import matplotlib
+    from matplotlib.figure import Figure
+
+    if not isinstance(max_shapes, int) or isinstance(max_shapes, bool) or max_shapes < 1:
+        raise ValueError(f"max_shapes must be an integer >= 1, got {max_shapes!r}.")
+    results = list(results)
+    if not results:
+        raise ValueError("rod_figure needs at least one result.")
+    if width is not None and not (isinstance(width, (int, float)) and math.isfinite(width) and width > 0):
+        raise ValueError(f"width must be a positive length in m (or None), got {width!r}.")
+    colours = matplotlib.colormaps["viridis"]
+    idx = _pick(len(results), max_shapes)
+    shapes = []
+    for k, i in enumerate(idx):
+        r = results[i]
+        c = colours(k / max(len(idx) - 1, 1))
+        last = i == len(results) - 1
+        shapes.append((r, c, last, *rod_edges_mm(r, width)))
+    length = float(results[0].length) / MM
+    fig = Figure(figsize=(10.0, 8.0), layout="constrained")
+    ax3 = fig.add_subplot(2, 2, 1, projection="3d")
+    axes2 = [fig.add_subplot(2, 2, k) for k in (2, 3, 4)]
+    pts = [np.array([[0.0, 0.0, 0.0], [length, 0.0, 0.0]])]
+    half_mm = 0.0 if width is None else 0.5 * width / MM
+    ax3.plot([0.0, length], [0.0, 0.0], [0.0, 0.0], color=PALETTE["scene"], ls="--", lw=1.0)
+    for r, c, last, cl, e0, e1 in shapes:
+        ls = "-" if (r.success and r.stable) else ":"
+        alpha = 0.85 if last else 0.12
+        if width is not None:
+            X = np.stack([e0[:, 0], e1[:, 0]])
+            Y = np.stack([e0[:, 1], e1[:, 1]])
+            Z = np.stack([e0[:, 2], e1[:, 2]])
+            ax3.plot_surface(X, Y, Z, color=c, alpha=alpha, linewidth=0, shade=True)
+            for e in (e0, e1):
+                ax3.plot(e[:, 0], e[:, 1], e[:, 2], color=c, lw=0.6, alpha=min(1.0, alpha + 0.15))
+        f = r.field
+        label = f"B = ({f.Bx / MT:.3g}, {f.By / MT:.3g}, {f.Bz / MT:.3g}) mT" + ("" if r.success else " (failed)")
+        ax3.plot(cl[:, 0], cl[:, 1], cl[:, 2], color=c, ls=ls, lw=1.6 if last else 0.9, label=label)
+        pts += [e0, e1, cl]
+    allp = np.concatenate(pts)
+    lo, hi = allp.min(axis=0), allp.max(axis=0)
+    mid, span = 0.5 * (lo + hi), max(float((hi - lo).max()), 2.0 * half_mm, 1e-9)
+    ax3.set_xlim(mid[0] - span / 2, mid[0] + span / 2)
+    ax3.set_ylim(mid[1] - span / 2, mid[1] + span / 2)
+    ax3.set_zlim(mid[2] - span / 2, mid[2] + span / 2)
+    ax3.set_box_aspect((1.0, 1.0, 1.0))
+    ax3.view_init(elev=22.0, azim=-58.0)
+    ax3.set_xlabel("x (mm)")
+    ax3.set_ylabel("y (mm)")
+    ax3.set_zlabel("z (mm)")
+    ax3.set_title("3D view")
+    ax3.legend(fontsize=6, loc="upper left")
+    names = "xyz"
+    for ax, (view, a, b) in zip(axes2, ROD_VIEWS, strict=True):
+        und = np.array([[0.0, -half_mm, 0.0], [length, -half_mm, 0.0], [length, half_mm, 0.0], [0.0, half_mm, 0.0]])
+        ax.fill(und[:, a], und[:, b], facecolor="none", edgecolor=PALETTE["scene"], ls="--", lw=1.0)
+        for r, c, last, cl, e0, e1 in shapes:
+            ls = "-" if (r.success and r.stable) else ":"
+            if width is not None:
+                poly = np.concatenate([e0, e1[::-1]])
+                ax.fill(poly[:, a], poly[:, b], color=c, alpha=0.45 if last else 0.06, lw=0)
+                for e in (e0, e1):
+                    ax.plot(e[:, a], e[:, b], color=c, lw=0.8 if last else 0.4, alpha=1.0 if last else 0.6)
+            ax.plot(cl[:, a], cl[:, b], color=c, ls=ls, lw=1.6 if last else 0.9)
+        ax.plot([0.0], [0.0], "s", color=PALETTE["robot"], ms=4)
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_xlabel(f"{names[a]} (mm)")
+        ax.set_ylabel(f"{names[b]} (mm)")
+        ax.set_title(view)
+        ax.grid(True)
+    if title:
+        fig.suptitle(title)
+    return save_figure(fig, path)
