@@ -17,7 +17,16 @@ import numpy as np
 
 from ..io import format_table, write_csv
 from ..units import MM
-from .solve import DEFAULT_OUT, MAX_GRAVITY, _check_flag, metrics_row, out_dir, write_json
+from .solve import (
+    DEFAULT_OUT,
+    MAX_GRAVITY,
+    _check_flag,
+    add_planar_only_flags,
+    metrics_row,
+    out_dir,
+    refuse_3d,
+    write_json,
+)
 
 JIG_PRESETS = ("fig4b_quadratic", "fig4c_sinusoidal", "fig4d_piecewise")
 
@@ -38,12 +47,14 @@ def add_parser(subparsers) -> None:
                    help="include axial strain (default: the presets')")
     p.add_argument("--out", default=DEFAULT_OUT, help=f"output folder (default {DEFAULT_OUT}/)")
     p.add_argument("--no-plot", action="store_true", help="skip the PNG")
+    add_planar_only_flags(p)
     p.set_defaults(run=run)
 
 
 def build_presets(args) -> list:
     from magsoft_env.cases import load_preset
 
+    refuse_3d(args, "couplings")
     _check_flag("--levels", args.levels, lo=1, hi=20, integer=True)
     _check_flag("--steps", args.steps, lo=2, hi=10_000, integer=True)
     if args.gravity is not None:
@@ -57,6 +68,7 @@ def build_presets(args) -> list:
             p = p.with_steps(args.steps)
         changes = {k: getattr(args, k) for k in ("gravity", "extensible") if getattr(args, k) is not None}
         presets.append(p.replace(**changes) if changes else p)
+    refuse_3d(args, "couplings", presets)
     return presets
 
 

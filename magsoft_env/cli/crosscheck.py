@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from ..io import write_text_atomic
-from .solve import _check_flag, field_mT_flag, out_dir, robot_preset
+from .solve import _check_flag, field_mT_flag, out_dir, refuse_3d, robot_preset
 
 DEFAULT_PRESETS = (
     "fig3a_L20", "fig3a_L25", "fig3a_L30", "fig3b_L20", "fig3b_L25", "fig3b_L30",
@@ -69,6 +69,7 @@ def run(args) -> int:
         cases.append(load_preset(nm))  # an unknown name: the closest one suggested
     for src in args.robot or ():
         cases.append(robot_preset(src, field, args.steps))  # a bad file: its key named, before any work
+    refuse_3d(None, "crosscheck", cases)  # the MuJoCo rod is planar: a 3D robot is refused before any output
     from magsoft_env.compare.crosscheck import crosscheck_preset  # after the checks: imports mujoco
     from magsoft_env.render.figures import crosscheck_figure
 

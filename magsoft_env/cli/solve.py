@@ -159,6 +159,37 @@ def add_solver_flags(p, *, preset_defaults: bool, support: bool = True) -> None:
                        help="cantilever (clamped at s = 0) or free-free (needs --gravity 0)")
 
 
+def add_planar_only_flags(p) -> None:
+    """Hidden ``--field-mT`` and ``--magnetization`` flags of a planar command, so that a field or a 3D
+    magnetization given to it is answered by :func:`refuse_3d` rather than "unrecognized arguments"."""
+    p.add_argument("--field-mT", type=float, nargs="*", default=None, help=argparse.SUPPRESS)
+    p.add_argument("--magnetization", type=float, nargs="*", default=None, help=argparse.SUPPRESS)
+
+
+def refuse_3d(args, command: str, presets=()) -> None:
+    """A ValueError naming ``magsoft COMMAND`` if ``args`` give a field or a magnetization (hidden flags of
+    :func:`add_planar_only_flags`) or a preset's beam or fields leave the x-z plane: the command is planar,
+    ``magsoft solve`` takes 3D."""
+    where = ("magsoft solve takes 3D fields (--field-mT BX BY BZ) and magnetizations (--magnetization AXIAL WIDTH "
+             "THICKNESS).")
+    field = getattr(args, "field_mT", None)
+    if field is not None:
+        what = "a 3D field" if len(field) == 3 else "a field"
+        raise ValueError(f"magsoft {command} is planar (x-z plane) and takes its fields from its presets, got "
+                         f"--field-mT {' '.join(f'{v:g}' for v in field)} ({what}); {where}")
+    mag = getattr(args, "magnetization", None)
+    if mag is not None:
+        raise ValueError(f"magsoft {command} is planar (x-z plane) and takes its magnetization from its presets, "
+                         f"got --magnetization {' '.join(f'{v:g}' for v in mag)}; {where}")
+    for preset in presets:
+        if not preset.beam.is_planar:
+            raise ValueError(f"magsoft {command} is planar (x-z plane), but {preset.name!r} has a "
+                             f"magnetization with a component across the width; {where}")
+        if any(not f.is_planar for seg in preset.path for f in (seg.start, seg.end)):
+            raise ValueError(f"magsoft {command} is planar (x-z plane), but {preset.name!r} has a field "
+                             f"with a B_y component; {where}")
+
+
 def load_parameter(beam, field, axis: str = "magnitude") -> float:
     """The normalized field P = A M B L^2 / (E I) of one field component (``Bx``, ``Bz``) or of |B|."""
     from magsoft_env.spec import Field
@@ -383,7 +414,7 @@ def field_mT_flag(values, flag: str = "--field-mT", *, three: bool = False):
         raise ValueError(f"{flag} takes two numbers, BX BZ, or three, BX BY BZ, in mT, got {len(values)}: "
                          f"{' '.join(f'{v:g}' for v in values)}.")
     if len(values) != 2:
-        note = f" {PLANAR_FIELD_NOTE}" if len(values) == 3 else ""
+        note = f" {PLANAR_FIELD_NOTE} magsoft solve takes {flag} BX BY BZ." if len(values) == 3 else ""
         raise ValueError(f"{flag} takes two numbers, BX BZ in mT, got {len(values)}: "
                          f"{' '.join(f'{v:g}' for v in values)}.{note}")
     bx, bz = values

@@ -13,10 +13,12 @@ from ..units import MM
 from .solve import (
     DEFAULT_OUT,
     _check_flag,
+    add_planar_only_flags,
     add_solver_flags,
     apply_overrides,
     metrics_row,
     out_dir,
+    refuse_3d,
     write_json,
 )
 
@@ -42,6 +44,7 @@ def add_parser(subparsers) -> None:
     p.add_argument("--out", default=DEFAULT_OUT, help=f"output folder (default {DEFAULT_OUT}/)")
     p.add_argument("--no-plot", action="store_true", help="skip the PNG")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_planar_only_flags(p)
     p.set_defaults(run=run)
 
 
@@ -49,6 +52,7 @@ def build_cases(args) -> list[tuple[str, float, object]]:
     """(path name, length in mm, preset) for every curve; all input checks happen here."""
     from magsoft_env.cases import list_presets, load_preset
 
+    refuse_3d(args, "sweep")
     _check_flag("--steps", args.steps, lo=2, hi=10_000, integer=True)
     if len(args.lengths_mm) > 100:
         raise ValueError(f"--lengths-mm takes at most 100 lengths, got {len(args.lengths_mm)}.")
