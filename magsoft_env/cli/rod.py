@@ -92,20 +92,28 @@ def is_uniform_axial(beam) -> bool:
                 and np.allclose(m, m[0], rtol=_UNIFORM_RTOL, atol=0.0))
 
 
+def critical_ramp_end(preset):
+    """The end field of the preset's one ramp from zero, which ``--critical`` follows; else a ValueError."""
+    seg = preset.path
+    if len(seg) != 1 or seg[0].start.magnitude != 0.0:
+        what = f"{len(seg)} segments" if len(seg) != 1 else "a ramp from a non-zero field"
+        raise ValueError("--critical follows one ramp from zero: give --field-mT (with --preset, it replaces the "
+                         f"preset's path; {preset.name!r} has {what}).")
+    return seg[0].end
+
+
 def critical_report(preset) -> dict:
     """The first loss of stability along the ramp from zero to the preset's last field (3D rod), with
     Prandtl's estimate when the strip is uniform and axially magnetized (else None there)."""
     from magsoft_env.theory.elastica import prandtl_field
     from magsoft_env.theory.rod_solver import critical_field
+    from magsoft_env.threads import single_threaded_blas
 
-    seg = preset.path
-    if len(seg) != 1 or seg[0].start.magnitude != 0.0:
-        raise ValueError("--critical follows one ramp from zero: give --field-mT (with --preset, it replaces the "
-                         f"preset's path; {preset.name!r} has {len(seg)} segment(s)).")
-    end = seg[0].end
+    end = critical_ramp_end(preset)
     opts = preset.solver_options()
-    crit = critical_field(preset.beam, end, gravity=opts["gravity"], support=opts["support"],
-                          clamp_angle=opts.get("clamp_angle", 0.0))
+    with single_threaded_blas():
+        crit = critical_field(preset.beam, end, gravity=opts["gravity"], support=opts["support"],
+                              clamp_angle=opts.get("clamp_angle", 0.0))
     prandtl = prandtl_field(preset.beam) if is_uniform_axial(preset.beam) else None
     out = {"ramp_end_mT": [end.Bx / MT, end.By / MT, end.Bz / MT], "found": crit is not None,
            "prandtl_mT": None if prandtl is None else prandtl / MT}
@@ -144,6 +152,8 @@ def run_rod(args, preset, out) -> int:
     """``magsoft solve`` with the 3D rod: prints the table, events (and critical field), writes JSON and PNG."""
     from magsoft_env.theory import solve_path
 
+    if args.critical:
+        critical_ramp_end(preset)  # checked before any work
     try:
         results = solve_path(preset.beam, preset.fields, **preset.solver_options(), model="3d")
     except ValueError as exc:
