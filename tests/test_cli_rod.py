@@ -105,6 +105,15 @@ def _three_d_preset(tmp_path):
     return str(path)
 
 
+def _three_d_robot(tmp_path):
+    from magsoft_env.cases.robots import load_robot
+
+    robot = load_robot("paper-5c")
+    path = tmp_path / "tilted.yml"
+    robot.replace(name="tilted", beam=robot.beam.replace(magnetization=(1.0, 0.5, 0.0))).save(path)
+    return str(path)
+
+
 @pytest.mark.parametrize("argv, message", [
     (["solve", "--field-mT", "1"], "--field-mT takes two numbers, BX BZ, or three, BX BY BZ, in mT, got 1: 1."),
     (["solve", "--field-mT", "1", "2", "3", "4"], "got 4: 1 2 3 4."),
@@ -123,9 +132,13 @@ def _three_d_preset(tmp_path):
                                            "magnetization with a component across the width"),
     (["crosscheck", "--preset", "TILTED"], "magsoft crosscheck is planar"),
     (["crosscheck", "--robot", "paper-5c", "--field-mT", "0", "1", "5"], "magsoft solve takes --field-mT BX BY BZ"),
+    (["gait", "--preset", "paper-5c", "--field-mT", "0", "1", "5"], "magsoft gait is planar (x-z plane)"),
+    (["gait", "--robot", "ROBOT3D"], "is planar (x-z plane), but this beam's magnetization has a component"),
+    (["design", "--target", "ball", "--field-mT", "0", "1", "5"], "magsoft design is planar (x-z plane)"),
 ])
 def test_errors(argv, message, tmp_path, capsys):
-    argv = [_three_d_preset(tmp_path) if a == "TILTED" else a for a in argv]
+    argv = [_three_d_preset(tmp_path) if a == "TILTED" else _three_d_robot(tmp_path) if a == "ROBOT3D" else a
+            for a in argv]
     out_dir = tmp_path / "out"
     rc, _, err = _run([*argv, "--out", str(out_dir)], capsys)
     assert rc == 2
@@ -133,5 +146,5 @@ def test_errors(argv, message, tmp_path, capsys):
     assert len(lines) == 1 and lines[0].startswith(f"magsoft {argv[0]}: error: ") and message in lines[0], err
     if argv[0] != "crosscheck" or "--robot" not in argv:
         assert not out_dir.exists() or not any(out_dir.iterdir())
-    if argv[0] in ("sweep", "couplings"):
+    if argv[0] in ("sweep", "couplings", "design") or "--field-mT" in argv and argv[0] == "gait":
         assert "magsoft solve takes 3D fields" in lines[0]

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ..units import MM, MT
-from .solve import MAX_GRAVITY, _check_flag, out_dir, write_json
+from .solve import MAX_GRAVITY, _check_flag, add_planar_only_flags, out_dir, refuse_3d, write_json
 
 
 def add_parser(subparsers) -> None:
@@ -57,6 +57,7 @@ def add_parser(subparsers) -> None:
     p.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--out", default="magsoft_out/design", help="output folder (default magsoft_out/design)")
+    add_planar_only_flags(p)
     p.set_defaults(run=run)
 
 
@@ -141,6 +142,7 @@ def write_robot(res, path, name: str):
 
 def check_flags(args) -> None:
     """Every numeric flag, by its name, before any work (ranges as in ``magsoft design --help``)."""
+    refuse_3d(args, "design")
     _check_flag("--width-mm", args.width_mm, lo=0.0, hi=1000.0, open_lo=True)
     _check_flag("--thickness-mm", args.thickness_mm, lo=0.0, hi=1000.0, open_lo=True)
     _check_flag("--volume-fraction", args.volume_fraction, lo=0.0, hi=0.5, open_lo=True)

@@ -9,7 +9,7 @@ import math
 import sys
 from pathlib import Path
 
-from .solve import dumps_json, out_file, write_json
+from .solve import add_planar_only_flags, dumps_json, out_file, refuse_3d, write_json
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -56,6 +56,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
     p.add_argument("--out", type=Path, default=None, metavar="PATH",
                    help="also write the result as JSON to this file (checked before the run, written atomically)")
+    add_planar_only_flags(p)
     p.set_defaults(run=run)
     return p
 
@@ -70,6 +71,7 @@ def run(args) -> int:
     from magsoft_env.cases.gaits import gait_preset
     from magsoft_env.sim.gait import run_gait
 
+    refuse_3d(args, "gait")
     if not (args.seconds > 0 and math.isfinite(args.seconds)):
         raise ValueError(f"--seconds must be > 0 (s) and finite, got {args.seconds}.")
     if args.fidelity is not None and (args.timestep_ms is not None or args.segments is not None):

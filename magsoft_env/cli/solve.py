@@ -175,12 +175,12 @@ def refuse_3d(args, command: str, presets=()) -> None:
     field = getattr(args, "field_mT", None)
     if field is not None:
         what = "a 3D field" if len(field) == 3 else "a field"
-        raise ValueError(f"magsoft {command} is planar (x-z plane) and takes its fields from its presets, got "
-                         f"--field-mT {' '.join(f'{v:g}' for v in field)} ({what}); {where}")
+        raise ValueError(f"magsoft {command} is planar (x-z plane) and has no --field-mT flag, got --field-mT "
+                         f"{' '.join(f'{v:g}' for v in field)} ({what}); {where}")
     mag = getattr(args, "magnetization", None)
     if mag is not None:
-        raise ValueError(f"magsoft {command} is planar (x-z plane) and takes its magnetization from its presets, "
-                         f"got --magnetization {' '.join(f'{v:g}' for v in mag)}; {where}")
+        raise ValueError(f"magsoft {command} is planar (x-z plane) and has no --magnetization flag, got "
+                         f"--magnetization {' '.join(f'{v:g}' for v in mag)}; {where}")
     for preset in presets:
         if not preset.beam.is_planar:
             raise ValueError(f"magsoft {command} is planar (x-z plane), but {preset.name!r} has a "
