@@ -124,6 +124,8 @@ def _three_d_robot(tmp_path):
     (["solve", "--magnetization", "0", "0", "0"], "must not be 0 0 0"),
     (["solve", "--poisson", "0.6"], "--poisson must lie in [0, 0.5]"),
     (["solve", "--preset", "fig3b_L25", "--critical"], "--critical follows one ramp from zero"),
+    (["solve", "--field-mT", "0", "1", "5", "--gravity", "0", "--support", "free", "--critical"],
+     "--critical follows the loading branch of a clamped strip"),
     (["sweep", "--field-mT", "0", "1", "5"], "magsoft sweep is planar (x-z plane)"),
     (["sweep", "--magnetization", "1", "1", "0"], "magsoft sweep is planar"),
     (["couplings", "--field-mT", "0", "1", "5"], "magsoft couplings is planar (x-z plane)"),

@@ -93,7 +93,11 @@ def is_uniform_axial(beam) -> bool:
 
 
 def critical_ramp_end(preset):
-    """The end field of the preset's one ramp from zero, which ``--critical`` follows; else a ValueError."""
+    """The end field of the preset's one ramp from zero, which ``--critical`` follows (a cantilever's); else a
+    ValueError."""
+    if preset.support != "cantilever":
+        raise ValueError("--critical follows the loading branch of a clamped strip (--support cantilever); a free "
+                         "strip is relaxed field by field and has no branch to follow.")
     seg = preset.path
     if len(seg) != 1 or seg[0].start.magnitude != 0.0:
         what = f"{len(seg)} segments" if len(seg) != 1 else "a ramp from a non-zero field"
@@ -162,8 +166,8 @@ def run_rod(args, preset, out) -> int:
     rows = [rod_row(r, beam) for r in results]
     print(textwrap.fill(f"{preset.name}: {preset.description}", width=110))
     print(f"L = {beam.length / MM:.4g} mm, w = {beam.width / MM:.4g} mm, support {preset.support}, gravity "
-          f"{preset.gravity:g} m/s^2, model 3d (Kirchhoff rod: bending about both axes and twist, rotated "
-          f"coupling, inextensible), poisson {beam.material.poisson_ratio:g}")
+          f"{preset.gravity:g} m/s^2, model 3d (Kirchhoff rod, rotated coupling, inextensible), poisson "
+          f"{beam.material.poisson_ratio:g}")
     print(format_table(rows, ROD_COLUMNS))
     events = [dict(e) for e in results[-1].events]
     for ev in events:
