@@ -25,6 +25,7 @@ import numpy as np
 import scipy.linalg
 
 from ..spec import Beam, Field
+from ..threads import single_threaded_blas
 from .collocation import Grid, make_grid
 from .rod import Load3, RodModel, angle_between, clamp_quaternion, qmat, rotate
 from .verify import rod_residual
@@ -96,7 +97,9 @@ class RodResult:
         The applied field (T), three components.
     gravity, residual, resolution, verification, nodes, newton_iterations, wall_time, events
         As in the planar result; ``residual`` and ``verification`` are angles (rad) of the frame
-        field, ``events`` list ``{"kind", "load_fraction", "field_T" (3), "gravity", "converged"}``;
+        field, ``events`` list the folds and bifurcations passed so far along the path, each
+        ``{"kind", "load_fraction", "field_T" (3), "gravity", "converged"}`` with ``load_fraction``
+        the fraction of the load step (from the previous field) where the solver left the branch;
         for a bifurcation located on the branch, ``"critical_field_T"`` and ``"critical_fraction"``
         give the crossing found by a secant on the smallest eigenvalue.
     min_eigenvalue : float
@@ -657,11 +660,9 @@ def critical_field(beam: Beam, field, *, gravity: float = 0.0, support: str = "c
     >>> round(crit.magnitude * 1e3, 3), crit.kind, crit.error < 1e-9
     (0.841, 'bifurcation', True)
     """
-    from dataclasses import replace
-
     from ..spec import as_field
     from ..validate import integer
-    from .solver import SolverOptions, _check_common, _edges
+    from .solver import SolverOptions, _check_common
 
     fld = as_field(field)
     degrees = tuple(integer("critical_field degrees", d, 8, 400) for d in degrees)
@@ -674,6 +675,16 @@ def critical_field(beam: Beam, field, *, gravity: float = 0.0, support: str = "c
                          f"strip is relaxed field by field and has no loading branch to follow, got {support!r}.")
     Bx, By, Bz = (float(v) for v in fld.vector())
     target = Load3(Bx, By, Bz, g)
+    with single_threaded_blas():
+        return _critical(beam, target, g, th0, options, degrees)
+
+
+def _critical(beam, target, g, th0, options, degrees):
+    from dataclasses import replace
+
+    from .solver import _edges
+
+    support = "cantilever"
     found = []
     kind = "bifurcation"
     for n in degrees:
