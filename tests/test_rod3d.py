@@ -194,3 +194,11 @@ def test_random_3d_problems_are_verified_or_fail_honestly():
             assert res.verification <= 1e-8 and np.all(np.isfinite(res.centreline))
         else:
             assert res.status in (1, 3, 4) and res.message
+
+
+def test_a_slice_of_the_3d_stress_benchmark_is_all_verified():
+    from magsoft_env.bench.rod_stress import run
+
+    rep = run(12, seed=3, points=2001, progress=False)
+    assert rep["counts"] == {"success, verified": 12}, rep["bad"]
+    assert rep["worst_verified_residual"] < 1e-8
