@@ -3,6 +3,7 @@ sharing no code with the solver) agrees with ``solve_equilibrium``: an independe
 solver on a general case (oblique magnetization, oblique field, gravity); and the benchmark runs."""
 
 import numpy as np
+import pytest
 
 import magsoft_env as ms
 from magsoft_env.bench import rod_bench
@@ -20,6 +21,7 @@ def test_solve_bvp_formulation_agrees_with_the_3d_solver():
     assert abs(res.tip_twist) > 0.3 and min(abs(res.tip_position[1:])) / L > 0.05  # a genuinely 3D shape
 
 
+@pytest.mark.slow
 def test_rod_bench_quick_runs(capsys):
     assert rod_bench.main(["--quick", "--only", "c", "--rounds", "1"]) == 0
     out = capsys.readouterr().out
