@@ -37,6 +37,10 @@ _JUMP_RAD = 0.2  # a converged step this far from its prediction counts as a bra
 _NEUTRAL = 1e-9  # eigenvalues (units E I_w / L^2) above -this count as stable (neutral rigid rotations)
 _SHRINK = 0.25
 _KICK_RAD = 0.05  # size of the push along the unstable mode when leaving a branch (rad)
+_PAST = 0.05  # a branch is left this fraction of the step past its located crossing
+#: Largest trailing Chebyshev coefficient of the frames during continuation: beyond it the grid is refined
+#: before the step's stability is judged (an under-resolved shape can show a spurious negative eigenvalue).
+_CONT_TAIL = 1e-5
 MAX_STEPS = 2000
 MAX_JUMPS = 20
 MAX_DESCENT = 300
@@ -295,7 +299,7 @@ class RodSolver:
             return False
 
     # energy descent ------------------------------------------------------------------------------
-    def descend(self, q, load: Load3, kick=None):
+    def descend(self, q, load: Load3, kick=None, _refined: int = 0):
         """Minimize the energy from ``q`` (turned by ``kick``, (M, 3) rad) by Newton steps on the
         second variation shifted to be positive, with a line search; then polish with Newton on the
         collocation equations. Returns (ok, q): ok when the polished equilibrium is stable."""
@@ -338,7 +342,20 @@ class RodSolver:
         ok, q2, its = self.newton(q, load, maxiter=4 * _MAX_NEWTON)
         self.newton_its += its
         if not ok:
-            return False, q
+            # the minimizer may not be resolved on this grid: again on finer ones (up to four), from its interpolant
+            n = min(self.opt.max_nodes, int(math.ceil(1.5 * self.grid.n)))
+            d = len(self.grid.edges) - 1
+            if _refined >= 4 or self.opt.nodes is not None or n <= self.grid.n or d * (n + 1) > MAX_ROD_NODES:
+                return False, q
+            old = self.grid
+            self._set_grid(_regrid(old, n))
+            fine = old.interpolate(q, self.grid.s)
+            fine /= np.linalg.norm(fine, axis=1, keepdims=True)
+            ok, q2 = self.descend(fine, load, _refined=_refined + 1)
+            if not ok:
+                self._set_grid(old)
+                return False, q
+            return ok, q2
         return self._is_stable(q2, load), q2
 
     # continuation ----------------------------------------------------------------------------------
@@ -447,6 +464,9 @@ class RodSolver:
                     return False
                 t, q, stable, dt = t_new, q_new, True, 4 * self.opt.min_step
                 continue
+            if self._tail(q_new) > _CONT_TAIL and self._finer_grid(q, start.lerp(target, t)):
+                q = self.q  # the shape outgrew the grid: the step again, on a finer one (stability needs it)
+                continue
             now_stable = self._is_stable(q_new, load)
             if stable and not now_stable:
                 jumps += 1
@@ -455,6 +475,14 @@ class RodSolver:
                 t_c = self._locate(q, t, lam_a, q_new, t_new, lam_b, start, target)
                 lc = start.lerp(target, t_c)
                 extra = {"critical_fraction": t_c, "critical_field_T": [lc.Bx, lc.By, lc.Bz]}
+                # leave the branch just past the crossing, where the strip does, not at the end of the step
+                t_leave = min(t_new, t_c + _PAST * (t_new - t))
+                if t_leave < t_new:
+                    ld = start.lerp(target, t_leave)
+                    ok3, q3, its3 = self.newton(q, ld, maxiter=4 * _MAX_NEWTON)
+                    self.newton_its += its3
+                    if ok3 and not self._is_stable(q3, ld):
+                        t_new, q_new, load = t_leave, q3, ld
                 ok2, q_new = self._leave(q_new, load, "bifurcation", t_new, extra)
                 if not ok2:
                     self.q, self.load = q, start.lerp(target, t)
@@ -466,6 +494,28 @@ class RodSolver:
                 dt = min(1.0, 2.0 * dt)
         self.q, self.load = q, target
         self._stable = (q, stable)
+        return True
+
+    def _tail(self, q) -> float:
+        return max(self.grid.tail(q[:, i]) for i in range(4))
+
+    def _finer_grid(self, q, load: Load3) -> bool:
+        """Move the state ``q`` (an equilibrium at ``load``) to a grid of 1.5 times the degree, when allowed
+        and Newton converges there; returns whether it moved (then ``self.q`` is the new state)."""
+        n = min(self.opt.max_nodes, int(math.ceil(1.5 * self.grid.n)))
+        d = len(self.grid.edges) - 1
+        if self.opt.nodes is not None or n <= self.grid.n or d * (n + 1) > MAX_ROD_NODES:
+            return False
+        old = self.grid
+        self._set_grid(_regrid(old, n))
+        guess = old.interpolate(q, self.grid.s)
+        guess /= np.linalg.norm(guess, axis=1, keepdims=True)
+        ok, q2, its = self.newton(guess, load, maxiter=4 * _MAX_NEWTON)
+        self.newton_its += its
+        if not ok:
+            self._set_grid(old)
+            return False
+        self.q = q2
         return True
 
     def relax(self, target: Load3) -> bool:
