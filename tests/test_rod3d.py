@@ -202,3 +202,15 @@ def test_a_slice_of_the_3d_stress_benchmark_is_all_verified():
     rep = run(12, seed=3, points=2001, progress=False)
     assert rep["counts"] == {"success, verified": 12}, rep["bad"]
     assert rep["worst_verified_residual"] < 1e-8
+
+
+def test_small_gravity_gives_the_beam_formula_in_3d():
+    beam = strip()
+    g = 0.02  # G = rho A g L^3 / (E I_w) = 0.05: the linear cantilever under its weight
+    res = ms.solve_equilibrium(beam, (0.0, 0.0, 0.0), gravity=g, model="3d")
+    q = float(beam.mass_per_length(np.array([0.0]))[0]) * g
+    EI = beam.stiffnesses(np.array([0.0]))[0, 0]
+    w = q * L**4 / (8 * EI)
+    G = q * L**3 / EI
+    assert res.success and abs(res.tip_position[2] + w) < 0.05 * G**2 * w + 1e-12 * L
+    assert abs(res.tip_position[1]) < 1e-15 and abs(res.tip_twist) < 1e-14
