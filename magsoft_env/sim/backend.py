@@ -114,9 +114,13 @@ class RodBackend(Protocol):
 
 
 def rod_backend(beam: Beam, options: RodOptions) -> RodBackend:
-    """The backend that simulates ``beam`` with ``options``: the planar hinge chain (the only one so far)."""
+    """The backend that simulates ``beam`` with ``options``: the planar hinge chain (the only one so far; the 3D
+    rod, ``RodOptions(rod="cable")``, has statics and a model but no backend yet)."""
     from .planar import PlanarRod
 
+    if options.rod != "planar":
+        raise ValueError(f"the Simulator steps the planar rod only; RodOptions(rod={options.rod!r}) is not a "
+                         "Simulator backend yet (magsoft_env.sim.cable has its model, couples and statics).")
     return PlanarRod(beam, options)
 
 

@@ -200,20 +200,30 @@ def mujoco_equilibrium(
     segments: int = 20,
     clamp_angle: float = 0.0,
     max_field_step: float = 1e-3,
-    timestep: float = 1e-2,
+    timestep: float | None = None,
     integrator: str = "discrete",
-    tol: float = 1e-8,
+    tol: float | None = None,
     max_time: float = 20.0,
     grading: float | None = None,
-) -> SimEquilibrium:
+    rod: str = "planar",
+    imperfection: float = 0.0,
+):
     """Static equilibrium of the clamped MuJoCo rod under ``field`` (T), reached like the
     analytical solver: gravity first, then the field ramped from zero in straight-line steps
     of at most ``max_field_step`` (T), each settled. See :func:`mujoco_path` for the arguments.
 
+    ``rod="cable"``: the 3D flexcomp strip (:func:`~magsoft_env.sim.cable.cable_path`), for fields
+    ``(B_x, B_y, B_z)`` (a pair keeps its planar meaning ``(B_x, B_z)``) and any magnetization direction;
+    ``timestep`` defaults to 1 ms there (10 ms for the planar rod; the cable's edge constraint follows the
+    step), ``tol`` (default 1e-6) is its settling residual, ``imperfection`` (T) a field along z that seeds
+    out-of-plane branches, and ``clamp_angle`` must be 0. ``tol`` defaults to 1e-8 rad for the planar rod;
+    ``imperfection`` is the cable's only.
+
     Returns
     -------
-    SimEquilibrium
-        With ``x``, ``z`` (m, base to tip), ``tip_angle`` (rad), ``success``.
+    SimEquilibrium or CableEquilibrium
+        Planar: ``x``, ``z`` (m, base to tip), ``tip_angle`` (rad), ``success``. Cable: ``tip_position``
+        (x, y, z; m), ``tip_twist`` (rad, ``int k3 ds``), ``centreline`` (m), ``success``, ``residual``.
 
     Examples
     --------
@@ -223,6 +233,23 @@ def mujoco_equilibrium(
     >>> bool(eq.success), round(eq.tip_angle, 2)
     (True, 1.57)
     """
+    from ..validate import choice
+
+    choice("rod", rod, ("planar", "cable"))
+    if rod == "cable":
+        from .cable import cable_path
+
+        if clamp_angle != 0.0:
+            raise ValueError(f"the cable rod is clamped along +x (clamp_angle = 0), got {clamp_angle!r}.")
+        return cable_path(
+            beam, [as_field(field)], gravity=gravity, segments=segments,
+            timestep=1e-3 if timestep is None else timestep, integrator=integrator, grading=grading,
+            tol=1e-6 if tol is None else tol, max_time=max_time, max_field_step=max_field_step,
+            imperfection=imperfection)[0]
+    if imperfection != 0.0:
+        raise ValueError("imperfection applies to rod='cable' (the planar rod cannot leave its plane).")
+    tol = 1e-8 if tol is None else tol
+    timestep = 1e-2 if timestep is None else timestep
     return mujoco_path(
         beam, [as_field(field)], gravity=gravity, segments=segments, clamp_angle=clamp_angle,
         max_field_step=max_field_step, timestep=timestep, integrator=integrator, tol=tol, max_time=max_time,

@@ -67,6 +67,8 @@ FEATURE_SENSOR = "rod_scene_depth"
 #: its crawl limits (clearance, height, rotation) at every step (``envs.crawl``). The tip point is a
 #: site of the same name on the last piece.
 NODE_SENSOR = "rod_node"
+#: The rods (``RodOptions.rod``): the planar hinge chain, the 3D flexcomp strip (:mod:`~magsoft_env.sim.cable`).
+RODS = ("planar", "cable")
 #: How the magnetic couples reach MuJoCo (``RodOptions.magnetics``).
 MAGNETICS = ("native", "python")
 #: Native magnetics: the world-fixed frame of the field (a mocap body and its site), whose x axis the
@@ -176,6 +178,15 @@ class RodOptions:
         writes them into ``qfrc_applied`` (the model has no actuators).
 
         .. versionadded:: 0.4
+    rod : {"planar", "cable"}
+        ``planar`` (default): the hinge chain in the x-z plane (everything above applies). ``cable``: the 3D rod,
+        a MuJoCo 1D flexcomp strip with a box section (:func:`~magsoft_env.sim.cable.build_cable`), built from
+        ``segments``, ``scene`` (``cantilever`` or ``floor``), ``integrator`` (``discrete``, ``euler`` or
+        ``rk4``), ``timestep``, ``gravity``, ``grading``, ``retardation_time`` (MuJoCo's rod damping),
+        ``friction`` and the solver settings; its magnetic couples are applied from Python each step (the
+        ``magnetics`` option does not apply), and ``clamp_angle`` must be 0. It has its own statics
+        (:func:`~magsoft_env.sim.mujoco_equilibrium` with ``rod="cable"``) but is not yet a
+        :class:`~magsoft_env.sim.Simulator` backend.
     """
 
     segments: int = 20
@@ -201,6 +212,7 @@ class RodOptions:
     contact_impedance: tuple | None = None
     contact_pairs: bool = True
     magnetics: str = "native"
+    rod: str = "planar"
 
     def __post_init__(self):
         # every field checked for its type and documented range, nothing built yet
@@ -245,6 +257,18 @@ class RodOptions:
         choice("RodOptions.contact_geom", self.contact_geom, CONTACT_GEOMS)
         choice("RodOptions.cone", self.cone, CONES)
         choice("RodOptions.magnetics", self.magnetics, MAGNETICS)
+        choice("RodOptions.rod", self.rod, RODS)
+        if self.rod == "cable":
+            from .cable import CABLE_INTEGRATORS, CABLE_SCENES
+
+            if self.scene not in CABLE_SCENES:
+                raise ValueError(f"RodOptions(rod='cable') builds the scenes {CABLE_SCENES}, got {self.scene!r}.")
+            if self.integrator not in CABLE_INTEGRATORS:
+                raise ValueError(f"RodOptions(rod='cable') runs with the integrators {CABLE_INTEGRATORS} (MuJoCo's "
+                                 f"rod elasticity has no implicit variant), got {self.integrator!r}.")
+            if self.clamp_angle != 0.0:
+                raise ValueError(f"RodOptions(rod='cable') is clamped along +x (clamp_angle = 0), got "
+                                 f"{self.clamp_angle!r}.")
         # bounded: with tolerance 0 MuJoCo runs every iteration of every step
         for name, lo in (("noslip_iterations", 0), ("solver_iterations", 1)):
             object.__setattr__(self, name, integer(f"RodOptions.{name}", getattr(self, name), lo,
@@ -506,6 +530,9 @@ def build_spec(beam: Beam, options: RodOptions) -> tuple[mujoco.MjSpec, RodDiscr
     """The scene as an editable ``mujoco.MjSpec`` (see :func:`build_model`)."""
     if not isinstance(options, RodOptions):
         raise ValueError(f"options must be a RodOptions, got {type(options).__name__}.")
+    if options.rod != "planar":
+        raise ValueError("build_spec / build_model build the planar hinge chain (RodOptions.rod='planar'); the 3D "
+                         "rod is magsoft_env.sim.cable.build_cable.")
     disc = discretize(beam, options.segments, grading=options.grading)
     o = options
     spec = mujoco.MjSpec()
