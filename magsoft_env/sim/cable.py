@@ -28,9 +28,9 @@ What the builder corrects in MuJoCo's defaults (measured for the 25 x 5 x 1.13 m
 Magnetic couples. Edge ``i`` carries the moment ``m_i = int (A B_r / mu0) m_hat ds`` (material components: along
 the edge, across the width, through the thickness). Its world moment is ``R_i m_i = m_a t + m_w d1 + m_t d2``
 with the edge's material frame (:func:`material_frames`); the couple ``C = (R_i m_i) x B`` is applied exactly as
-the force pair ``+-(C x t) / l_i`` on the edge's end / start vertex bodies (``xfrc_applied``: its couple is the
-part of ``C`` across the edge) and ``C . t`` on the edge's twist hinge (``qfrc_applied``). Torques on vertex
-bodies would do nothing (they are points on slide joints).
+the force pair ``+-(C x t) / l_i`` (``l_i`` its current length) on the edge's end / start vertex bodies
+(``xfrc_applied``: its couple is the part of ``C`` across the edge) and ``C . t`` on the edge's twist hinge
+(``qfrc_applied``). Torques on vertex bodies would do nothing (they are points on slide joints).
 
 Material frame from the MuJoCo state: MuJoCo keeps, per edge, a time-parallel reference frame ``(t_old, u_old)``
 in ``mjData.plastic`` (the tangent and director when it last computed the rod's forces). The reference
@@ -353,7 +353,8 @@ def apply_field(cm: CableModel, data: mujoco.MjData, field3, wrench_only: bool =
     m = cm.layout.moment
     mw = m[:, :1] * t + m[:, 1:2] * d1 + m[:, 2:3] * d2
     C = np.cross(mw, B)
-    F = np.cross(C, t) / cm.layout.edge_length[:, None]
+    # the pair's lever is the edge's current length: its couple is C whatever the edge's strain
+    F = np.cross(C, t) / np.linalg.norm(np.diff(x, axis=0), axis=1)[:, None]
     fv = np.zeros((len(x), 3))
     fv[1:] += F
     fv[:-1] -= F
