@@ -568,7 +568,7 @@ def settle(cm: CableModel, data: mujoco.MjData, field3, *, tol: float, max_steps
 
 
 def cable_path(beam: Beam, fields, *, gravity: float = 9.81, segments: int = 20, timestep: float = 1e-3,
-               integrator: str = "discrete", grading: float | None = 1.0, tol: float = 1e-6,
+               integrator: str = "discrete", grading: float | None = None, tol: float = 1e-6,
                max_time: float = 20.0, max_field_step: float = 1e-3, imperfection: float = 0.0,
                retardation_time: float = 5e-3) -> list[CableEquilibrium]:
     """Settle the clamped flexcomp strip along a loading path: gravity first, then each field, reached from the
