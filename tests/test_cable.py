@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 
 import magsoft_env as ms
-from magsoft_env.sim import RodOptions, Simulator, build_model, mujoco_equilibrium
+from magsoft_env.sim import RodBackend, RodOptions, SimulationError, Simulator, build_model, mujoco_equilibrium
 from magsoft_env.sim import cable as C
 from magsoft_env.sim.discretize import cell_edges
+from magsoft_env.sim.waveforms import Waveform
 
 BEAM = ms.Beam(length=25e-3, width=5e-3, thickness=1.13e-3)
 WIDTH_MAG = ms.Beam(length=25e-3, width=5e-3, thickness=1.13e-3, magnetization=(0, 1, 0))
@@ -37,8 +38,8 @@ def test_rod_options_choose_and_check_the_rod():
         RodOptions(rod="cable", clamp_angle=0.1)
     with pytest.raises(ValueError, match="planar hinge chain"):
         build_model(BEAM, RodOptions(rod="cable"))
-    with pytest.raises(ValueError, match="not a Simulator backend yet"):
-        Simulator(BEAM, RodOptions(rod="cable"))
+    with pytest.raises(ValueError, match="clamped"):
+        Simulator(BEAM, RodOptions(rod="cable", scene="floor"))
     with pytest.raises(ValueError, match="imperfection"):
         mujoco_equilibrium(BEAM, (0.0, 1e-3), imperfection=1e-6)
 
@@ -248,3 +249,88 @@ def test_first_frequencies_match_the_beam_formulas(mode):
     frequency needs the physical twist inertia (MuJoCo's default gave 3.2 Hz)."""
     fr, _, _ = C.free_vibration(BEAM, mode, segments=20, timestep=1e-4)
     assert fr == pytest.approx(C.frequencies(BEAM)[mode], rel=3e-3)
+
+
+# ------------------------------------------------------------------------------------------ the Simulator
+def test_elastic_energy_is_what_mujocos_forces_derive_from():
+    """The gradient of :func:`cable.elastic_energy` against MuJoCo's elastic forces in a bent, twisted state:
+    within 3 % of the largest force (the vertex frames MuJoCo averages are not exactly ours)."""
+    cm = _cable(segments=6, timestep=1e-4, gravity=0.0, retardation_time=0.0)
+    m, d = cm.model, mujoco.MjData(cm.model)
+    rng = np.random.default_rng(1)
+    free = cm.vertex_qpos[cm.vertex_qpos >= 0]
+    d.qpos[free] = rng.uniform(-3e-4, 3e-4, free.size)
+    d.qpos[cm.twist_qpos[cm.twist_qpos >= 0]] = rng.uniform(-0.2, 0.2, 6)
+    for _ in range(3):
+        mujoco.mj_step(m, d)
+    d.qvel[:] = 0.0
+    mujoco.mj_forward(m, d)
+    q0 = d.qpos.copy()
+    fd = np.zeros(m.nv)
+    for k in range(m.nv):
+        d.qpos[:] = q0
+        d.qpos[k] += 1e-8
+        ep = C.elastic_energy(cm, d)
+        d.qpos[k] -= 2e-8
+        fd[k] = -(ep - C.elastic_energy(cm, d)) / 2e-8
+    d.qpos[:] = q0
+    mujoco.mj_forward(m, d)
+    np.testing.assert_allclose(d.qfrc_passive, fd, atol=0.03 * np.abs(fd).max())
+
+
+def test_simulator_steps_the_cable_rod():
+    sim = Simulator(BEAM, RodOptions(rod="cable", segments=20, timestep=1e-3, grading=1.0), field=(0.0, 0.0, 5e-3))
+    assert isinstance(sim.backend, C.CableRod) and isinstance(sim.backend, RodBackend)
+    r = sim.settle()
+    assert r.success
+    eq = mujoco_equilibrium(BEAM, (0.0, 0.0, 5e-3), rod="cable", grading=1.0)
+    np.testing.assert_allclose(sim.tip_position(), eq.tip_position, atol=1e-5 * L)
+    x, y, z = sim.centerline()
+    assert len(x) == 22 and sim.field == ms.Field(0.0, 0.0, 5e-3)
+    e = sim.energies()
+    assert e["elastic"] > 0 and e["magnetic"] < 0
+    sim.set_field((0.0, 1e-3, 5e-3))  # a field with a y component bends it sideways
+    sim.step(300)
+    assert sim.tip_position()[1] > 1e-4 and sim.field.By == 1e-3
+    with pytest.raises(ValueError, match="planar trajectories"):
+        sim.run((0.0, 1e-3), 0.01)
+
+
+class _Rotating(Waveform):
+    """A field of 2 mT turning about x at 5 Hz: (0, B sin wt, B cos wt)."""
+
+    def sample(self, t):
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        w = 2 * np.pi * 5.0
+        return np.stack([0 * t, 2e-3 * np.sin(w * t), 2e-3 * np.cos(w * t)], axis=1)
+
+
+def test_changing_3d_field_is_the_per_step_loop():
+    """A waveform in three components: the engine's steps are those of writing the couples of each step's field
+    before ``mj_step``, bit for bit."""
+    opts = RodOptions(rod="cable", segments=8, timestep=1e-4, gravity=9.81)
+    sim = Simulator(BEAM, opts)
+    sim.set_waveform(_Rotating())
+    sim.step(400)
+    cm = C.build_cable(BEAM, opts)
+    d = mujoco.MjData(cm.model)
+    fields = _Rotating().sample(1e-4 * np.arange(400))
+    for f in fields:
+        C.apply_field(cm, d, f)
+        mujoco.mj_step(cm.model, d)
+    np.testing.assert_array_equal(sim.data.qpos, d.qpos)
+    np.testing.assert_array_equal(sim.field.vector(), fields[-1])
+    assert abs(sim.tip_position()[1]) > 1e-5 and np.isfinite(sim.backend.tip_twist(sim.data))
+
+
+def test_health_checks_of_the_cable_rod():
+    sim = Simulator(BEAM, RodOptions(rod="cable", segments=8, timestep=1e-4))
+    cm = sim.backend.rod
+    sim.data.qpos[cm.vertex_qpos[-1, 0]] += 0.2 * cm.layout.edge_length[-1]  # the last edge 20 % too long
+    with pytest.raises(SimulationError, match="edge stretch"):
+        sim.step(1)
+    sim.reset()
+    sim.step(10)
+    sim.data.qvel[3] = np.nan
+    with pytest.raises(SimulationError, match="non-finite"):
+        sim.step(10)

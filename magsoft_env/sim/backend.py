@@ -44,6 +44,9 @@ class RodBackend(Protocol):
         Total weight (N).
     control_spec : int
         ``mujoco.mjtState`` spec of :meth:`controls` rows.
+    per_step : bool
+        The couples depend on the state in a way MuJoCo cannot apply by itself (the 3D rod's material frames):
+        the engine calls :meth:`write_field` before every step instead of running native blocks.
     """
 
     model: mujoco.MjModel
@@ -60,6 +63,7 @@ class RodBackend(Protocol):
     feature_adr: int
     weight: float
     control_spec: int
+    per_step: bool
 
     def contact_histories(self, data: mujoco.MjData) -> tuple[SensorHistory | None, SensorHistory | None]:
         """Readers of the floor and feature contact sensors' history buffers."""
@@ -112,15 +116,20 @@ class RodBackend(Protocol):
     def magnetic_couples(self, data: mujoco.MjData, field3: np.ndarray) -> np.ndarray:
         """Couples ``(R m) x B`` on the pieces, world frame (N m)."""
 
+    def integrity(self, data: mujoco.MjData) -> tuple[str, float, str] | None:
+        """``(quantity, value, hint)`` when the rod's own state broke a bound of its model, else None."""
+
 
 def rod_backend(beam: Beam, options: RodOptions) -> RodBackend:
-    """The backend that simulates ``beam`` with ``options``: the planar hinge chain (the only one so far; the 3D
-    rod, ``RodOptions(rod="cable")``, has statics and a model but no backend yet)."""
+    """The backend that simulates ``beam`` with ``options``: the planar hinge chain
+    (:class:`~magsoft_env.sim.planar.PlanarRod`) or, for ``RodOptions(rod="cable")``, the 3D flexcomp strip
+    (:class:`~magsoft_env.sim.cable.CableRod`)."""
     from .planar import PlanarRod
 
-    if options.rod != "planar":
-        raise ValueError(f"the Simulator steps the planar rod only; RodOptions(rod={options.rod!r}) is not a "
-                         "Simulator backend yet (magsoft_env.sim.cable has its model, couples and statics).")
+    if options.rod == "cable":
+        from .cable import CableRod
+
+        return CableRod(beam, options)
     return PlanarRod(beam, options)
 
 

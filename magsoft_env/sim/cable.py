@@ -42,10 +42,12 @@ MuJoCo's own elastic forces (a bend in a skewed plane pulls the weak axis toward
 ``qfrc_passive``, tests/test_cable.py). Before the first step (``plastic`` all zero) the reference is the
 rest director ``+y`` transported from the rest tangent ``+x``.
 
+The :class:`~magsoft_env.sim.Simulator` steps the clamped strip through :class:`CableRod`, its rod backend.
+
 Limitations: no varying width or thickness (the Beam has none); scenes ``cantilever`` (clamped) and ``floor``
-(free, on a plane) only; MuJoCo's ``discrete`` or ``euler`` integrator (its rod elasticity has no implicit
-variant); the couples of a transverse magnetization need the material frame every step, so they are applied
-from Python (:class:`CableRod.apply_field`).
+(free, on a plane, built but not checked) only; MuJoCo's ``discrete``, ``euler`` or ``rk4`` integrator (its rod
+elasticity has no implicit variant); the couples of a transverse magnetization need the material frame every
+step, so they are applied from Python (:func:`apply_field`).
 """
 
 from __future__ import annotations
@@ -162,6 +164,8 @@ class CableModel:
     Attributes
     ----------
     model : mujoco.MjModel
+    beam : Beam
+    options : RodOptions
     layout : CableLayout
     clamped : bool
     vertex_body : (N + 2,) ndarray of int
@@ -180,6 +184,7 @@ class CableModel:
 
     model: mujoco.MjModel
     beam: Beam
+    options: object
     layout: CableLayout
     clamped: bool
     vertex_body: np.ndarray
@@ -284,9 +289,8 @@ def build_cable(beam: Beam, options) -> CableModel:
     mujoco.mj_setConst(model, data)
     ref = np.zeros((nv, 3))
     ref[:, 0], ref[:, 2] = lay.s, z0
-    return CableModel(model=model, beam=beam, layout=lay, clamped=clamped, vertex_body=body, vertex_ref=ref,
-                      vertex_qpos=vq, vertex_dof=vdof,
-                      twist_dof=tdof, twist_qpos=tq, flex=f)
+    return CableModel(model=model, beam=beam, options=options, layout=lay, clamped=clamped, vertex_body=body,
+                      vertex_ref=ref, vertex_qpos=vq, vertex_dof=vdof, twist_dof=tdof, twist_qpos=tq, flex=f)
 
 
 # ---------------------------------------------------------------------------------------------- frames
@@ -342,22 +346,28 @@ def magnetic_energy(cm: CableModel, data: mujoco.MjData, field3) -> float:
     return -float(np.sum(world_moments(cm, data) @ np.asarray(field3, dtype=float)))
 
 
-def apply_field(cm: CableModel, data: mujoco.MjData, field3, wrench_only: bool = False) -> np.ndarray:
+def apply_field(cm: CableModel, data: mujoco.MjData, field3, extra: np.ndarray | None = None) -> np.ndarray:
     """Write the magnetic couples of the field ``(B_x, B_y, B_z)`` (T) into ``data``: the force pair of each
     edge into ``xfrc_applied`` (rows of the vertex bodies, overwritten), the along-edge part into
     ``qfrc_applied`` (the twist dofs, overwritten; other dofs zeroed). Returns the couples ``(N + 1, 3)`` (N m).
-    A clamped edge's couple goes to the clamp (nothing applied)."""
+    A clamped edge's couple goes to the clamp (nothing applied). ``extra``: a world wrench per edge ``(N + 1, 6)``
+    added (force at the edge's middle, half to each vertex; couple as the magnetic ones)."""
     B = np.asarray(field3, dtype=float)
     x = vertices(cm, data)
     t, d1, d2 = material_frames(cm, data, x)
     m = cm.layout.moment
     mw = m[:, :1] * t + m[:, 1:2] * d1 + m[:, 2:3] * d2
     C = np.cross(mw, B)
+    if extra is not None:
+        C = C + extra[:, 3:]
     # the pair's lever is the edge's current length: its couple is C whatever the edge's strain
     F = np.cross(C, t) / np.linalg.norm(np.diff(x, axis=0), axis=1)[:, None]
     fv = np.zeros((len(x), 3))
     fv[1:] += F
     fv[:-1] -= F
+    if extra is not None:
+        fv[1:] += 0.5 * extra[:, :3]
+        fv[:-1] += 0.5 * extra[:, :3]
     body = cm.vertex_body
     data.xfrc_applied[body[body > 0], :3] = fv[body > 0]
     data.xfrc_applied[body[body > 0], 3:] = 0.0
@@ -400,6 +410,173 @@ def frequencies(beam: Beam) -> dict[str, float]:
     return {"weak": c * math.sqrt(ei_w / mu), "strong": c * math.sqrt(ei_s / mu),
             "torsion": math.sqrt(gj / rho_ip) / (4.0 * L)}
 
+
+
+# ---------------------------------------------------------------------------------------------- energy
+def elastic_energy(cm: CableModel, data: mujoco.MjData) -> float:
+    """Bending and twisting energy (J) of the strip, in the form MuJoCo's rod forces derive from: per interior
+    vertex, ``k_1 (kb . d1)^2 + k_2 (kb . d2)^2 + k_t tau^2`` with ``kb = 2 t0 x t1 / (1 + t0 . t1)`` the discrete
+    curvature binormal, ``d1``, ``d2`` the mean of the two edges' directors, ``tau`` the twist angle between the
+    edges (as :func:`tip_twist` sums it) and the records' stiffnesses ``k = K / 2``. MuJoCo does not report it;
+    tests/test_cable.py compares its gradient with MuJoCo's elastic forces."""
+    t, d1, d2 = material_frames(cm, data)
+    kb = 2.0 * np.cross(t[:-1], t[1:]) / (1.0 + np.einsum("ij,ij->i", t[:-1], t[1:]))[:, None]
+    a1 = 0.5 * (d1[:-1] + d1[1:])
+    a2 = 0.5 * (d2[:-1] + d2[1:])
+    k = 0.5 * cm.layout.stiffness
+    tr = _transport(d1[:-1], t[:-1], t[1:])
+    tr /= np.linalg.norm(tr, axis=1)[:, None]
+    tau = np.arctan2(np.einsum("ij,ij->i", np.cross(tr, d1[1:]), t[1:]), np.einsum("ij,ij->i", tr, d1[1:]))
+    return float(k[:, 0] @ np.einsum("ij,ij->i", kb, a1) ** 2 + k[:, 1] @ np.einsum("ij,ij->i", kb, a2) ** 2
+                 + k[:, 2] @ tau**2)
+
+
+#: Largest relative edge stretch the simulator lets pass (the edge constraint holds 1e-3 in the statics of
+#: docs/sim.md; 5 % means the constraint lost hold of the strip).
+EDGE_STRAIN_LIMIT = 0.05
+
+
+class CableRod:
+    """The flexcomp strip as a :class:`~magsoft_env.sim.backend.RodBackend`: what
+    :class:`~magsoft_env.sim.Simulator` steps for ``RodOptions(rod="cable")`` (clamped scene).
+
+    The magnetic couples depend on the edges' material frames, so the engine writes them before every step
+    (:attr:`per_step`, :meth:`write_field`). The pieces are the edges (``N + 1``, clamp first);
+    :attr:`hinge_dof` are all dofs (vertex slides and twist hinges), with :attr:`stiffness` their scales
+    ``E I_w / ds^2`` (N per unit of displacement / ds) and ``G J / ds`` (N m / rad), so that the static
+    residual ``max |Q| / k`` reads as an angle (rad).
+    """
+
+    #: The engine calls :meth:`write_field` before every step.
+    per_step = True
+    control_spec = 0
+    has_contact = False
+    has_feature = False
+    contact_adr = 0
+    feature_adr = 0
+
+    def __init__(self, beam: Beam, options):
+        if options.scene != "cantilever":
+            raise ValueError("the Simulator steps the cable rod clamped (scene='cantilever'); its floor scene builds "
+                             "(magsoft_env.sim.cable.build_cable) but is not checked yet.")
+        cm = build_cable(beam, options)
+        self.rod = cm
+        self.model = cm.model
+        self.beam = beam
+        self.options = options
+        lay = cm.layout
+        self.npieces = len(lay.edge_length)
+        self.two_stage = options.integrator != "rk4"
+        free_v = cm.vertex_body > 0
+        vd = cm.vertex_dof[free_v]
+        td = cm.twist_dof[cm.twist_dof >= 0]
+        self.hinge_dof = np.concatenate([vd.ravel(), td])
+        ds = beam.length / options.segments
+        self.stiffness = np.concatenate([np.full(vd.size, float(lay.stiffness[:, 0].mean()) / ds),
+                                         np.full(td.size, float(lay.stiffness[:, 2].mean()))])
+        self.weight = float(lay.vertex_mass.sum()) * float(options.gravity)
+        self._field = np.zeros(3)
+        self._external: np.ndarray | None = None
+        mags = float(np.linalg.norm(lay.moment, axis=1).sum())
+        self._scale_terms = (2.0 * mags, 2.0 * self.weight * beam.length + 0.5 * float(lay.stiffness[:, 0].sum())
+                             * math.pi**2)
+
+    # ------------------------------------------------------------------ inputs
+    def contact_histories(self, data):
+        return None, None
+
+    def write_field(self, data: mujoco.MjData, field3: np.ndarray) -> None:
+        """The couples of the field ``(B_x, B_y, B_z)`` (T) at the state in ``data``, plus the external wrench,
+        into ``xfrc_applied`` / ``qfrc_applied`` (the engine calls it before every step)."""
+        self._field[:] = field3
+        apply_field(self.rod, data, self._field, extra=self._external)
+
+    def controls(self, fields):
+        raise ValueError("the cable rod's couples are written before every step (per_step); it has no "
+                         "per-step control rows for mujoco.rollout.")
+
+    def apply_external(self, data: mujoco.MjData, wrench: np.ndarray | None) -> None:
+        """A constant world-frame wrench per edge ``(N + 1, 6)``: the force at the edge's middle (half to each
+        vertex), the couple applied as the magnetic ones are; written with the couples before every step."""
+        self._external = None if wrench is None else np.array(wrench, dtype=float)
+        apply_field(self.rod, data, self._field, extra=self._external)
+
+    # ------------------------------------------------------------------ energies
+    def net_moment(self, data: mujoco.MjData) -> np.ndarray:
+        """Net magnetic moment (world x, y, z; A m^2)."""
+        return world_moments(self.rod, data).sum(axis=0)
+
+    def net_moments(self, qpos: np.ndarray) -> np.ndarray:
+        """Net magnetic moments of recorded positions ``(k, nq)`` (reference frames of the present state)."""
+        scratch = mujoco.MjData(self.model)
+        out = np.empty((len(qpos), 3))
+        for i, q in enumerate(qpos):
+            scratch.qpos[:] = q
+            out[i] = world_moments(self.rod, scratch).sum(axis=0)
+        return out
+
+    def energy(self, data, field, *, kinetic: float, staggered: bool) -> float:
+        B = np.zeros(3)
+        f = np.asarray(field, dtype=float)
+        B[[0, 2] if f.size == 2 else slice(None)] = f
+        e = self.energies(data, B, kinetic)
+        return e["total"]
+
+    def energy_scale(self, bmax: float) -> float:
+        slope, rest = self._scale_terms
+        return slope * bmax + rest
+
+    def energies(self, data: mujoco.MjData, field3: np.ndarray, kinetic: float) -> dict[str, float]:
+        """Kinetic (given), elastic (:func:`elastic_energy`), gravitational (from z = 0) and magnetic energy (J)."""
+        x = vertices(self.rod, data)
+        elastic = elastic_energy(self.rod, data)
+        grav = float(self.rod.layout.vertex_mass @ x[:, 2]) * float(self.options.gravity)
+        mag = -float(np.sum(world_moments(self.rod, data, x) @ np.asarray(field3, dtype=float)))
+        return {"kinetic": kinetic, "elastic": elastic, "gravity": grav, "magnetic": mag,
+                "total": kinetic + elastic + grav + mag}
+
+    def integrity(self, data: mujoco.MjData):
+        """``(quantity, value, hint)`` when an edge stretched beyond :data:`EDGE_STRAIN_LIMIT`, else None."""
+        s = edge_strain(self.rod, data)
+        if s > EDGE_STRAIN_LIMIT:
+            return ("edge stretch (relative)", s, "The edge constraint lost hold of the strip: use a smaller "
+                    "timestep.")
+        return None
+
+    # ------------------------------------------------------------------ readouts
+    def lowest_point(self, data: mujoco.MjData, below: float) -> float:
+        return float(vertices(self.rod, data)[:, 2].min())
+
+    def centerline(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Vertices (x, y, z) (m), shape ``(N + 2,)`` each."""
+        x = vertices(self.rod, data)
+        return x[:, 0], x[:, 1], x[:, 2]
+
+    def tip_position(self, data: mujoco.MjData) -> tuple[float, float, float]:
+        x = vertices(self.rod, data)[-1]
+        return float(x[0]), float(x[1]), float(x[2])
+
+    def center_of_mass(self, data: mujoco.MjData) -> np.ndarray:
+        m = self.rod.layout.vertex_mass
+        return m @ vertices(self.rod, data) / m.sum()
+
+    def arc_length(self) -> np.ndarray:
+        return self.rod.layout.s.copy()
+
+    def angles(self, data: mujoco.MjData) -> np.ndarray:
+        """Tangent angle of every edge from +x toward +z (rad), in the x-z projection."""
+        t = material_frames(self.rod, data)[0]
+        return np.arctan2(t[:, 2], t[:, 0])
+
+    def tip_angle(self, data: mujoco.MjData) -> float:
+        return float(self.angles(data)[-1])
+
+    def tip_twist(self, data: mujoco.MjData) -> float:
+        return tip_twist(self.rod, data)
+
+    def magnetic_couples(self, data: mujoco.MjData, field3: np.ndarray) -> np.ndarray:
+        """Couples ``(R m) x B`` on the edges, world frame, shape ``(N + 1, 3)`` (N m)."""
+        return np.cross(world_moments(self.rod, data), np.asarray(field3, dtype=float))
 
 # ---------------------------------------------------------------------------------------------- vibration
 #: Free-vibration modes :func:`free_vibration` measures.
@@ -641,7 +818,8 @@ def cable_equilibrium(beam: Beam, field, **kwargs) -> CableEquilibrium:
 
 
 __all__ = [
-    "CABLE_ROD", "MODES", "CableEquilibrium", "CableLayout", "CableModel", "apply_field", "build_cable",
-    "cable_equilibrium", "cable_layout", "cable_path", "edge_strain", "free_vibration", "frequencies",
-    "magnetic_energy", "material_frames", "settle", "settling_damping", "tip_twist", "vertices", "world_moments",
+    "CABLE_ROD", "EDGE_STRAIN_LIMIT", "MODES", "CableEquilibrium", "CableLayout", "CableModel", "CableRod",
+    "apply_field", "build_cable", "cable_equilibrium", "cable_layout", "cable_path", "edge_strain",
+    "elastic_energy", "free_vibration", "frequencies", "magnetic_energy", "material_frames", "settle",
+    "settling_damping", "tip_twist", "vertices", "world_moments",
 ]

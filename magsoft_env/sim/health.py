@@ -213,6 +213,7 @@ class HealthMonitor:
         self.floor_limit = self.feature_limit = -self.penetration_limit
         self.max_ke_ratio = 0.0
         self.drift = math.nan
+        self.per_step = bool(rod.per_step)
 
     # ------------------------------------------------------------------ records
     def reset(self, field2: np.ndarray) -> None:
@@ -391,6 +392,10 @@ class HealthMonitor:
         for name in ("qpos", "qvel"):
             if not math.isfinite(getattr(d, name).sum()):  # a NaN or an infinity makes the sum non-finite
                 self.fail(nstep, field2, f"non-finite {name}", math.nan, STABILITY_HINT)
+        if self.per_step:  # a rod with bounds of its own (the 3D rod's edge stretch)
+            bad = self.rod.integrity(d)
+            if bad is not None:
+                self.fail(nstep, field2, bad[0], bad[1], bad[2])
         if not energy:
             return
         # the mass matrix of the step's start (mj_step leaves it in qM) is enough for a

@@ -184,9 +184,9 @@ class RodOptions:
         ``segments``, ``scene`` (``cantilever`` or ``floor``), ``integrator`` (``discrete``, ``euler`` or
         ``rk4``), ``timestep``, ``gravity``, ``grading``, ``retardation_time`` (MuJoCo's rod damping),
         ``friction`` and the solver settings; its magnetic couples are applied from Python each step (the
-        ``magnetics`` option does not apply), and ``clamp_angle`` must be 0. It has its own statics
-        (:func:`~magsoft_env.sim.mujoco_equilibrium` with ``rod="cable"``) but is not yet a
-        :class:`~magsoft_env.sim.Simulator` backend.
+        ``magnetics`` option does not apply), and ``clamp_angle`` must be 0. Statics:
+        :func:`~magsoft_env.sim.mujoco_equilibrium` with ``rod="cable"``; the
+        :class:`~magsoft_env.sim.Simulator` steps it clamped (:class:`~magsoft_env.sim.cable.CableRod`).
     """
 
     segments: int = 20

@@ -46,6 +46,8 @@ class PlanarRod:
 
     #: ``mujoco.rollout`` control spec of :meth:`controls` rows.
     control_spec = NATIVE_CONTROL_SPEC
+    #: The couples are MuJoCo's own forces: the engine runs native blocks.
+    per_step = False
 
     def __init__(self, beam: Beam, options: RodOptions):
         if options.magnetics != "native":
@@ -253,6 +255,10 @@ class PlanarRod:
     def magnetic_couples(self, data: mujoco.MjData, field3: np.ndarray) -> np.ndarray:
         """Couples ``(R m) x B`` on the pieces, world frame, shape ``(N + 1, 3)`` (N m)."""
         return magnetics.couples(magnetics.world_moments(data.xmat[self.bodies], self.m_body), field3)
+
+    def integrity(self, data: mujoco.MjData) -> None:
+        """Rigid pieces on joints: nothing of the rod's own can break (None)."""
+        return None
 
 
 __all__ = ["PlanarRod"]

@@ -182,10 +182,15 @@ class Simulator:
             raise ValueError(f"check_every must be a positive integer, got {check_every!r}.")
         if not (isinstance(penetration_limit, (int, float, np.floating)) and penetration_limit == math.inf):
             positive("penetration_limit", penetration_limit, unit="beam thicknesses")
-        beam.require_planar(ROD)
-        planar_field(as_field(field, "field"), ROD)  # checked before the model is built
         options = RodOptions() if options is None else options
+        if options.rod == "planar":
+            beam.require_planar(ROD)
+            planar_field(as_field(field, "field"), ROD)  # checked before the model is built
+        else:
+            as_field(field, "field")
         self.backend: RodBackend = rod_backend(beam, options)
+        #: the backend's couples are written before every step (the 3D rod), instead of native blocks
+        self._per_step = bool(self.backend.per_step)
         self.rod: RodModel = self.backend.rod
         self.model = self.backend.model
         self.data = mujoco.MjData(self.model)
@@ -236,6 +241,8 @@ class Simulator:
     @property
     def field(self) -> Field:
         """The applied field now (T)."""
+        if self._per_step:
+            return Field(float(self._B3[0]), float(self._B3[1]), float(self._B3[2]))
         return Field(float(self._B3[0]), float(self._B3[2]))
 
     def reset(self) -> None:
@@ -299,7 +306,13 @@ class Simulator:
     # ------------------------------------------------------------------ field
     def set_field(self, field) -> None:
         """Hold a constant applied field ``(B_x, B_z)`` (T) from now on (planar: a Field with B_y != 0 is a
-        ValueError)."""
+        ValueError; the 3D rod takes ``(B_x, B_y, B_z)`` too)."""
+        if self._per_step:
+            self._waveform = None
+            self._B3[:] = as_field(field).vector()
+            self._write_inputs()
+            self._health.energy_scale = self.backend.energy_scale(max(float(np.linalg.norm(self._B3)), FIELD_FLOOR))
+            return
         bx = bz = None
         if type(field) is tuple and len(field) == 2:  # fast path for the per-step caller (envs)
             bx, bz = field
@@ -317,10 +330,28 @@ class Simulator:
         """Let the field follow ``waveform(t - start_time)`` (T); ``start_time`` defaults to now."""
         self._waveform = as_waveform(waveform, "waveform")
         self._wf_t0 = self.time if start_time is None else finite_number("start_time", start_time, unit="s")
+        if self._per_step:
+            self._B3[:] = self._fields3(self._waveform.sample(np.array([self.time - self._wf_t0])))[0]
+            self._write_inputs()
+            peak = np.linalg.norm(self._fields3(self._waveform.sample(np.linspace(0.0, 1.0, 257))), axis=1).max()
+            self._health.energy_scale = self.backend.energy_scale(max(float(peak), FIELD_FLOOR))
+            return
         self._B3[[0, 2]] = self._waveform.sample(np.array([self.time - self._wf_t0]))[0]
         self._write_inputs()
         peak = np.abs(self._waveform.sample(np.linspace(0.0, 1.0, 257))).max(axis=0)
         self._health.energy_scale = self.backend.energy_scale(max(float(np.hypot(*peak)), FIELD_FLOOR))
+
+    @staticmethod
+    def _fields3(samples: np.ndarray) -> np.ndarray:
+        """Waveform samples as ``(n, 3)`` fields: rows ``(B_x, B_z)`` (planar waveforms) get ``B_y = 0``."""
+        s = np.asarray(samples, dtype=float)
+        if s.ndim != 2 or s.shape[1] not in (2, 3):
+            raise ValueError(f"a waveform's samples must have shape (n, 2) or (n, 3), got {s.shape}.")
+        if s.shape[1] == 3:
+            return s
+        out = np.zeros((s.shape[0], 3))
+        out[:, 0], out[:, 2] = s[:, 0], s[:, 1]
+        return out
 
     def _write_inputs(self) -> None:
         self.backend.write_field(self.data, self._B3)
@@ -379,6 +410,8 @@ class Simulator:
         fields = None
         if self._waveform is not None:  # all fields of this call in one vectorized sample
             fields = self._waveform.sample(d.time - self._wf_t0 + self.timestep * np.arange(n))
+            if self._per_step:
+                fields = self._fields3(fields)
         health = self._health
         if health.begin_call(self.nstep, None if fields is not None else self._B3[[0, 2]], external=external,
                              stale=self._stale):
@@ -399,7 +432,10 @@ class Simulator:
             if fields is not None and n > 0:  # the field of the last step run (or of the step that failed)
                 n0 = health.call_ref[0]
                 last = min(max(min(self.nstep, health.failed_step(self.nstep)) - 1 - n0, 0), n - 1)
-                self._B3[0], self._B3[2] = fields[last]
+                if self._per_step:
+                    self._B3[:] = fields[last]
+                else:
+                    self._B3[0], self._B3[2] = fields[last]
                 self._write_inputs()
             if health.contact:
                 health.state_key = health.key()
@@ -420,9 +456,14 @@ class Simulator:
             k = min(n - done, ce - self.nstep % ce, block)
             n0, t0 = self.nstep, float(d.time)
             seg = None if fields is None else fields[done:done + k]
-            if seg is None or not (np.any(seg != self._inputs)
-                                   or health.energy_valid and np.any(seg[0] != health.b_applied)):
-                mujoco.mj_step(m, d, k)
+            if self._per_step or seg is None or not (np.any(seg != self._inputs)
+                                                     or health.energy_valid and np.any(seg[0] != health.b_applied)):
+                # one native block; a per-step backend (the 3D rod) one step at a time, its couples of the
+                # step's start state written before each
+                for i in range(k if self._per_step else 1):
+                    if self._per_step:
+                        self.backend.write_field(d, self._B3 if seg is None else seg[i])
+                    mujoco.mj_step(m, d, 1 if self._per_step else k)
             else:
                 if controls is None:
                     controls = self.backend.controls(fields)
@@ -439,7 +480,9 @@ class Simulator:
             if health.scan_block(k, stop, n0, t0) or warned:
                 return
             if self.nstep % ce == 0:
-                if fields is not None:
+                if fields is not None and self._per_step:
+                    self._B3[:] = fields[done - 1]
+                elif fields is not None:
                     self._B3[0], self._B3[2] = fields[done - 1]
                 health.check(self.nstep, self._B3[[0, 2]], energy=True)
             if done < n:
@@ -480,6 +523,9 @@ class Simulator:
         duration = positive("duration", duration, unit="s")
         if isinstance(record_every, bool) or not isinstance(record_every, (int, np.integer)) or record_every < 1:
             raise ValueError(f"record_every must be a positive integer, got {record_every!r}.")
+        if self._per_step:
+            raise ValueError("Simulator.run records planar trajectories (x, z); with the 3D rod use set_waveform, "
+                             "step and the readouts (centerline() gives x, y, z).")
         nsteps = int(round(check_steps(f"duration / timestep = {duration:g} s / {self.timestep:g} s",
                                        duration / self.timestep, "Use a shorter duration or a larger timestep.")))
         self.set_waveform(waveform)
@@ -509,8 +555,10 @@ class Simulator:
         m, d = self.model, self.data
         qvel = d.qvel.copy()
         d.qvel[:] = 0.0
-        # the magnetic couples are actuator forces, part of qfrc_smooth
+        # the magnetic couples are actuator forces, part of qfrc_smooth (3D rod: applied forces, written here)
         self.backend.apply_external(d, self.external_wrench if np.any(self.external_wrench) else None)
+        if self._per_step:
+            self.backend.write_field(d, self._B3)
         mujoco.mj_forward(m, d)
         dofs = self.backend.hinge_dof
         q = d.qfrc_smooth[dofs] + d.qfrc_constraint[dofs]
@@ -548,7 +596,13 @@ class Simulator:
         m = self.model
         dofs = self.backend.hinge_dof
         damp0 = m.dof_damping[dofs].copy()
-        m.dof_damping[dofs] = settle_damping * self.backend.stiffness
+        if self._per_step:
+            # the 3D rod: mass-proportional damping, every mode decaying at the first weak-bending rate
+            from .cable import settling_damping
+
+            m.dof_damping[:] = settling_damping(self.backend.rod)
+        else:
+            m.dof_damping[dofs] = settle_damping * self.backend.stiffness
         self._waveform = None  # hold the present field
         steps, chunk = 0, 20
         res, speed = math.inf, math.inf
