@@ -334,3 +334,23 @@ def test_health_checks_of_the_cable_rod():
     sim.data.qvel[3] = np.nan
     with pytest.raises(SimulationError, match="non-finite"):
         sim.step(10)
+
+
+@pytest.mark.parametrize(("tilt", "final"), [(0.0, 0.0), (30.0, 0.0), (80.0, 90.0)])
+def test_on_the_floor_the_strip_lies_flat_topples_or_stands(tilt, final):
+    """A free strip on the floor (default 2 ms contact): flat it stays flat, from a 30 degree tilt about its axis it
+    topples onto its wide face, from 80 degrees it stands on its narrow face (statically stable there)."""
+    cm = _cable(scene="floor", segments=20, timestep=1e-4)
+    m, d = cm.model, mujoco.MjData(cm.model)
+    th = math.radians(tilt)
+    w, h = BEAM.width, BEAM.thickness
+    d.qpos[cm.twist_qpos[cm.twist_qpos >= 0]] = th
+    d.qpos[cm.vertex_qpos[:, 2]] = 0.5 * w * math.sin(th) + 0.5 * h * math.cos(th) - 0.5 * h
+    for _ in range(1500):
+        mujoco.mj_step(m, d)
+    _, d1, _ = C.material_frames(cm, d)
+    angle = np.degrees(np.arctan2(d1[:, 2], d1[:, 1]))
+    assert np.all(np.abs(angle - final) < 5.0)
+    z = C.vertices(cm, d)[:, 2]
+    rest = 0.5 * (w if final else h)
+    assert np.all(np.abs(z - rest) < 0.1 * h)

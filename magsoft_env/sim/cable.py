@@ -284,7 +284,15 @@ def build_cable(beam: Beam, options) -> CableModel:
     model.eq_solref[:] = [EDGE_TIMECONST_STEPS * dt, 1.0]
     model.eq_solimp[:] = EDGE_SOLIMP
     if not clamped:
+        # the planar rod's contact: friction, solref time constant and damping ratio, solimp
+        from .model import contact_timeconst
+
         model.flex_friction[f, 0] = float(options.friction)
+        model.flex_solref[f] = [contact_timeconst(beam, options), float(options.contact_dampratio)]
+        if options.contact_impedance is not None:
+            model.flex_solimp[f, :2] = options.contact_impedance
+        if not options.contact_refsafe:
+            model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_REFSAFE
     data = mujoco.MjData(model)
     mujoco.mj_setConst(model, data)
     ref = np.zeros((nv, 3))
