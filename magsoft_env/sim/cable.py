@@ -278,8 +278,12 @@ def build_cable(beam: Beam, options) -> CableModel:
     rec[:, 5] = 0.5 * (lay.stiffness[:, 1] - lay.stiffness[:, 0])
     rec[:, 8] = 0.5 * lay.stiffness[:, 2]
     model.flex_bending[adr + 1: adr + 1 + 10 * n] = rec.reshape(-1)
-    # elastic damping: Kelvin-Voigt through dof damping would be frame-dependent; MuJoCo's own rod damping
-    model.flex_damping[f] = float(options.retardation_time)
+    # MuJoCo's rod damping (frame-indifferent): its coefficient times each stiffness, except the weak bending axis,
+    # which it damps with sqrt(k_1 k_2) (equal damping ratios on both axes). Scaled so that the weak axis, the
+    # strip's main motion and the planar rod's only one, is Kelvin-Voigt with the retardation time; strong bending
+    # and torsion then get w / h times less (docs/sim.md)
+    model.flex_damping[f] = float(options.retardation_time) * math.sqrt(lay.stiffness[:, 0].mean()
+                                                                       / lay.stiffness[:, 1].mean())
     # the edge-length constraint
     model.eq_solref[:] = [EDGE_TIMECONST_STEPS * dt, 1.0]
     model.eq_solimp[:] = EDGE_SOLIMP
