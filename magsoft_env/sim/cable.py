@@ -466,9 +466,10 @@ class CableRod:
 
     The magnetic couples depend on the edges' material frames, so the engine writes them before every step
     (:attr:`per_step`, :meth:`write_field`). The pieces are the edges (``N + 1``, clamp first);
-    :attr:`hinge_dof` are all dofs (vertex slides and twist hinges), with :attr:`stiffness` their scales
-    ``E I_w / ds^2`` (N per unit of displacement / ds) and ``G J / ds`` (N m / rad), so that the static
-    residual ``max |Q| / k`` reads as an angle (rad).
+    :attr:`hinge_dof` are all dofs (vertex slides and twist hinges), with :attr:`stiffness` the whole strip's
+    stiffness against each: ``3 E I_w / L^2`` for a vertex (a force ``Q`` moves a cantilever's tip by at most
+    ``Q L^3 / (3 E I_w)``) and ``G J / L`` for a twist hinge, so that the static residual ``max |Q| / k`` bounds
+    how far the imbalance could still move the strip, as a fraction of L or an angle (rad).
     """
 
     #: The engine calls :meth:`write_field` before every step.
@@ -495,9 +496,12 @@ class CableRod:
         vd = cm.vertex_dof[free_v]
         td = cm.twist_dof[cm.twist_dof >= 0]
         self.hinge_dof = np.concatenate([vd.ravel(), td])
-        ds = beam.length / options.segments
-        self.stiffness = np.concatenate([np.full(vd.size, float(lay.stiffness[:, 0].mean()) / ds),
-                                         np.full(td.size, float(lay.stiffness[:, 2].mean()))])
+        # the whole strip's compliance: a force Q on a vertex moves the tip by up to Q L^3 / (3 E I_w), a moment
+        # on a twist hinge turns it by up to Q L / (G J) (harmonic means of the cells' stiffnesses)
+        L = beam.length
+        ei_w = L / float(np.sum(1.0 / lay.stiffness[:, 0]))
+        gj = L / float(np.sum(1.0 / lay.stiffness[:, 2]))
+        self.stiffness = np.concatenate([np.full(vd.size, 3.0 * ei_w / L**2), np.full(td.size, gj / L)])
         self.weight = float(lay.vertex_mass.sum()) * float(options.gravity)
         self._field = np.zeros(3)
         self._external: np.ndarray | None = None
