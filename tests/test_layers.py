@@ -31,18 +31,22 @@ ALLOWED = {
     "render": {"sim", "design", "theory", "cases", "spec", "leaf"},
     "envs": {"render", "sim", "theory", "cases", "spec", "leaf"},
     "rl": {"envs", "cases", "spec", "leaf"},
-    "cli": {"rl", "envs", "render", "compare", "sim", "design", "theory", "cases", "spec", "leaf", "facade"},
-    "bench": {"rl", "envs", "render", "compare", "sim", "design", "theory", "cases", "spec", "leaf", "facade"},
+    "parallel": {"rl", "envs", "compare", "sim", "design", "theory", "cases", "spec", "leaf"},
+    "cli": {"parallel", "rl", "envs", "render", "compare", "sim", "design", "theory", "cases", "spec", "leaf",
+            "facade"},
+    "bench": {"parallel", "rl", "envs", "render", "compare", "sim", "design", "theory", "cases", "spec", "leaf",
+              "facade"},
     "facade": {"spec", "leaf"},  # the rest is reached lazily by name (importlib), never imported at import time
 }
 # third-party packages a unit may import; all others may import none of these
-HEAVY = {"mujoco", "gymnasium", "torch", "stable_baselines3", "rl_zoo3", "matplotlib", "imageio"}
+HEAVY = {"mujoco", "gymnasium", "torch", "stable_baselines3", "rl_zoo3", "matplotlib", "imageio", "ray"}
 HEAVY_ALLOWED = {
     "sim": {"mujoco"},
     "compare": {"mujoco"},
     "render": {"mujoco", "matplotlib", "imageio", "gymnasium"},
     "envs": {"mujoco", "gymnasium"},
     "rl": {"gymnasium", "torch", "stable_baselines3", "rl_zoo3", "matplotlib"},
+    "parallel": {"gymnasium", "matplotlib", "ray"},
     "cli": {"gymnasium"},
     "bench": {"mujoco", "gymnasium", "torch", "stable_baselines3"},
     "leaf": {"mujoco"},  # gl: binds mujoco's offscreen context class, lazily

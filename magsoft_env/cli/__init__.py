@@ -22,6 +22,7 @@ COMMANDS = {
     "video": "magsoft_env.cli.video",
     "design": "magsoft_env.cli.design",
     "export": "magsoft_env.cli.export",
+    "batch": "magsoft_env.cli.batch",
 }
 
 

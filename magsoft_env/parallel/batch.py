@@ -7,11 +7,11 @@ chunks (millisecond-scale kinds are grouped, second-scale ones run alone), and h
 ``serial``
     In this process, one case after the other: the reference.
 ``local`` (default)
-    A pool of worker processes on this machine (no extra dependency). The driver watches each worker: a case
+    A pool of worker processes on the local machine (no extra dependency). The driver watches each worker: a case
     that runs past ``timeout`` is stopped (its worker killed and replaced) and becomes a failure row; a worker
     that dies (killed, out of memory) is replaced and its case retried up to ``retries`` times.
 ``ray``
-    A Ray cluster (:mod:`magsoft_env.parallel.ray_engine`, the ``ray`` extra): a private one on this machine, or
+    A Ray cluster (:mod:`magsoft_env.parallel.ray_engine`, the ``ray`` extra): a private one on the local machine, or
     an existing one joined by address.
 
 Each finished case is one line of the results file, appended and flushed at once, so an interrupted batch
@@ -187,11 +187,11 @@ def run_batch(cases, out, *, engine: str = "local", workers: int | None = None, 
     engine : {"serial", "local", "ray"}
         Where the cases run (see the module docstring).
     workers : int, optional
-        Worker processes (``local``; default: the CPUs of this machine) or CPUs of a private Ray (``ray`` with
+        Worker processes (``local``; default: the local CPUs) or CPUs of a private Ray (``ray`` with
         ``address=None``).
     address : str, optional
-        ``ray`` only: None starts a private Ray on this machine (never an existing one); ``"auto"`` joins the
-        cluster this machine belongs to, ``"HOST:PORT"`` the one at that address
+        ``ray`` only: None starts a private Ray on the local machine (never an existing one); ``"auto"`` joins the
+        cluster the local machine belongs to, ``"HOST:PORT"`` the one at that address
         (:class:`~magsoft_env.parallel.ray_engine.RayEngine`).
     timeout : float, optional
         Seconds a case may run; a case that runs longer becomes a failure row (``CaseTimeout``).
@@ -352,7 +352,7 @@ class _Worker:
 
 
 class LocalEngine:
-    """A pool of ``workers`` processes on this machine (default: its CPUs), watched by the driver.
+    """A pool of ``workers`` processes on the local machine (default: its CPUs), watched by the driver.
 
     Each worker takes one chunk at a time and sends each case's row back as it finishes, so the driver always
     knows which case is running: a case past ``timeout`` has its worker killed and replaced, and becomes a

@@ -51,13 +51,13 @@ class RayEngine:
     Parameters
     ----------
     address : str, optional
-        None: a private Ray on this machine with ``workers`` CPUs, started for the batch and shut down after
-        it. ``"auto"``: the cluster this machine is part of (``RAY_ADDRESS``, or the one ``ray start`` recorded);
+        None: a private Ray on the local machine with ``workers`` CPUs, started for the batch and shut down after
+        it. ``"auto"``: the cluster the local machine is part of (``RAY_ADDRESS``, or the one ``ray start`` recorded);
         ``"HOST:PORT"``: the cluster whose head is there (the address ``ray start --head`` prints).
     workers : int, optional
-        CPUs of the private Ray (default: this machine's).
+        CPUs of the private Ray (default: the local machine's).
     node_ip_address : str, optional
-        This machine's address in the cluster (default: the address's host when it is a loopback one).
+        The driver's address in the cluster (default: the address's host when it is a loopback one).
     auth_token_file : str, optional
         The cluster's token (token authentication), if not in ``~/.ray/auth_token``.
     object_store_mb : int
