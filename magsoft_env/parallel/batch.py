@@ -184,8 +184,9 @@ def run_batch(cases, out, *, engine: str = "local", workers: int | None = None, 
 
     Parameters
     ----------
-    engine : {"serial", "local", "ray"}
-        Where the cases run (see the module docstring).
+    engine : {"serial", "local", "ray"} or an engine
+        Where the cases run (see the module docstring); an engine object (:class:`LocalEngine`,
+        :class:`~magsoft_env.parallel.ray_engine.RayEngine`, ...) is used as it is.
     workers : int, optional
         Worker processes (``local``; default: the local CPUs) or CPUs of a private Ray (``ray`` with
         ``address=None``).
@@ -211,8 +212,8 @@ def run_batch(cases, out, *, engine: str = "local", workers: int | None = None, 
     ray_options : dict, optional
         More arguments of :class:`~magsoft_env.parallel.ray_engine.RayEngine`.
     """
-    if engine not in ENGINES:
-        raise ValueError(f"engine must be one of {list(ENGINES)}, got {engine!r}.")
+    if isinstance(engine, str) and engine not in ENGINES:
+        raise ValueError(f"engine must be one of {list(ENGINES)} or an engine object, got {engine!r}.")
     if address is not None and engine != "ray":
         raise ValueError(f"address applies to engine 'ray', got engine {engine!r}.")
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or not 1 <= workers <= 4096):
@@ -269,7 +270,7 @@ def run_batch(cases, out, *, engine: str = "local", workers: int | None = None, 
     done = [r for r in rows if r is not None]
     ok = sum(bool(r["ok"]) for r in done)
     return BatchResult(path=out, rows=rows, ran=counts["ran"], skipped=skipped, ok=ok, failed=len(done) - ok,
-                       engine=engine, wall_time_s=time.perf_counter() - t0)
+                       engine=engine if isinstance(engine, str) else type(engine).__name__, wall_time_s=time.perf_counter() - t0)
 
 
 def _chunks(pending, chunk_size, workers):
@@ -288,6 +289,8 @@ def _bar(total, enabled):
 
 
 def _engine(name, workers, address, ray_options):
+    if not isinstance(name, str):
+        return name
     if name == "serial":
         return SerialEngine()
     if name == "local":
@@ -320,7 +323,8 @@ def _worker_main(conn):
         if chunk is None:
             return
         for cid, case in chunk:
-            conn.send(run_one(cid, case))
+            conn.send(("start", cid))  # the case's clock starts now, not when the chunk was sent
+            conn.send(("row", run_one(cid, case)))
 
 
 class _Worker:
@@ -332,8 +336,7 @@ class _Worker:
         self.chunk, self.pos, self.deadline = None, 0, math.inf
 
     def assign(self, chunk, timeout):
-        self.chunk, self.pos = chunk, 0
-        self.deadline = math.inf if timeout is None else time.monotonic() + timeout
+        self.chunk, self.pos, self.deadline = chunk, 0, math.inf
         self.conn.send(chunk)
 
     def stop(self, kill=False):
@@ -363,6 +366,7 @@ class LocalEngine:
 
     def __init__(self, workers: int | None = None):
         self.workers = workers or os.cpu_count() or 1
+        self.pids: list[int] = []  # the workers' process ids while a batch runs
 
     def run(self, chunks, *, timeout, retries, emit, max_in_flight=None):
         import multiprocessing as mp
@@ -372,6 +376,7 @@ class LocalEngine:
         queue = collections.deque(chunks)
         attempts = collections.Counter()
         pool = [_Worker(ctx) for _ in range(min(self.workers, len(queue)))]
+        self.pids = [w.proc.pid for w in pool]
         try:
             while True:
                 for w in pool:
@@ -390,9 +395,13 @@ class LocalEngine:
                     if w.conn in ready or w.proc.sentinel in ready:
                         try:
                             while w.chunk is not None and w.conn.poll():
-                                emit(w.conn.recv())
+                                what, msg = w.conn.recv()
+                                if what == "start":
+                                    w.deadline = math.inf if timeout is None else time.monotonic() + timeout
+                                    continue
+                                emit(msg)
                                 w.pos += 1
-                                w.deadline = math.inf if timeout is None else time.monotonic() + timeout
+                                w.deadline = math.inf
                                 if w.pos == len(w.chunk):
                                     w.chunk = None
                         except (EOFError, OSError):
@@ -421,7 +430,9 @@ class LocalEngine:
                     w.chunk = None
                     w.stop(kill=True)
                     pool[k] = _Worker(ctx)
+                    self.pids = [w.proc.pid for w in pool]
         finally:
+            self.pids = []
             for w in pool:
                 w.stop(kill=w.chunk is not None)
 

@@ -25,6 +25,7 @@ is the one that fails.
 
 from __future__ import annotations
 
+import logging
 import math
 import os
 import time
@@ -107,6 +108,8 @@ class RayEngine:
             ip = self.node_ip_address or (host if host.startswith("127.") else None)
             if ip:
                 kw["_node_ip_address"] = ip
+        if self.address is None:  # "token authentication is enabled": true, and nothing for the user to do
+            logging.getLogger("ray._private.authentication.authentication_token_setup").setLevel(logging.ERROR)
         try:
             ray.init(**kw)
         except ConnectionError as exc:

@@ -148,11 +148,11 @@ def default_metric(rows) -> str | None:
 
 def varied_keys(rows) -> list[str]:
     """Dotted keys of the numeric case values that differ between the rows (``scale.E0``, ``seconds``, ...)."""
-    flat = [dict(_flatten(r["case"])) for r in rows if r is not None]
+    flat = [dict(_flatten(r["case"])) for r in rows if r is not None and r["ok"]]
     keys = sorted({k for f in flat for k in f})
     out = []
     for k in keys:
-        vals = {f.get(k) for f in flat}
+        vals = {f.get(k, 1.0 if k.startswith("scale.") else None) for f in flat}  # a missing factor is 1
         if len(vals) > 1 and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in vals) \
                 and k not in ("sample", "seed"):
             out.append(k)
@@ -194,6 +194,7 @@ def _pairs(rows, metric, key):
         if r is None or not r["ok"]:
             continue
         x, y = get_key(r["case"], key), get_key(r["result"], metric)
+        x = 1.0 if x is None and key.startswith("scale.") else x
         if isinstance(x, (int, float)) and isinstance(y, (int, float)) and math.isfinite(y):
             xs.append(float(x))
             ys.append(float(y))
