@@ -25,9 +25,9 @@ from magsoft_env.parallel import (
     read_cases,
     read_results,
     run_batch,
+    sweeps,
     write_cases,
 )
-from magsoft_env.parallel import sweeps
 
 ROOT = Path(__file__).resolve().parents[1]
 

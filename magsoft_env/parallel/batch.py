@@ -270,7 +270,8 @@ def run_batch(cases, out, *, engine: str = "local", workers: int | None = None, 
     done = [r for r in rows if r is not None]
     ok = sum(bool(r["ok"]) for r in done)
     return BatchResult(path=out, rows=rows, ran=counts["ran"], skipped=skipped, ok=ok, failed=len(done) - ok,
-                       engine=engine if isinstance(engine, str) else type(engine).__name__, wall_time_s=time.perf_counter() - t0)
+                       engine=engine if isinstance(engine, str) else type(engine).__name__,
+                       wall_time_s=time.perf_counter() - t0)
 
 
 def _chunks(pending, chunk_size, workers):
