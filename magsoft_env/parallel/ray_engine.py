@@ -46,6 +46,17 @@ def _token_available() -> bool:
     return Path(path).is_file() if path else (Path.home() / ".ray" / "auth_token").is_file()
 
 
+def _reread_auth_settings():
+    """Ray reads the authentication mode and token once per process, maybe before they were set here."""
+    try:
+        from ray._raylet import AuthenticationTokenLoader, Config
+
+        Config.initialize("")
+        AuthenticationTokenLoader.instance().reset_cache()
+    except (ImportError, AttributeError):  # another Ray: nothing cached this way
+        pass
+
+
 class RayEngine:
     """Run chunks of cases as Ray tasks.
 
@@ -80,6 +91,7 @@ class RayEngine:
         self.node_ip_address, self.auth_token_file = node_ip_address, auth_token_file
         self.object_store_mb, self.runtime_env = object_store_mb, runtime_env
         self.owned = False
+        self._saved_env: dict = {}
 
     def start(self):
         """Connect (or start the private Ray); returns the ``ray`` module."""
@@ -100,9 +112,10 @@ class RayEngine:
             if self.auth_token_file is not None:
                 if not Path(self.auth_token_file).is_file():
                     raise ValueError(f"auth token file {self.auth_token_file!r} does not exist.")
-                os.environ["RAY_AUTH_TOKEN_PATH"] = str(Path(self.auth_token_file).resolve())
+                self._setenv("RAY_AUTH_TOKEN_PATH", str(Path(self.auth_token_file).resolve()))
             if "RAY_AUTH_MODE" not in os.environ and _token_available():
-                os.environ["RAY_AUTH_MODE"] = "token"  # 2.60: a joining process needs the mode, not just the token
+                self._setenv("RAY_AUTH_MODE", "token")  # 2.60: a joining process needs the mode, not just the token
+            _reread_auth_settings()
             kw["address"] = self.address
             host = self.address.rsplit(":", 1)[0]
             ip = self.node_ip_address or (host if host.startswith("127.") else None)
@@ -115,6 +128,7 @@ class RayEngine:
         except ConnectionError as exc:
             hint = "" if _token_available() else (" No Ray token found: copy the cluster's ~/.ray/auth_token here or "
                                                   "give auth_token_file (--ray-token-file).")
+            self._restore_env()
             raise ValueError(f"cannot join the Ray cluster at {self.address!r}: {exc}.{hint}") from None
         self.owned = True
         return ray
@@ -125,6 +139,20 @@ class RayEngine:
 
             ray.shutdown()
             self.owned = False
+        self._restore_env()
+
+    def _setenv(self, key, value):
+        self._saved_env.setdefault(key, os.environ.get(key))
+        os.environ[key] = value
+
+    def _restore_env(self):
+        """The environment variables set for joining, as they were (they are read by ``ray.init`` only)."""
+        for key, value in self._saved_env.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
+        self._saved_env = {}
 
     def run(self, chunks, *, timeout, retries, emit, max_in_flight=None):
         ray = self.start()
@@ -153,12 +181,13 @@ class RayEngine:
                 chunk, _ = flying.pop(ref)
                 try:
                     rows = ray.get(ref)
-                except RayError as exc:  # the task's worker or node died more than ``retries`` times
+                except RayError as exc:  # the worker or node died more than ``retries`` times, or cannot run jobs
                     cause = type(getattr(exc, "cause", None) or exc).__name__
+                    lines = [ln for ln in str(exc).splitlines() if ln.strip()]
                     for cid, _case in chunk:
                         emit({"id": cid, "ok": False, "wall_time_s": None,
-                              "error": {"type": cause, "message": str(exc).splitlines()[0][:500],
-                                        "traceback": ""}})
+                              "error": {"type": cause, "message": (lines[-1] if lines else cause)[:500],
+                                        "traceback": str(exc)[-4000:]}})
                     continue
                 for row in rows:
                     emit(row)
