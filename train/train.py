@@ -1,6 +1,14 @@
 """Train a magsoft_env environment with rl-zoo3 into runs/<run-id>/ (never overwriting a run), then evaluate.
 
     python train/train.py --env MagSoftCrawl-v1 [--algo ppo] [--timesteps N] [--run-id ID] [--set k=v] [--env-kwarg k=v]
+    python train/train.py --env ID --optimize [--storage URL --study-name NAME] [--n-trials N | --max-total-trials N]
+    python train/train.py --fail-stale-trials MINUTES --storage URL --study-name NAME
+
+``--optimize`` searches hyperparameters instead (rl-zoo3's ``-optimize``, Optuna; magsoft_env.rl.tune): workers
+started with the same ``--storage`` (a database URL, or a journal file ``*.log``) and ``--study-name`` share one
+study and its ``--max-total-trials`` budget; the env's kwargs score the trials too (``--eval-env-kwargs``).
+``--fail-stale-trials`` marks FAIL the trials a killed worker left RUNNING (docs/training.md, "Tuning on a
+shared study").
 
 The same as ``python -m rl_zoo3.train --algo ALGO --env ID --gym-packages magsoft_env -conf
 train/hyperparams.yml`` (printed, and kept in zoo_command.txt), plus: the run folder is refused if it
@@ -69,7 +77,36 @@ def main(argv=None) -> int:
                    help="override hyperparameters, e.g. --set learning_rate=1e-3 n_steps=256")
     p.add_argument("--env-kwarg", nargs="*", default=[], metavar="KEY=VALUE",
                    help="override environment arguments (SI units), e.g. --env-kwarg segments=10")
+    tune = p.add_argument_group("hyperparameter search (rl-zoo3 -optimize, Optuna)")
+    tune.add_argument("--optimize", action="store_true", help="search hyperparameters instead of training one run")
+    tune.add_argument("--storage", default=None,
+                      help="the study's storage, shared by workers: sqlite:///study.db, postgresql://..., or a "
+                           "journal file study.log")
+    tune.add_argument("--study-name", default=None, help="the study's name (the same for every worker)")
+    tune.add_argument("--n-trials", type=int, default=None, help="trials of this worker")
+    tune.add_argument("--max-total-trials", type=int, default=None,
+                      help="trials of the study, all workers together (running ones count)")
+    tune.add_argument("--n-startup-trials", type=int, default=None, help="random trials before the sampler's own")
+    tune.add_argument("--n-evaluations", type=int, default=None, help="evaluations per trial (for pruning)")
+    tune.add_argument("--sampler", default="tpe", choices=["random", "tpe", "skopt"], help="Optuna sampler")
+    tune.add_argument("--pruner", default="median", choices=["halving", "median", "none"], help="Optuna pruner")
+    tune.add_argument("--fail-stale-trials", type=float, default=None, metavar="MINUTES",
+                      help="mark FAIL the study's trials RUNNING for longer than MINUTES (a killed worker's), and exit")
     args = p.parse_args(argv)
+    if args.fail_stale_trials is not None:
+        if not (args.storage and args.study_name):
+            print("train.py: error: --fail-stale-trials needs --storage and --study-name.", file=sys.stderr)
+            return 2
+        from magsoft_env.rl import fail_stale_trials
+
+        failed = fail_stale_trials(args.storage, args.study_name, 60.0 * args.fail_stale_trials)
+        print(json.dumps({"study_name": args.study_name, "failed_trials": failed}))
+        return 0
+    searching = [f for f in ("storage", "study_name", "n_trials", "max_total_trials", "n_startup_trials",
+                             "n_evaluations") if getattr(args, f) is not None]
+    if searching and not args.optimize:
+        print(f"train.py: error: --{searching[0].replace('_', '-')} goes with --optimize.", file=sys.stderr)
+        return 2
 
     run_id = args.run_id or f"{args.env}_{args.algo}_s{args.seed}_{time.strftime('%Y%m%d-%H%M%S')}"
     run_dir = args.runs / run_id
@@ -105,6 +142,19 @@ def main(argv=None) -> int:
     except ValueError as err:
         print(f"train.py: error: {err}", file=sys.stderr)
         return 2
+    if args.optimize:
+        from magsoft_env.rl import tune as tune_run
+
+        try:
+            out = tune_run(block, args.env, run_dir, algo=args.algo, seed=args.seed, storage=args.storage,
+                           study_name=args.study_name, n_trials=args.n_trials, max_total_trials=args.max_total_trials,
+                           n_startup_trials=args.n_startup_trials, n_evaluations=args.n_evaluations,
+                           sampler=args.sampler, pruner=args.pruner, eval_episodes=args.eval_episodes, vec=args.vec)
+        except ValueError as err:
+            print(f"train.py: error: {err}", file=sys.stderr)
+            return 2
+        print(json.dumps({"run_dir": str(run_dir), **out}, indent=2, default=str))
+        return 0
     from magsoft_env.rl import summarize_run, train
 
     # checked above: errors from here on are not usage errors and keep their traceback

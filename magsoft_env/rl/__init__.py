@@ -31,7 +31,18 @@ from .hyperparams import (
     split_hyperparams,
 )
 from .runs import RunRecord, find_run, read_zoo_yaml
-from .training import GYM_PACKAGE, evaluate_run, learning_curve, run_zoo, summarize_run, train, zoo_argv
+from .training import (
+    GYM_PACKAGE,
+    evaluate_run,
+    fail_stale_trials,
+    learning_curve,
+    optuna_storage,
+    run_zoo,
+    summarize_run,
+    train,
+    tune,
+    zoo_argv,
+)
 
 #: names of .vec, which imports stable_baselines3: loaded on first access
 _VEC_NAMES = ("SB3VecAdapter", "ThreadedVecEnv", "make_sb3_vec_env", "unbatch_infos")
@@ -52,4 +63,4 @@ __all__ = ["ALGOS", "GYM_PACKAGE", "ZOO_KEYS", "EvalResult", "Policy", "RunRecor
            "locomotion_mode",
            "load_hyperparams", "load_policy", "make_sb3_vec_env", "open_loop_actor", "parse_override",
            "policy_run_info", "read_zoo_yaml", "run_episodes", "run_zoo", "split_hyperparams", "summarize_run",
-           "train", "unbatch_infos", "zoo_argv"]
+           "train", "unbatch_infos", "zoo_argv", "fail_stale_trials", "optuna_storage", "tune"]

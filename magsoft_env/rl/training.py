@@ -278,4 +278,133 @@ def summarize_run(run, out_dir=None, *, episodes: int = 2, seed: int = 1000, env
     return summary
 
 
-__all__ = ["GYM_PACKAGE", "evaluate_run", "learning_curve", "run_zoo", "summarize_run", "train", "zoo_argv"]
+def optuna_storage(storage: str):
+    """The Optuna storage rl-zoo3 makes of ``storage``: a ``.log`` path is a journal file (one machine, or a shared
+    file system), anything else a database URL (``sqlite:///study.db``, ``postgresql://...``)."""
+    import optuna
+
+    if storage.endswith(".log"):
+        return optuna.storages.JournalStorage(optuna.storages.journal.JournalFileBackend(storage))
+    return storage
+
+
+def tune(block: dict, env_id: str, run_dir, *, algo: str = "ppo", seed: int = 0, storage: str | None = None,
+         study_name: str | None = None, n_trials: int | None = None, max_total_trials: int | None = None,
+         n_startup_trials: int | None = None, n_evaluations: int | None = None, sampler: str = "tpe",
+         pruner: str = "median", eval_episodes: int = 2, vec: str = "threads") -> dict:
+    """Search hyperparameters with rl-zoo3 (``-optimize``, Optuna) into the new folder ``run_dir``; several
+    workers (processes, machines) given the same ``storage`` and ``study_name`` share one study.
+
+    ``storage``: a database URL (``sqlite:///study.db`` on one machine, ``postgresql://...`` for a cluster) or a
+    journal file ``*.log`` (one machine or a shared file system); None: a study in memory, this worker's alone.
+    ``max_total_trials``: the study's budget, counted over all workers (complete, pruned and running trials);
+    ``n_trials``: this worker's. The block's ``env_kwargs`` also go to rl-zoo3's evaluation env
+    (``--eval-env-kwargs``), which is where the trials are scored. Writes ``run_dir/hyperparams.yml``,
+    ``zoo_command.txt``, rl-zoo3's report (``<algo>/report_*.csv``) and ``tune.json``; returns the latter's
+    content: the study's trials by state and its best value and parameters.
+    """
+    import yaml
+
+    run_dir = Path(run_dir)
+    if run_dir.exists():
+        raise ValueError(f"run folder {str(run_dir)!r} exists already; a run is never overwritten: choose "
+                         "another --run-id.")
+    if storage is not None and study_name is None:
+        raise ValueError("a shared study needs a study name (--study-name) besides its storage.")
+    for name, value in (("n_trials", n_trials), ("max_total_trials", max_total_trials),
+                        ("n_startup_trials", n_startup_trials), ("n_evaluations", n_evaluations)):
+        if value is not None and (isinstance(value, bool) or not isinstance(value, int) or value < 1):
+            raise ValueError(f"{name} must be an integer >= 1, got {value!r}.")
+    check_hyperparams(block, env_id, algo)
+    if vec not in VEC_CHOICES:
+        raise ValueError(f"vec must be one of {', '.join(VEC_CHOICES)}, got {vec!r}.")
+    run_dir.mkdir(parents=True, exist_ok=False)
+    conf = run_dir / "hyperparams.yml"
+    conf.write_text(f"# hyperparameters the search starts from, rl-zoo3's format ({algo}); see zoo_command.txt\n"
+                    + yaml.safe_dump({env_id: block}, sort_keys=False, default_flow_style=None))
+    argv = zoo_argv(env_id, conf, run_dir, algo=algo, seed=seed, eval_episodes=eval_episodes,
+                    vec="dummy" if vec == "threads" else vec, eval_env_kwargs=block.get("env_kwargs") or None)
+    argv += ["-optimize", "--sampler", sampler, "--pruner", pruner, "--no-optim-plots"]
+    for flag, value in (("--storage", storage), ("--study-name", study_name), ("--n-trials", n_trials),
+                        ("--max-total-trials", max_total_trials), ("--n-startup-trials", n_startup_trials),
+                        ("--n-evaluations", n_evaluations)):
+        if value is not None:
+            argv += [flag, str(value)]
+    command = "python -m rl_zoo3.train " + shlex.join(argv)
+    (run_dir / "zoo_command.txt").write_text(command + "\n")
+    print(f"tune: {command}", flush=True)
+    vec_env_cls = None
+    if vec == "threads":
+        from .vec import ThreadedVecEnv
+
+        vec_env_cls = ThreadedVecEnv
+    if storage is not None:
+        ensure_study(storage, study_name)
+    t0 = time.perf_counter()
+    note = None
+    try:
+        run_zoo(argv, vec_env_cls=vec_env_cls)
+    except ImportError as exc:  # rl-zoo3 writes its report with pandas, after the search: the trials are stored
+        if "pandas" not in str(exc):
+            raise
+        note = "rl-zoo3's CSV report needs pandas (not installed); the trials are listed here"
+    out = {"env_id": env_id, "algo": algo, "seed": int(seed), "storage": storage, "study_name": study_name,
+           "wall_s": time.perf_counter() - t0, "zoo_command": command}
+    if note:
+        out["note"] = note
+    if storage is not None:
+        import optuna
+
+        study = optuna.load_study(study_name=study_name, storage=optuna_storage(storage))
+        trials = study.get_trials(deepcopy=False)
+        out["trials"] = {st.name: sum(t.state == st for t in trials) for st in optuna.trial.TrialState}
+        done = [t for t in trials if t.state == optuna.trial.TrialState.COMPLETE]
+        if done:
+            out["best_value"], out["best_params"] = study.best_value, study.best_params
+        out["trial_list"] = [{"number": t.number, "state": t.state.name, "value": t.value, "params": t.params}
+                             for t in trials]
+    (run_dir / "tune.json").write_text(json.dumps(out, indent=2, default=str))
+    return out
+
+
+def ensure_study(storage: str, study_name: str, *, attempts: int = 8) -> None:
+    """Create the study (maximize, as rl-zoo3 does) unless it exists. Workers started together on a new
+    SQLite file race to create its tables ("table studies already exists"): the loser waits and tries again."""
+    import random
+
+    import optuna
+
+    for k in range(attempts):
+        try:
+            optuna.create_study(storage=optuna_storage(storage), study_name=study_name, load_if_exists=True,
+                                direction="maximize")
+            return
+        except Exception:  # noqa: BLE001  sqlalchemy's OperationalError, or a study half made by the other worker
+            if k == attempts - 1:
+                raise
+            time.sleep(0.2 + random.random())
+
+
+def fail_stale_trials(storage: str, study_name: str, older_than_s: float = 3600.0) -> list[int]:
+    """Mark FAIL the trials of a shared study still RUNNING ``older_than_s`` seconds after they started: the
+    trials of workers that were killed (rl-zoo3 gives Optuna its storage as a string, so no heartbeat can find
+    them). A RUNNING trial counts against ``max_total_trials``; once failed, another worker runs one in its place.
+    Returns their numbers. Give a time longer than any live trial takes."""
+    import datetime
+
+    import optuna
+
+    if not (isinstance(older_than_s, int | float) and older_than_s >= 0):
+        raise ValueError(f"older_than_s must be a number of seconds >= 0, got {older_than_s!r}.")
+    study = optuna.load_study(study_name=study_name, storage=optuna_storage(storage))
+    now = datetime.datetime.now()
+    failed = []
+    for t in study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.RUNNING,)):
+        if t.datetime_start is not None and (now - t.datetime_start).total_seconds() >= older_than_s:
+            study._storage.set_trial_state_values(t._trial_id, optuna.trial.TrialState.FAIL)
+            failed.append(t.number)
+    return failed
+
+
+__all__ = ["GYM_PACKAGE", "ensure_study", "evaluate_run", "fail_stale_trials", "learning_curve", "optuna_storage", "run_zoo",
+           "summarize_run", "train", "tune", "zoo_argv"]
