@@ -406,5 +406,5 @@ def fail_stale_trials(storage: str, study_name: str, older_than_s: float = 3600.
     return failed
 
 
-__all__ = ["GYM_PACKAGE", "ensure_study", "evaluate_run", "fail_stale_trials", "learning_curve", "optuna_storage", "run_zoo",
-           "summarize_run", "train", "tune", "zoo_argv"]
+__all__ = ["GYM_PACKAGE", "ensure_study", "evaluate_run", "fail_stale_trials", "learning_curve", "optuna_storage",
+           "run_zoo", "summarize_run", "train", "tune", "zoo_argv"]
