@@ -103,3 +103,11 @@ def test_sim_bench_sweep_quick(capsys):
     for n in ("10", "20"):
         for integ in ("discrete", "euler"):
             assert by_dt[(n, integ, 2e-4)] < by_dt[(n, integ, 1e-3)]  # the smaller step is closer
+
+
+def test_batch_bench_quick(capsys):
+    from magsoft_env.bench import batch_bench
+
+    assert batch_bench.main(["--quick", "--engines", "local", "--equilibria", "6", "--gaits", "1", "--noops", "5"]) == 0
+    rows = _rows(capsys.readouterr().out, ("      noop", "equilibria", "     gaits"))
+    assert len(rows) == 6 and all(r.split()[-1] == "True" for r in rows)  # every engine's rows equal the serial ones

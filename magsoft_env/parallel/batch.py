@@ -44,6 +44,8 @@ ENGINES = ("serial", "local", "ray")
 LIGHT_KINDS = ("equilibrium", "sleep")
 #: Cases per chunk at most (light kinds).
 MAX_CHUNK = 64
+#: Modules the local workers' server imports before it forks them (each worker would import them on its first case).
+PRELOAD = ("magsoft_env.parallel.jobs", "magsoft_env.theory", "magsoft_env.sim.gait")
 
 
 # ------------------------------------------------------------------------------------------ cases
@@ -362,7 +364,9 @@ class LocalEngine:
     knows which case is running: a case past ``timeout`` has its worker killed and replaced, and becomes a
     ``CaseTimeout`` failure row; a worker that dies has its running case retried (up to ``retries`` times, then
     a ``WorkerDied`` failure row) and the rest of its chunk handed out again. Workers start with the
-    ``forkserver`` method where the platform has it (else ``spawn``): nothing of the driver's state is shared.
+    ``forkserver`` method where the platform has it (else ``spawn``), the server having imported :data:`PRELOAD`:
+nothing of the driver's state is shared. As with any process pool, a script that runs a batch on this engine
+must do so under ``if __name__ == "__main__":`` (the workers import the main module).
     """
 
     def __init__(self, workers: int | None = None):
@@ -373,7 +377,12 @@ class LocalEngine:
         import multiprocessing as mp
         from multiprocessing.connection import wait
 
-        ctx = mp.get_context("forkserver" if "forkserver" in mp.get_all_start_methods() else "spawn")
+        if "forkserver" in mp.get_all_start_methods():
+            ctx = mp.get_context("forkserver")
+            # imported once in the server, which forks the workers: they start with the solvers loaded
+            ctx.set_forkserver_preload(list(PRELOAD))
+        else:
+            ctx = mp.get_context("spawn")
         queue = collections.deque(chunks)
         attempts = collections.Counter()
         pool = [_Worker(ctx) for _ in range(min(self.workers, len(queue)))]
