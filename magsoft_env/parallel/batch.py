@@ -389,17 +389,20 @@ must do so under ``if __name__ == "__main__":`` (the workers import the main mod
         self.pids = [w.proc.pid for w in pool]
         try:
             while True:
-                for w in pool:
-                    if w.chunk is None and queue:
+                for k, w in enumerate(pool):
+                    if queue and w is None:  # a replacement, started when there is work for it
+                        pool[k] = w = _Worker(ctx)
+                        self.pids = [x.proc.pid for x in pool if x is not None]
+                    if w is not None and w.chunk is None and queue:
                         w.assign(queue.popleft(), timeout)
-                active = [w for w in pool if w.chunk is not None]
+                active = [w for w in pool if w is not None and w.chunk is not None]
                 if not active:
                     break
                 left = min(w.deadline for w in active) - time.monotonic()
                 ready = set(wait([w.conn for w in active] + [w.proc.sentinel for w in active],
                                  timeout=None if math.isinf(left) else max(0.0, left)))
                 for k, w in enumerate(pool):
-                    if w.chunk is None:
+                    if w is None or w.chunk is None:
                         continue
                     died = False
                     if w.conn in ready or w.proc.sentinel in ready:
@@ -439,12 +442,12 @@ must do so under ``if __name__ == "__main__":`` (the workers import the main mod
                         queue.appendleft(rest)
                     w.chunk = None
                     w.stop(kill=True)
-                    pool[k] = _Worker(ctx)
-                    self.pids = [w.proc.pid for w in pool]
+                    pool[k] = None
         finally:
             self.pids = []
             for w in pool:
-                w.stop(kill=w.chunk is not None)
+                if w is not None:
+                    w.stop(kill=w.chunk is not None)
 
 
 __all__ = ["ENGINES", "LIGHT_KINDS", "MAX_CHUNK", "BatchResult", "LocalEngine", "SerialEngine", "case_id",
