@@ -46,7 +46,9 @@ class RodBackend(Protocol):
         ``mujoco.mjtState`` spec of :meth:`controls` rows.
     per_step : bool
         The couples depend on the state in a way MuJoCo cannot apply by itself (the 3D rod's material frames):
-        the engine calls :meth:`write_field` before every step instead of running native blocks.
+        the engine calls :meth:`write_field` before every step instead of running native blocks, books the
+        field's work with :attr:`moment` (the net moment :meth:`write_field` computed) and calls
+        :meth:`record_step` after every step.
     """
 
     model: mujoco.MjModel
@@ -67,6 +69,13 @@ class RodBackend(Protocol):
 
     def contact_histories(self, data: mujoco.MjData) -> tuple[SensorHistory | None, SensorHistory | None]:
         """Readers of the floor and feature contact sensors' history buffers."""
+
+    def contact_data(self, data: mujoco.MjData) -> np.ndarray:
+        """The array that :attr:`contact_adr` and :attr:`feature_adr` index (MuJoCo's ``sensordata``, or the
+        rod's own record of the last step)."""
+
+    def record_step(self, data: mujoco.MjData) -> None:
+        """After each step of a :attr:`per_step` rod: record what its health checks read (its deepest contact)."""
 
     def write_field(self, data: mujoco.MjData, field3: np.ndarray) -> None:
         """Write the inputs of a held field ``(B_x, B_y, B_z)`` (T) into ``data``."""

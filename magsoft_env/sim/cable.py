@@ -368,17 +368,21 @@ def magnetic_energy(cm: CableModel, data: mujoco.MjData, field3) -> float:
     return -float(np.sum(world_moments(cm, data) @ np.asarray(field3, dtype=float)))
 
 
-def apply_field(cm: CableModel, data: mujoco.MjData, field3, extra: np.ndarray | None = None) -> np.ndarray:
+def apply_field(cm: CableModel, data: mujoco.MjData, field3, extra: np.ndarray | None = None,
+                net_moment: np.ndarray | None = None) -> np.ndarray:
     """Write the magnetic couples of the field ``(B_x, B_y, B_z)`` (T) into ``data``: the force pair of each
     edge into ``xfrc_applied`` (rows of the vertex bodies, overwritten), the along-edge part into
     ``qfrc_applied`` (the twist dofs, overwritten; other dofs zeroed). Returns the couples ``(N + 1, 3)`` (N m).
     A clamped edge's couple goes to the clamp (nothing applied). ``extra``: a world wrench per edge ``(N + 1, 6)``
-    added (force at the edge's middle, half to each vertex; couple as the magnetic ones)."""
+    added (force at the edge's middle, half to each vertex; couple as the magnetic ones). ``net_moment``: a
+    ``(3,)`` array that receives the net magnetic moment ``sum R_i m_i`` of the state (A m^2)."""
     B = np.asarray(field3, dtype=float)
     x = vertices(cm, data)
     t, d1, d2 = material_frames(cm, data, x)
     m = cm.layout.moment
     mw = m[:, :1] * t + m[:, 1:2] * d1 + m[:, 2:3] * d2
+    if net_moment is not None:
+        net_moment[:] = mw.sum(axis=0)
     # m x B for every row: m @ [B]x
     C = mw @ np.array([[0.0, -B[2], B[1]], [B[2], 0.0, -B[0]], [-B[1], B[0], 0.0]])
     if extra is not None:
@@ -460,35 +464,68 @@ def elastic_energy(cm: CableModel, data: mujoco.MjData) -> float:
 EDGE_STRAIN_LIMIT = 0.05
 
 
+class ContactRecord:
+    """The deepest floor contact of the last steps, oldest first: what MuJoCo's contact sensors with a history
+    buffer give the planar rod (:class:`~magsoft_env.sim.health.SensorHistory`'s members), for the 3D rod, whose
+    contacts are the flex's (MuJoCo's contact sensors match geoms and bodies, not flex vertices). The engine steps
+    the 3D rod one ``mj_step`` at a time, and :meth:`push` records after each the most negative ``dist`` of the
+    contacts MuJoCo found at that step's start state (0 when there is none, like a ``mindist`` sensor)."""
+
+    def __init__(self, nsample: int):
+        self.nsample = int(nsample)
+        #: the values in ring order (the last ``nsample`` steps, in no particular order)
+        self.values = np.zeros(self.nsample)
+        self._cursor = self.nsample - 1
+
+    def push(self, value: float) -> None:
+        self._cursor = (self._cursor + 1) % self.nsample
+        self.values[self._cursor] = value
+
+    def last(self, k: int) -> np.ndarray:
+        """The values of the last ``k`` (<= nsample) steps, oldest first, shape ``(k,)``."""
+        if not 1 <= k <= self.nsample:
+            raise ValueError(f"k must lie in [1, {self.nsample}], got {k!r}.")
+        return self.values[(self._cursor + np.arange(1 - k, 1)) % self.nsample]
+
+
 class CableRod:
     """The flexcomp strip as a :class:`~magsoft_env.sim.backend.RodBackend`: what
-    :class:`~magsoft_env.sim.Simulator` steps for ``RodOptions(rod="cable")`` (clamped scene).
+    :class:`~magsoft_env.sim.Simulator` steps for ``RodOptions(rod="cable")``, clamped (``scene="cantilever"``)
+    or free on the floor (``scene="floor"``).
 
     The magnetic couples depend on the edges' material frames, so the engine writes them before every step
-    (:attr:`per_step`, :meth:`write_field`). The pieces are the edges (``N + 1``, clamp first);
-    :attr:`hinge_dof` are all dofs (vertex slides and twist hinges), with :attr:`stiffness` the whole strip's
-    stiffness against each: ``3 E I_w / L^2`` for a vertex (a force ``Q`` moves a cantilever's tip by at most
-    ``Q L^3 / (3 E I_w)``) and ``G J / L`` for a twist hinge, so that the static residual ``max |Q| / k`` bounds
-    how far the imbalance could still move the strip, as a fraction of L or an angle (rad).
+    (:attr:`per_step`, :meth:`write_field`), books the field's work with the net moment they computed
+    (:attr:`moment`), and after every step calls :meth:`record_step`, which records the deepest floor contact
+    (:class:`ContactRecord`: the per-step penetration check of the planar rod's contact sensors). The pieces are
+    the edges (``N + 1``, clamp first); :attr:`hinge_dof` are all dofs (vertex slides and twist hinges), with
+    :attr:`stiffness` the whole strip's stiffness against each: ``3 E I_w / L^2`` for a vertex (a force ``Q``
+    moves a cantilever's tip by at most ``Q L^3 / (3 E I_w)``) and ``G J / L`` for a twist hinge, so that the
+    static residual ``max |Q| / k`` bounds how far the imbalance could still move the strip, as a fraction of L
+    or an angle (rad).
     """
 
     #: The engine calls :meth:`write_field` before every step.
     per_step = True
     control_spec = 0
-    has_contact = False
     has_feature = False
     contact_adr = 0
     feature_adr = 0
 
     def __init__(self, beam: Beam, options):
-        if options.scene != "cantilever":
-            raise ValueError("the Simulator steps the cable rod clamped (scene='cantilever'); its floor scene builds "
-                             "(magsoft_env.sim.cable.build_cable) but is not checked yet.")
+        from .model import CONTACT_HISTORY
+
         cm = build_cable(beam, options)
         self.rod = cm
         self.model = cm.model
         self.beam = beam
         self.options = options
+        self.has_contact = not cm.clamped
+        self._contact_record = ContactRecord(CONTACT_HISTORY) if self.has_contact else None
+        self._sd = np.zeros(1)
+        floor = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, "floor")
+        self._floor_geom = int(floor)
+        #: net magnetic moment of the state :meth:`write_field` last wrote the couples of (A m^2)
+        self.moment = np.zeros(3)
         lay = cm.layout
         self.npieces = len(lay.edge_length)
         self.two_stage = options.integrator != "rk4"
@@ -511,13 +548,34 @@ class CableRod:
 
     # ------------------------------------------------------------------ inputs
     def contact_histories(self, data):
-        return None, None
+        return self._contact_record, None
+
+    def contact_data(self, data) -> np.ndarray:
+        """The array :attr:`contact_adr` indexes: the deepest floor contact of the last step (m)."""
+        return self._sd
+
+    def deepest_contact(self, data: mujoco.MjData) -> float:
+        """The most negative ``dist`` (m) of the floor contacts in ``data`` (0 when there is none)."""
+        n = data.ncon
+        if not n:
+            return 0.0
+        c = data.contact
+        dist = c.dist[:n]
+        on = (c.geom[:n] == self._floor_geom).any(axis=1)
+        return float(min(dist[on].min(), 0.0)) if on.any() else 0.0
+
+    def record_step(self, data: mujoco.MjData) -> None:
+        """After a step: record its deepest floor contact (the contacts of the state it started from)."""
+        if self._contact_record is not None:
+            v = self.deepest_contact(data)
+            self._sd[0] = v
+            self._contact_record.push(v)
 
     def write_field(self, data: mujoco.MjData, field3: np.ndarray) -> None:
         """The couples of the field ``(B_x, B_y, B_z)`` (T) at the state in ``data``, plus the external wrench,
         into ``xfrc_applied`` / ``qfrc_applied`` (the engine calls it before every step)."""
         self._field[:] = field3
-        apply_field(self.rod, data, self._field, extra=self._external)
+        apply_field(self.rod, data, self._field, extra=self._external, net_moment=self.moment)
 
     def controls(self, fields):
         raise ValueError("the cable rod's couples are written before every step (per_step); it has no "
@@ -527,7 +585,7 @@ class CableRod:
         """A constant world-frame wrench per edge ``(N + 1, 6)``: the force at the edge's middle (half to each
         vertex), the couple applied as the magnetic ones are; written with the couples before every step."""
         self._external = None if wrench is None else np.array(wrench, dtype=float)
-        apply_field(self.rod, data, self._field, extra=self._external)
+        apply_field(self.rod, data, self._field, extra=self._external, net_moment=self.moment)
 
     # ------------------------------------------------------------------ energies
     def net_moment(self, data: mujoco.MjData) -> np.ndarray:
@@ -847,6 +905,7 @@ def cable_equilibrium(beam: Beam, field, **kwargs) -> CableEquilibrium:
 
 __all__ = [
     "CABLE_ROD", "EDGE_STRAIN_LIMIT", "MODES", "CableEquilibrium", "CableLayout", "CableModel", "CableRod",
+    "ContactRecord",
     "apply_field", "build_cable", "cable_equilibrium", "cable_layout", "cable_path", "edge_strain",
     "elastic_energy", "free_vibration", "frequencies", "magnetic_energy", "material_frames", "settle",
     "settling_damping", "tip_twist", "vertices", "world_moments",

@@ -159,6 +159,11 @@ def runaway_hint(energy_scale: float, where: str = "") -> str:
 
 
 
+def _mt(field) -> str:
+    """A field (T) as ``(B_x, B_z) mT`` or ``(B_x, B_y, B_z) mT``."""
+    return "(" + ", ".join(f"{float(b) * 1e3:.4g}" for b in field) + ") mT"
+
+
 #: field magnitude (T) below which the energy scale uses this floor instead
 FIELD_FLOOR = 0.05
 
@@ -194,7 +199,7 @@ class HealthMonitor:
         self.tc = float(contact_timeconst)
         self.energy_on = self.contact and rod.two_stage
         self.hist, self.hist_feature = rod.contact_histories(data)
-        self._sd = data.sensordata if self.contact else np.zeros(1)
+        self._sd = rod.contact_data(data) if self.contact else np.zeros(1)
         self._adr, self._adr2 = rod.contact_adr, rod.feature_adr
         self._mv = np.zeros(self.model.nv)
         self.warning_text: list[str] = []
@@ -204,7 +209,8 @@ class HealthMonitor:
         self.energy_valid = False
         self.work = self.e0 = 0.0
         self.state_key = b""
-        self.b_applied = np.zeros(2)  # the field (B_x, B_z) the last step applied (T)
+        #: the field the last step applied (T): (B_x, B_z) for the planar rod, (B_x, B_y, B_z) for the 3D rod
+        self.b_applied = np.zeros(3 if rod.per_step else 2)
         self.warn0 = np.zeros(len(WARNING_IDS), dtype=int)
         self.min_dist = self.min_feature = 0.0  # most negative contact distances seen (m)
         self.pen_at = self.feature_at = (0, 0.0)  # step and time of each
@@ -293,12 +299,12 @@ class HealthMonitor:
             synced = stale
         if self.energy_valid and field2 is not None:
             db = field2 - self.b_applied
-            if db[0] or db[1]:
+            if np.any(db):
                 # a held field jumps at the state now: the work -M . dB with M of this state
                 if stale and not synced:
                     mujoco.mj_kinematics(self.model, self.data)
                 mom = self.rod.net_moment(self.data)
-                self.work -= float(mom[0] * db[0] + mom[1] * db[1])
+                self.work -= float(mom @ db)
             self.b_applied = field2.copy()
         return synced
 
@@ -315,8 +321,17 @@ class HealthMonitor:
             db = np.empty_like(fields)
             db[0] = fields[0] - self.b_applied
             np.subtract(fields[1:], fields[:-1], out=db[1:])
-            self.work -= float(mom[:, 0] @ db[:, 0] + mom[:, 1] @ db[:, 1])
+            self.work -= float(np.einsum("ij,ij->", mom, db))
         self.b_applied = fields[-1].copy()
+
+    def book_step(self, moment: np.ndarray, field: np.ndarray) -> None:
+        """The work ``-M . dB`` of one step of a per-step backend that applies ``field`` from a state whose net
+        moment is ``moment`` (the 3D rod's couples compute it anyway)."""
+        if self.energy_valid:
+            db = field - self.b_applied
+            if np.any(db):
+                self.work -= float(moment @ db)
+        self.b_applied[:] = field
 
     # ------------------------------------------------------------------ per-step contact bounds
     def scan_block(self, k: int, stop: int, n0: int, t0: float) -> bool:
@@ -420,8 +435,7 @@ class HealthMonitor:
     def _setting(self, field2) -> str:
         o = self.rod.options
         tc = f"contact time constant {self.tc * 1e3:.3g} ms, " if self.contact else ""
-        return (f"integrator={o.integrator!r}, timestep={o.timestep:g} s, {tc}segments={o.segments}, "
-                f"field=({field2[0] * 1e3:.4g}, {field2[1] * 1e3:.4g}) mT")
+        return f"integrator={o.integrator!r}, timestep={o.timestep:g} s, {tc}segments={o.segments}, field={_mt(field2)}"
 
     def fail(self, nstep: int, field2, quantity: str, value: float, hint: str, *, step: int | None = None) -> None:
         step, t = self._where(nstep, nstep if step is None else step)
@@ -430,7 +444,7 @@ class HealthMonitor:
             f"simulation unstable at step {step} (t = {t:.6g} s): {quantity}"
             f"{'' if math.isnan(value) else f' = {value:.4g}'}. {hint} "
             f"(integrator={o.integrator!r}, timestep={o.timestep:g} s, segments={o.segments}, "
-            f"field=({field2[0] * 1e3:.4g}, {field2[1] * 1e3:.4g}) mT).",
+            f"field={_mt(field2)}).",
             step=step, time=t, quantity=quantity, value=value,
         )
 

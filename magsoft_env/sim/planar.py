@@ -109,6 +109,13 @@ class PlanarRod:
             scene = SensorHistory(self.model, sid, data.history)
         return floor, scene
 
+    def contact_data(self, data: mujoco.MjData) -> np.ndarray:
+        """The array :attr:`contact_adr` / :attr:`feature_adr` index: MuJoCo's ``sensordata``."""
+        return data.sensordata
+
+    def record_step(self, data: mujoco.MjData) -> None:
+        """Nothing: MuJoCo's contact sensors record every step (the engine calls this only for per-step rods)."""
+
     def _hinge_blocks(self):
         # the hinges' qpos / dof addresses as slices where they form one block (they do: the base joints
         # first, then the hinges), with the stiffnesses in that order: views, not gathers

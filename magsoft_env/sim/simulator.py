@@ -259,7 +259,7 @@ class Simulator:
         self._wf_t0 = 0.0
         mujoco.mj_forward(self.model, self.data)
         self._stale = False
-        self._health.reset(self._B3[[0, 2]])
+        self._health.reset(self._hfield())
 
     # ------------------------------------------------------------------ physical records
     @property
@@ -358,6 +358,11 @@ class Simulator:
         out[:, 0], out[:, 2] = s[:, 0], s[:, 1]
         return out
 
+    def _hfield(self) -> np.ndarray:
+        """The applied field as the health monitor books it: ``(B_x, B_z)`` for the planar rod, ``(B_x, B_y,
+        B_z)`` for the 3D rod."""
+        return self._B3.copy() if self._per_step else self._B3[[0, 2]]
+
     def _write_inputs(self) -> None:
         self.backend.write_field(self.data, self._B3)
         self._inputs[0], self._inputs[1] = self._B3[0], self._B3[2]
@@ -418,7 +423,7 @@ class Simulator:
             if self._per_step:
                 fields = self._fields3(fields)
         health = self._health
-        if health.begin_call(self.nstep, None if fields is not None else self._B3[[0, 2]], external=external,
+        if health.begin_call(self.nstep, None if fields is not None else self._hfield(), external=external,
                              stale=self._stale):
             self._stale = False
         self.backend.apply_external(d, self.external_wrench if external else None)
@@ -444,7 +449,7 @@ class Simulator:
                 self._write_inputs()
             if health.contact:
                 health.state_key = health.key()
-        health.check(self.nstep, self._B3[[0, 2]], energy=False)
+        health.check(self.nstep, self._hfield(), energy=False)
 
     def _blocks(self, n: int, fields, block: int):
         """The engine: ``n`` steps in native blocks that end at every energy check and after at most ``block``
@@ -465,10 +470,18 @@ class Simulator:
                                                      or health.energy_valid and np.any(seg[0] != health.b_applied)):
                 # one native block; a per-step backend (the 3D rod) one step at a time, its couples of the
                 # step's start state written before each
-                for i in range(k if self._per_step else 1):
-                    if self._per_step:
-                        self.backend.write_field(d, self._B3 if seg is None else seg[i])
-                    mujoco.mj_step(m, d, 1 if self._per_step else k)
+                # (a per-step backend: its couples of each step's start state written before the step, the
+                # field's work booked with their net moment, its contact recorded after it)
+                ps = self._per_step
+                backend = self.backend
+                for i in range(k if ps else 1):
+                    if ps:
+                        b = self._B3 if seg is None else seg[i]
+                        backend.write_field(d, b)
+                        health.book_step(backend.moment, b)
+                    mujoco.mj_step(m, d, 1 if ps else k)
+                    if ps:
+                        backend.record_step(d)
             else:
                 if controls is None:
                     controls = self.backend.controls(fields)
@@ -489,7 +502,7 @@ class Simulator:
                     self._B3[:] = fields[done - 1]
                 elif fields is not None:
                     self._B3[0], self._B3[2] = fields[done - 1]
-                health.check(self.nstep, self._B3[[0, 2]], energy=True)
+                health.check(self.nstep, self._hfield(), energy=True)
             if done < n:
                 yield
 
