@@ -30,7 +30,7 @@ from .health import (
     check_steps,
 )
 from .model import CONTACT_HISTORY, RodModel, RodOptions, contact_timeconst
-from .waveforms import Waveform, as_waveform
+from .waveforms import Waveform, as_waveform, lift3
 
 #: Scalar types :meth:`Simulator.set_field` accepts without building a Field.
 _FLOATS = (float, np.float64, np.float32)
@@ -332,31 +332,41 @@ class Simulator:
         self._health.energy_scale = self.backend.energy_scale(max(math.hypot(bx, bz), FIELD_FLOOR))
 
     def set_waveform(self, waveform, *, start_time: float | None = None) -> None:
-        """Let the field follow ``waveform(t - start_time)`` (T); ``start_time`` defaults to now."""
-        self._waveform = as_waveform(waveform, "waveform")
+        """Let the field follow ``waveform(t - start_time)`` (T); ``start_time`` defaults to now. The planar rod
+        refuses a three-axis waveform with a y component (ValueError); one without (a field rotating about y)
+        it takes."""
+        wf = as_waveform(waveform, "waveform")
+        probe = wf.sample(np.linspace(0.0, 1.0, 257))
+        if not self._per_step:
+            probe = self._planar_samples(probe, wf)
+        self._waveform = wf
         self._wf_t0 = self.time if start_time is None else finite_number("start_time", start_time, unit="s")
         if self._per_step:
-            self._B3[:] = self._fields3(self._waveform.sample(np.array([self.time - self._wf_t0])))[0]
+            self._B3[:] = lift3(self._waveform.sample(np.array([self.time - self._wf_t0])))[0]
             self._write_inputs()
-            peak = np.linalg.norm(self._fields3(self._waveform.sample(np.linspace(0.0, 1.0, 257))), axis=1).max()
+            peak = np.linalg.norm(lift3(probe), axis=1).max()
             self._health.energy_scale = self.backend.energy_scale(max(float(peak), FIELD_FLOOR))
             return
-        self._B3[[0, 2]] = self._waveform.sample(np.array([self.time - self._wf_t0]))[0]
+        self._B3[[0, 2]] = self._planar_samples(self._waveform.sample(np.array([self.time - self._wf_t0])), wf)[0]
         self._write_inputs()
-        peak = np.abs(self._waveform.sample(np.linspace(0.0, 1.0, 257))).max(axis=0)
+        peak = np.abs(probe).max(axis=0)
         self._health.energy_scale = self.backend.energy_scale(max(float(np.hypot(*peak)), FIELD_FLOOR))
 
     @staticmethod
-    def _fields3(samples: np.ndarray) -> np.ndarray:
-        """Waveform samples as ``(n, 3)`` fields: rows ``(B_x, B_z)`` (planar waveforms) get ``B_y = 0``."""
+    def _planar_samples(samples: np.ndarray, waveform) -> np.ndarray:
+        """Samples as planar rows ``(B_x, B_z)``; a ValueError for a y component (the planar rod has none)."""
         s = np.asarray(samples, dtype=float)
         if s.ndim != 2 or s.shape[1] not in (2, 3):
             raise ValueError(f"a waveform's samples must have shape (n, 2) or (n, 3), got {s.shape}.")
-        if s.shape[1] == 3:
+        if s.shape[1] == 2:
             return s
-        out = np.zeros((s.shape[0], 3))
-        out[:, 0], out[:, 2] = s[:, 0], s[:, 1]
-        return out
+        by = np.abs(s[:, 1])
+        if np.any(by > 0.0) or not np.all(np.isfinite(by)):
+            raise ValueError(
+                f"the {ROD} takes fields in the x-z plane, but the waveform {type(waveform).__name__} has a y "
+                f"component (|B_y| up to {float(np.nanmax(by)) * 1e3:.4g} mT). Use the 3D rod, "
+                "RodOptions(rod='cable'), or a waveform in the x-z plane (e.g. Rotating about axis=(0, 1, 0)).")
+        return s[:, [0, 2]]
 
     def _hfield(self) -> np.ndarray:
         """The applied field as the health monitor books it: ``(B_x, B_z)`` for the planar rod, ``(B_x, B_y,
@@ -420,8 +430,7 @@ class Simulator:
         fields = None
         if self._waveform is not None:  # all fields of this call in one vectorized sample
             fields = self._waveform.sample(d.time - self._wf_t0 + self.timestep * np.arange(n))
-            if self._per_step:
-                fields = self._fields3(fields)
+            fields = lift3(fields) if self._per_step else self._planar_samples(fields, self._waveform)
         health = self._health
         if health.begin_call(self.nstep, None if fields is not None else self._hfield(), external=external,
                              stale=self._stale):

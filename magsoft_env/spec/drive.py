@@ -91,6 +91,9 @@ class Waveparams:
         ``"sine"`` or ``"square"``.
     coil_time : float
         First-order coil time constant (s) of the square drive; must be 0 for ``"sine"``.
+    amplitude_y, phase_y : float
+        A third axis (T, rad): ``B_y = amplitude_y sin(2 pi f t + phase_y)`` (square: switched at its zero
+        crossings). Non-zero only for the 3D rod (``RodOptions(rod="cable")``); the planar rod refuses it.
     """
 
     amplitude_x: float
@@ -99,12 +102,15 @@ class Waveparams:
     phase: float = 0.0
     shape: str = "sine"
     coil_time: float = 0.0
+    amplitude_y: float = 0.0
+    phase_y: float = 0.0
 
     def __post_init__(self):
         if not isinstance(self.shape, str) or self.shape not in WAVE_SHAPES:
             raise ValueError(f"Waveparams.shape must be one of {list(WAVE_SHAPES)}, got {self.shape!r}.")
-        for name in ("amplitude_x", "amplitude_z"):
+        for name in ("amplitude_x", "amplitude_z", "amplitude_y"):
             object.__setattr__(self, name, field_component(f"Waveparams.{name}", getattr(self, name)))
+        object.__setattr__(self, "phase_y", finite_number("Waveparams.phase_y", self.phase_y, unit="rad"))
         object.__setattr__(self, "frequency", positive("Waveparams.frequency", self.frequency, unit="Hz"))
         object.__setattr__(self, "phase", finite_number("Waveparams.phase", self.phase, unit="rad"))
         object.__setattr__(self, "coil_time", nonnegative("Waveparams.coil_time", self.coil_time, unit="s"))
@@ -114,14 +120,25 @@ class Waveparams:
                 f"{self.coil_time!r} s with shape='sine'."
             )
 
+    @property
+    def components(self) -> int:
+        """2 (``B_x, B_z``), or 3 (``B_x, B_y, B_z``) with a y amplitude (a drive for the 3D rod only)."""
+        return 3 if self.amplitude_y else 2
+
     def sample(self, t) -> np.ndarray:
-        """Field (T) at times ``t`` (s), shape ``(n, 2)``: B_x, B_z."""
+        """Field (T) at times ``t`` (s), shape ``(n, 2)``: B_x, B_z; ``(n, 3)`` B_x, B_y, B_z with a y amplitude."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
         if self.shape == "square":
-            return np.stack([switched_square(t, self.amplitude_x, self.frequency, self.phase, self.coil_time),
-                             switched_square(t, self.amplitude_z, self.frequency, 0.0, self.coil_time)], axis=1)
+            cols = [switched_square(t, self.amplitude_x, self.frequency, self.phase, self.coil_time),
+                    switched_square(t, self.amplitude_z, self.frequency, 0.0, self.coil_time)]
+            if self.amplitude_y:
+                cols.insert(1, switched_square(t, self.amplitude_y, self.frequency, self.phase_y, self.coil_time))
+            return np.stack(cols, axis=1)
         w = 2.0 * np.pi * self.frequency * t
-        return np.stack([self.amplitude_x * np.sin(w + self.phase), self.amplitude_z * np.sin(w)], axis=1)
+        cols = [self.amplitude_x * np.sin(w + self.phase), self.amplitude_z * np.sin(w)]
+        if self.amplitude_y:
+            cols.insert(1, self.amplitude_y * np.sin(w + self.phase_y))
+        return np.stack(cols, axis=1)
 
     def describe(self) -> str:
         """One line in mT, Hz and deg, e.g. ``"sine B_z 2 mT, 2 Hz"``."""
@@ -129,6 +146,9 @@ class Waveparams:
         if self.amplitude_x:
             ph = f" {math.degrees(self.phase):+.0f} deg" if self.phase and self.amplitude_z else ""
             parts.append(f"B_x {self.amplitude_x / MT:+g}{ph}")
+        if self.amplitude_y:
+            ph = f" {math.degrees(self.phase_y):+.0f} deg" if self.phase_y else ""
+            parts.append(f"B_y {self.amplitude_y / MT:+g}{ph}")
         if self.amplitude_z:
             parts.append(f"B_z {self.amplitude_z / MT:g}")
         coil = f" (coil {self.coil_time * 1e3:g} ms)" if self.coil_time else ""
