@@ -225,6 +225,10 @@ def build_cable(beam: Beam, options) -> CableModel:
     spec.option.iterations = int(options.solver_iterations)
     spec.option.tolerance = float(options.solver_tolerance)
     spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET | mujoco.mjtDisableBit.mjDSBL_REFSAFE
+    # the planar rod's friction cone and no-slip pass (the floor scene)
+    spec.option.cone = (mujoco.mjtCone.mjCONE_ELLIPTIC if options.cone == "elliptic"
+                        else mujoco.mjtCone.mjCONE_PYRAMIDAL)
+    spec.option.noslip_iterations = int(options.noslip_iterations)
     if options.gravity == 0.0:
         spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_GRAVITY
     if clamped:
@@ -292,6 +296,10 @@ def build_cable(beam: Beam, options) -> CableModel:
         from .model import contact_timeconst
 
         model.flex_friction[f, 0] = float(options.friction)
+        # the flex's contact parameters alone (a higher priority than the floor's): with equal priorities MuJoCo
+        # would mix its solref with the floor geom's default 20 ms (a contact ten to a hundred times softer, 1 h
+        # deep under a crawling strip) and take the larger of the two frictions (the floor's default 1)
+        model.flex_priority[f] = 1
         model.flex_solref[f] = [contact_timeconst(beam, options), float(options.contact_dampratio)]
         if options.contact_impedance is not None:
             model.flex_solimp[f, :2] = options.contact_impedance

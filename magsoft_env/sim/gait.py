@@ -30,7 +30,7 @@ from .waveforms import as_waveform
 
 def gait_rod_options(robot: Robot, *, scene: str = "floor", segments: int | None = None,
                      timestep: float | None = None, render: bool = False, feature_x: float | None = None,
-                     friction: float | None = None, fidelity: str | None = None) -> RodOptions:
+                     friction: float | None = None, fidelity: str | None = None, rod: str = "planar") -> RodOptions:
     """The :class:`~magsoft_env.sim.RodOptions` of a robot on the floor: its friction and hinge damping
     (retardation time), capsule colliders, the beam's own contact time constant and the pinned
     :data:`~magsoft_env.cases.gaits.GAIT_ROD_OPTIONS`.
@@ -38,12 +38,26 @@ def gait_rod_options(robot: Robot, *, scene: str = "floor", segments: int | None
     ``segments``, ``timestep`` ``None``: the robot's own numerics (``Robot.segments``, ``Robot.timestep``), or
     the named level ``fidelity`` (:func:`~magsoft_env.cases.gaits.numerics`); ``friction`` ``None``: the robot's
     own. The gaits and the floor environments build their rods here, so both describe the same physics.
+
+    ``rod="cable"``: the 3D flexcomp strip on the floor (:mod:`~magsoft_env.sim.cable`) with the same friction,
+    cone, damping, contact time constant and solver settings (its contact is the flex's own, width-wise; twist
+    free); floor scene only.
     """
     if not isinstance(robot, Robot):
         raise ValueError(f"robot must be a magsoft_env.Robot (see load_robot), got {type(robot).__name__}.")
-    robot.beam.require_planar(f"robot {robot.name!r} on the MuJoCo hinge-chain rod (gaits, floor environments)")
+    if rod not in ("planar", "cable"):
+        raise ValueError(f"rod must be 'planar' or 'cable', got {rod!r}.")
+    if rod == "planar":
+        robot.beam.require_planar(f"robot {robot.name!r} on the MuJoCo hinge-chain rod (gaits, floor environments)")
     segments, timestep = numerics(robot, fidelity=fidelity, segments=segments, timestep=timestep, scene=scene)
     friction = robot.friction if friction is None else friction
+    if rod == "cable":
+        if scene != "floor" or feature_x is not None or render:
+            raise ValueError("the 3D rod's gaits run on the floor scene only (no feature, no rendering yet), got "
+                             f"scene={scene!r}, feature_x={feature_x!r}, render={render!r}.")
+        return RodOptions(rod="cable", scene=scene, segments=segments, timestep=timestep, friction=friction,
+                          retardation_time=robot.retardation_time,
+                          contact_timeconst=material_contact_timeconst(robot.beam), **GAIT_ROD_OPTIONS)
     return RodOptions(scene=scene, segments=segments, timestep=timestep, friction=friction,
                       render=render, feature_x=feature_x, contact_geom=GAIT_CONTACT_GEOM,
                       retardation_time=robot.retardation_time,
@@ -116,6 +130,16 @@ class GaitResult:
         The body's orientation at the end (rad); about +-pi after one flip end over end.
     flip_time : float
         Time (s) of the first sample past vertical; NaN when the body did not flip.
+    rod : str
+        ``"planar"`` (the hinge chain) or ``"cable"`` (the 3D strip).
+    displacement_y : float
+        3D rod: centre-of-mass travel across the plane of the drive, along +y (m); 0 for the planar rod.
+    final_heading : float
+        3D rod: the strip's heading at the end, the angle of its end-to-end chord in the floor plane from +x
+        toward +y (rad); 0 for the planar rod.
+    max_roll : float
+        3D rod: largest roll of any edge about its own axis over the run, the width axis's angle from the floor
+        (rad, at the recorded samples): about 0 while the strip crawls on its wide face; 0 for the planar rod.
     """
 
     name: str
@@ -145,6 +169,10 @@ class GaitResult:
     max_orientation: float = math.nan
     final_orientation: float = math.nan
     flip_time: float = math.nan
+    rod: str = "planar"
+    displacement_y: float = 0.0
+    final_heading: float = 0.0
+    max_roll: float = 0.0
 
     @property
     def flipped(self) -> bool:
@@ -180,6 +208,10 @@ class GaitResult:
             "max_orientation_deg": math.degrees(self.max_orientation),
             "final_orientation_deg": math.degrees(self.final_orientation),
             "flip_time_s": None if math.isnan(self.flip_time) else self.flip_time,
+            "rod": self.rod,
+            "displacement_y_mm": self.displacement_y / MM,
+            "final_heading_deg": math.degrees(self.final_heading),
+            "max_roll_deg": math.degrees(self.max_roll),
         }
 
 
@@ -195,6 +227,7 @@ def direction_of(speed: float, *, threshold: float = 1e-5) -> str:
 def run_gait(
     preset, seconds: float = 4.0, *, segments: int | None = None, timestep: float | None = None,
     warmup_cycles: float = 1.0, sample_dt: float = 0.01, fidelity: str | None = None, progress: bool = False,
+    rod: str = "planar",
 ) -> GaitResult:
     """Run a gait on the floor and measure the centre-of-mass speed.
 
@@ -226,6 +259,10 @@ def run_gait(
     progress : bool
         Show a progress bar (tqdm, on stderr) over the simulated time: paper-5b at its own numerics takes about
         10-15 s of wall time per simulated second.
+    rod : {"planar", "cable"}
+        The planar hinge chain (default) or the 3D flexcomp strip on the floor (:func:`gait_rod_options`; it takes
+        drives with a y component, ``Waveparams(amplitude_y=...)``); the result then also reports the sideways
+        travel, the heading and the roll.
 
     Returns
     -------
@@ -241,7 +278,8 @@ def run_gait(
     warmup_cycles = nonnegative("warmup_cycles", warmup_cycles)
     sample_dt = positive("sample_dt", sample_dt, unit="s")
     t0 = _time.perf_counter()
-    options = gait_rod_options(preset, segments=segments, timestep=timestep)
+    options = gait_rod_options(preset, segments=segments, timestep=timestep, rod=rod)
+    three = rod == "cable"
     nsteps = int(round(check_steps(f"seconds / timestep = {seconds:g} s / {options.timestep:g} s",
                                    seconds / options.timestep, "Use fewer seconds or a larger timestep.")))
     sim = Simulator(preset.beam, options)
@@ -251,7 +289,9 @@ def run_gait(
     left, right = s_pts < 0.5 * preset.beam.length, s_pts > 0.5 * preset.beam.length
     z_rest = 0.5 * preset.beam.thickness
     ts, xs = [0.0], [sim.center_of_mass()[0]]
-    z = sim.centerline()[1]
+    y0 = float(sim.center_of_mass()[1]) if three else 0.0
+    roll = _roll(sim) if three else 0.0
+    z = sim.centerline()[-1]
     zmax, rot = float(np.max(z)), float(np.max(np.abs(sim.angles())))
     turn = orientation(sim)
     max_turn, flip_time = abs(turn), math.nan
@@ -277,7 +317,9 @@ def run_gait(
             bar.update(k)
         ts.append(sim.time)
         xs.append(float(sim.center_of_mass()[0]))
-        z = sim.centerline()[1]
+        z = sim.centerline()[-1]
+        if three:
+            roll = max(roll, _roll(sim))
         zmax = max(zmax, float(np.max(z)))
         lift_l, lift_r = max(lift_l, float(np.max(z[left])) - z_rest), max(lift_r, float(np.max(z[right])) - z_rest)
         rot = max(rot, float(np.max(np.abs(sim.angles()))))
@@ -288,6 +330,11 @@ def run_gait(
     if bar is not None:
         bar.close()
     t, x = np.asarray(ts), np.asarray(xs)
+    dy = heading = 0.0
+    if three:
+        dy = float(sim.center_of_mass()[1]) - y0
+        cx, cy, _ = sim.centerline()
+        heading = math.atan2(cy[-1] - cy[0], cx[-1] - cx[0])
     i0, i1, whole = speed_window(t, preset.wave.frequency, warmup_cycles)
     speed = (x[i1] - x[i0]) / (t[i1] - t[i0]) if t[i1] > t[i0] else 0.0
     direction, locomotion = direction_of(speed), "crawl"
@@ -305,8 +352,16 @@ def run_gait(
         max_penetration=sim.max_penetration, max_penetration_h=sim.max_penetration / preset.beam.thickness,
         energy_drift=sim.energy_drift, unphysical=unphysical, window=float(t[i1] - t[i0]), whole_periods=whole,
         segments=options.segments, timestep=options.timestep, locomotion=locomotion, max_orientation=max_turn,
-        final_orientation=turn, flip_time=flip_time,
+        final_orientation=turn, flip_time=flip_time, rod=rod, displacement_y=dy, final_heading=heading, max_roll=roll,
     )
+
+
+def _roll(sim) -> float:
+    """Largest roll of the 3D strip's edges about their axes: the width axis's angle from the floor (rad)."""
+    from .cable import material_frames
+
+    _, d1, _ = material_frames(sim.backend.rod, sim.data)
+    return float(np.max(np.abs(np.arcsin(np.clip(d1[:, 2], -1.0, 1.0)))))
 
 
 def speed_window(t, frequency: float, warmup_cycles: float = 1.0) -> tuple[int, int, bool]:
