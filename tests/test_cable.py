@@ -381,7 +381,7 @@ def test_simulator_drops_the_strip_on_the_floor_and_settles():
     r = sim.settle()
     assert r.success, r.message
     hl = sim.health()
-    assert 0.0 < hl["max_penetration_h"] < 0.4 and hl["energy_drift"] < 1e-6  # 0.25 h landing (2 ms contact)
+    assert 0.0 < hl["max_penetration_h"] < 0.1 and hl["energy_drift"] < 1e-6  # 0.046 h landing (2 ms contact)
     _, _, z = sim.centerline()
     assert np.all(np.abs(z - 0.5 * BEAM.thickness) < 0.1 * BEAM.thickness)
     assert sim.ncon >= 2 * 21
@@ -425,7 +425,7 @@ def test_simulator_strip_on_the_floor_books_the_work_of_three_components():
     assert w_held != 0.0
     sim.set_waveform(_RotatingZ())
     sim.step(600)
-    assert sim.energy_drift < 1e-4 and sim._health.work != w_held
+    assert sim._health.energy_valid and sim.energy_drift < 1e-4 and sim._health.work != w_held
     sim._health.work -= 1.0  # a joule the field never supplied: what a launch looks like to the balance
     with pytest.raises(UnphysicalError, match="launch"):
         sim.step(100)

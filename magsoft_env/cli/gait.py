@@ -53,6 +53,13 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="paper-5a, paper-5b: the other face on the floor (beta -> -beta; the paper gives no face)")
     p.add_argument("--friction", type=float, default=None,
                    help="floor friction coefficient (default: the preset's, 0.5; docs/envs.md, 'Tacky friction')")
+    p.add_argument("--rod", choices=["planar", "cable"], default="planar",
+                   help="planar: the hinge chain in the x-z plane (default); cable: the 3D flexcomp strip on the floor "
+                        "(width-wise contact, twist free; about 10x the wall time; docs/sim.md)")
+    p.add_argument("--amplitude-y-mT", type=float, default=0.0, metavar="MT",
+                   help="--rod cable: add B_y = AMP sin(2 pi f t + phase_y) to the drive (mT; default 0)")
+    p.add_argument("--phase-y-deg", type=float, default=0.0, metavar="DEG",
+                   help="--rod cable: the phase of B_y (deg; default 0)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
     p.add_argument("--out", type=Path, default=None, metavar="PATH",
                    help="also write the result as JSON to this file (checked before the run, written atomically)")
@@ -90,6 +97,13 @@ def run(args) -> int:
                          f"turn a robot file's beam over in the file), got {got}.")
     if args.friction is not None and not 0 <= args.friction <= 10:
         raise ValueError(f"--friction must lie in [0, 10], got {args.friction}.")
+    if (args.amplitude_y_mT or args.phase_y_deg) and args.rod != "cable":
+        raise ValueError("--amplitude-y-mT and --phase-y-deg drive the 3D rod: add --rod cable (the planar rod has no "
+                         "y axis).")
+    if not (math.isfinite(args.amplitude_y_mT) and abs(args.amplitude_y_mT) <= 1000):
+        raise ValueError(f"--amplitude-y-mT must be finite and at most 1000 mT in size, got {args.amplitude_y_mT}.")
+    if not math.isfinite(args.phase_y_deg):
+        raise ValueError(f"--phase-y-deg must be finite, got {args.phase_y_deg}.")
     shape = args.waveform or "sine"
     if args.coil_ms and shape != "square":
         raise ValueError(f"--coil-ms applies to --waveform square only, got --coil-ms {args.coil_ms} with a {shape}.")
@@ -103,13 +117,17 @@ def run(args) -> int:
         w = dataclasses.replace(w, amplitude_x=w.amplitude_x * k, amplitude_z=w.amplitude_z * k, shape=shape,
                                 coil_time=args.coil_ms * 1e-3)
         preset = dataclasses.replace(preset, drive=w)
+    if args.amplitude_y_mT:
+        w = dataclasses.replace(preset.wave, amplitude_y=args.amplitude_y_mT * 1e-3,
+                                phase_y=math.radians(args.phase_y_deg))
+        preset = dataclasses.replace(preset, drive=w)
     if args.friction is not None:
         preset = dataclasses.replace(preset, friction=args.friction)
     if args.face_down:
         preset = dataclasses.replace(preset, beam=_turned_over(args.preset))
     res = run_gait(preset, args.seconds, segments=args.segments, fidelity=args.fidelity,
                    timestep=None if args.timestep_ms is None else args.timestep_ms * 1e-3,
-                   progress=sys.stderr.isatty())  # a bar on a terminal only: logs and pipes stay clean
+                   progress=sys.stderr.isatty(), rod=args.rod)  # a bar on a terminal only: logs and pipes stay clean
     out = res.to_dict()
     out["paper_speed_mm_s"] = None if preset.paper_speed is None else preset.paper_speed * 1e3
     out["paper_direction"] = preset.paper_direction
@@ -117,6 +135,7 @@ def run(args) -> int:
         "amplitude_x": preset.wave.amplitude_x * 1e3, "amplitude_z": preset.wave.amplitude_z * 1e3,
         "frequency_Hz": preset.wave.frequency, "phase_x_deg": math.degrees(preset.wave.phase),
         "shape": preset.wave.shape, "coil_ms": preset.wave.coil_time * 1e3,
+        "amplitude_y": preset.wave.amplitude_y * 1e3, "phase_y_deg": math.degrees(preset.wave.phase_y),
     }
     out["friction"] = preset.friction
     out["face_down"] = bool(args.face_down)
@@ -148,6 +167,9 @@ def run(args) -> int:
         print(f"paper: {_paper_values(preset)}; max height {out['max_height_mm']:.2f} mm, "
               f"max link rotation {out['max_link_rotation_deg']:.0f} deg, body orientation up to "
               f"{out['max_orientation_deg']:.0f} deg ({out['locomotion']}); {out['wall_time_s']:.1f} s wall")
+        if res.rod == "cable":
+            print(f"3D strip: sideways travel {out['displacement_y_mm']:+.3f} mm, heading "
+                  f"{out['final_heading_deg']:+.2f} deg at the end, roll up to {out['max_roll_deg']:.1f} deg")
         given = (f"fidelity {args.fidelity}" if args.fidelity else "the robot's own"
                  if args.segments is None and args.timestep_ms is None else "as given")
         print(f"numerics: {res.segments} segments, {res.timestep * 1e3:g} ms ({given}; docs/convergence.md)")
