@@ -42,10 +42,12 @@ MuJoCo's own elastic forces (a bend in a skewed plane pulls the weak axis toward
 ``qfrc_passive``, tests/test_cable.py). Before the first step (``plastic`` all zero) the reference is the
 rest director ``+y`` transported from the rest tangent ``+x``.
 
-The :class:`~magsoft_env.sim.Simulator` steps the clamped strip through :class:`CableRod`, its rod backend.
+The :class:`~magsoft_env.sim.Simulator` steps the strip, clamped or on the floor, through :class:`CableRod`, its
+rod backend. On the floor the flex's contact parameters (the planar rod's friction, ``solref``, ``solimp``) win
+over the floor geom's (a higher priority; MuJoCo would otherwise mix them).
 
 Limitations: no varying width or thickness (the Beam has none); scenes ``cantilever`` (clamped) and ``floor``
-(free, on a plane, built but not checked) only; MuJoCo's ``discrete``, ``euler`` or ``rk4`` integrator (its rod
+(free, on a plane) only; MuJoCo's ``discrete``, ``euler`` or ``rk4`` integrator (its rod
 elasticity has no implicit variant); the couples of a transverse magnetization need the material frame every
 step, so they are applied from Python (:func:`apply_field`).
 """

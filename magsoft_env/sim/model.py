@@ -186,7 +186,8 @@ class RodOptions:
         ``friction`` and the solver settings; its magnetic couples are applied from Python each step (the
         ``magnetics`` option does not apply), and ``clamp_angle`` must be 0. Statics:
         :func:`~magsoft_env.sim.mujoco_equilibrium` with ``rod="cable"``; the
-        :class:`~magsoft_env.sim.Simulator` steps it clamped (:class:`~magsoft_env.sim.cable.CableRod`).
+        :class:`~magsoft_env.sim.Simulator` steps it clamped or on the floor
+        (:class:`~magsoft_env.sim.cable.CableRod`).
     """
 
     segments: int = 20

@@ -133,9 +133,10 @@ class Simulator:
     :attr:`energy_drift` and :attr:`max_kinetic_ratio` say of every run whether it stayed resolved.
 
     With ``RodOptions(rod="cable")`` the rod is the 3D flexcomp strip (:class:`~magsoft_env.sim.cable.CableRod`,
-    clamped): fields have three components ``(B_x, B_y, B_z)``, the engine writes its couples before every step
-    (the backend's ``per_step``) instead of running native blocks, and its own bound (edge stretch) is checked
-    with the others (docs/sim.md, "The 3D rod in the Simulator").
+    clamped or on the floor): fields have three components ``(B_x, B_y, B_z)``, the engine writes its couples
+    before every step (the backend's ``per_step``) instead of running native blocks, books the field's work with
+    all three components, reads the deepest floor contact after every step, and checks the strip's own bound
+    (edge stretch) with the others (docs/sim.md, "The 3D rod in the Simulator").
 
     Parameters
     ----------
