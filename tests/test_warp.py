@@ -14,7 +14,7 @@ import pytest
 
 import magsoft_env  # noqa: F401  (registers the ids)
 from magsoft_env import Beam
-from magsoft_env.warp import INSTALL_HINT, warp_available
+from magsoft_env.sim.warp_extra import INSTALL_HINT, warp_available
 
 needs_warp = pytest.mark.skipif(not warp_available(), reason=f"the optional extra 'warp' is not installed: "
                                 f"{INSTALL_HINT}")
@@ -24,7 +24,7 @@ BEAM = Beam(length=25e-3, width=5e-3, thickness=1.13e-3)
 def test_nothing_imports_warp_until_the_backend_is_asked_for():
     code = (
         "import sys, gymnasium as gym, numpy as np, magsoft_env\n"
-        "import magsoft_env.warp, magsoft_env.warp.reference\n"
+        "import magsoft_env.sim.warp_extra, magsoft_env.envs.warp_reference\n"
         "env = gym.make('MagSoftCrawl-v1', segments=4, sim_dt=1e-3); env.reset(seed=0)\n"
         "envs = gym.make_vec('MagSoftCrawl-v1', num_envs=2, segments=4, sim_dt=1e-3); envs.reset(seed=0)\n"
         "envs.step(np.zeros((2, 2), np.float32)); envs.close()\n"
@@ -74,7 +74,7 @@ def test_rod_batch_matches_c_to_1e6_rad_over_200_steps(scene):
     1e-6 rad (hinges) of MuJoCo's C step after 200 steps under its own field."""
     from magsoft_env.sim import Simulator
     from magsoft_env.sim.model import RodOptions
-    from magsoft_env.warp.batch import WarpRodBatch
+    from magsoft_env.sim.warp_batch import WarpRodBatch
 
     sim = Simulator(BEAM, RodOptions(scene=scene, segments=20, timestep=2e-4))
     if scene == "floor":
@@ -99,7 +99,7 @@ def test_rod_batch_matches_c_to_1e6_rad_over_200_steps(scene):
 def test_graph_replay_equals_plain_launches():
     from magsoft_env.sim import Simulator
     from magsoft_env.sim.model import RodOptions
-    from magsoft_env.warp.batch import WarpRodBatch
+    from magsoft_env.sim.warp_batch import WarpRodBatch
 
     sim = Simulator(BEAM, RodOptions(scene="floor", segments=20, timestep=2e-4))
     sim.set_field((0.0, 0.0))
@@ -127,7 +127,7 @@ def warp_envs():
 
 @needs_warp
 def test_env_contract_and_agreement_with_the_cpu_batch(warp_envs):
-    from magsoft_env.warp.reference import restart_from
+    from magsoft_env.envs.warp_reference import restart_from
 
     envs = warp_envs
     cpu = gym.make_vec("MagSoftCrawl-v1", num_envs=3)
@@ -212,7 +212,7 @@ def test_reset_mask_resets_only_the_masked_worlds(warp_envs):
 def test_crawl_displacement_statistics_match_c():
     """The paper-5c gait at its default (stiff) contact, where lift-off and touchdown amplify round-off: the
     distribution of the displacement over seeds agrees with C's within the scatter."""
-    from magsoft_env.warp.reference import restart_from
+    from magsoft_env.envs.warp_reference import restart_from
 
     n, steps = 6, 40
     envs = gym.make_vec("MagSoftCrawl-v1", num_envs=n, backend="warp", device="cpu")
@@ -254,3 +254,15 @@ def test_ppo_trains_on_the_warp_batch_through_the_sb3_adapter():
     obs = venv.reset()
     assert obs.shape == (4, 48) and np.all(np.isfinite(obs))
     venv.close()
+
+
+@needs_warp
+@pytest.mark.slow
+def test_warp_bench_prints_the_table(capsys):
+    from magsoft_env.bench import warp_bench
+
+    assert warp_bench.main(["--worlds", "1,2", "--steps", "1", "--error-steps", "2", "--error-worlds", "2",
+                            "--device", "cpu"]) == 0
+    out = capsys.readouterr().out
+    assert "| backend | device | worlds | env steps/s |" in out
+    assert out.count("| warp | cpu |") >= 2 and "reference (C)" in out

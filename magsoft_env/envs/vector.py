@@ -219,7 +219,7 @@ class MagSoftCrawlVecEnv(VectorEnv):
     | | | usable CPUs) |
     | ``block`` | None | substeps of one robot the threads run before taking the next robot in turn; None: |
     | | | 25 in field mode, 100 in waveform mode (a whole period per control step) |
-    | ``backend`` | ``"cpu"`` | ``"warp"``: MuJoCo Warp worlds instead (:mod:`magsoft_env.warp`, docs/gpu.md) |
+    | ``backend`` | ``"cpu"`` | ``"warp"``: MuJoCo Warp worlds instead (``envs/warp_vector.py``, docs/gpu.md) |
     | ``**kwargs`` | | every argument of :attr:`env_class` (``robot``, ``field_limit``, ...), checked as there |
 
     ## Version History
@@ -243,9 +243,9 @@ class MagSoftCrawlVecEnv(VectorEnv):
     env_class = MagSoftCrawlEnv
 
     def __new__(cls, num_envs: int = 1, *, backend: str = "cpu", **kwargs):
-        # backend="warp": the robots as MuJoCo Warp worlds (the optional extra; magsoft_env.warp, imported here only)
+        # backend="warp": the robots as MuJoCo Warp worlds (the optional extra; envs/warp_vector.py, imported here only)
         if backend == "warp":
-            from ..warp.env import MagSoftCrawlWarpVecEnv
+            from .warp_vector import MagSoftCrawlWarpVecEnv
 
             return MagSoftCrawlWarpVecEnv(num_envs, env_class=cls.env_class, **kwargs)
         if backend != "cpu":

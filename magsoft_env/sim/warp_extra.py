@@ -1,9 +1,9 @@
 """MuJoCo Warp backend of the batched floor environments (the optional extra ``warp``).
 
 Nothing here imports Warp at import time: :func:`require_warp` does, when a Warp batch is built, and says how to
-install the extra where it is missing. :mod:`magsoft_env.warp.batch` holds the rod batch (one model put once,
+install the extra where it is missing. :mod:`magsoft_env.sim.warp_batch` holds the rod batch (one model put once,
 ``nworld`` worlds stepped as captured graphs, per-world health checks and resets),
-:mod:`magsoft_env.warp.env` the Gymnasium vector env of ``gym.make_vec(id, num_envs=n, backend="warp")``.
+:mod:`magsoft_env.envs.warp_vector` the Gymnasium vector env of ``gym.make_vec(id, num_envs=n, backend="warp")``.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """The C reference of the Warp backend: a single CPU env restarted from a given state (no Warp import here).
 
 The Warp batch starts every episode from the beam settled in C plus the reset noise
-(:class:`~magsoft_env.warp.env.MagSoftCrawlWarpVecEnv`); :func:`restart_from` puts a
+(:class:`~magsoft_env.envs.warp_vector.MagSoftCrawlWarpVecEnv`); :func:`restart_from` puts a
 :class:`~magsoft_env.envs.crawl.MagSoftCrawlEnv` in the same state, so that the two can be stepped side by side
 (the tests, ``python -m magsoft_env.bench.warp_bench``).
 """

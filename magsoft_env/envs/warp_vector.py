@@ -3,7 +3,7 @@
 :class:`MagSoftCrawlWarpVecEnv` keeps the CPU batch's contract (:class:`~magsoft_env.envs.vector.MagSoftCrawlVecEnv`:
 spaces, observations, rewards, crawl limits at every substep, terminations, truncations, ``info`` keys,
 ``AutoresetMode.NEXT_STEP``, ``reset(options={"reset_mask": mask})``) on a
-:class:`~magsoft_env.warp.batch.WarpRodBatch`: one env step is one replay of a captured graph (the fields
+:class:`~magsoft_env.sim.warp_batch.WarpRodBatch`: one env step is one replay of a captured graph (the fields
 written per world, ``n_substeps`` MJWarp steps, each followed by the crawl-limit and contact-depth reductions on
 the device, the end state's kinematics); the host reads one copy of the small per-world arrays and computes
 observations, rewards and ``info`` vectorized over the worlds.
@@ -30,10 +30,11 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from ..envs.crawl import AIRBORNE_TOLERANCE, MagSoftCrawlEnv
 from ..sim.health import FIELD_FLOOR, RUNAWAY_FACTOR
 from ..sim.readouts import FLIP_ANGLE
-from .batch import BUFFER_OVERFLOWS, WarpRodBatch
+from ..sim.warp_batch import BUFFER_OVERFLOWS, WarpRodBatch
+from .crawl import AIRBORNE_TOLERANCE, MagSoftCrawlEnv
+from .vector import _count
 
 #: Simulated time (s) the straight beam settles on the floor at zero field, in C, before the batch starts from it.
 DEFAULT_SETTLE_TIME = 0.05
@@ -84,8 +85,6 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
     def __init__(self, num_envs: int = 1, *, max_episode_steps: int | None = None, device=None, graph: bool = True,
                  settle_time: float = DEFAULT_SETTLE_TIME, nconmax: int | None = None, njmax: int | None = None,
                  env_class=MagSoftCrawlEnv, **kwargs):
-        from ..envs.vector import _count
-
         if env_class is not MagSoftCrawlEnv:
             raise ValueError(f"backend='warp' runs MagSoftCrawl-v1 (field mode) only, not {env_class.__name__}; use "
                              "the CPU batch (backend='cpu') for the channel and obstacle.")

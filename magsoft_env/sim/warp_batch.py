@@ -20,8 +20,8 @@ import math
 import mujoco
 import numpy as np
 
-from ..sim.model import field_controls
-from . import require_warp
+from .model import field_controls
+from .warp_extra import require_warp
 
 wp, mjw = require_warp()
 
