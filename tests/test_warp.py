@@ -245,12 +245,14 @@ def test_ppo_trains_on_the_warp_batch_through_the_sb3_adapter():
     pytest.importorskip("stable_baselines3")
     from stable_baselines3 import PPO
 
-    from magsoft_env.rl.vec import SB3VecAdapter
+    from magsoft_env.rl.vec import make_sb3_vec_env
 
-    venv = SB3VecAdapter(gym.make_vec("MagSoftCrawl-v1", num_envs=4, backend="warp", device="cpu"))
+    # SB3VecAdapter over the Warp batch, in VecMonitor: the same path as the CPU batch's
+    venv = make_sb3_vec_env("MagSoftCrawl-v1", 4, seed=0, backend="warp", device="cpu", max_episode_steps=10)
     model = PPO("MlpPolicy", venv, n_steps=8, batch_size=16, n_epochs=1, seed=0, device="cpu")
     model.learn(64)
     assert model.num_timesteps >= 64
+    assert len(model.ep_info_buffer) >= 4  # episodes ended (time limit), were reset and logged
     obs = venv.reset()
     assert obs.shape == (4, 48) and np.all(np.isfinite(obs))
     venv.close()
