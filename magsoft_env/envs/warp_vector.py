@@ -76,10 +76,15 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
 
     Examples
     --------
-    >>> import gymnasium as gym, numpy as np, magsoft_env  # doctest: +SKIP
-    >>> envs = gym.make_vec("MagSoftCrawl-v1", num_envs=4, backend="warp", device="cpu")  # doctest: +SKIP
-    >>> obs, info = envs.reset(seed=0)  # doctest: +SKIP
-    >>> obs, reward, terminated, truncated, info = envs.step(np.zeros((4, 2), np.float32))  # doctest: +SKIP
+    >>> import gymnasium as gym, numpy as np, magsoft_env
+    >>> envs = gym.make_vec("MagSoftCrawl-v1", num_envs=2, backend="warp", device="cpu", segments=4, sim_dt=1e-3)
+    >>> obs, info = envs.reset(seed=0)
+    >>> obs.shape
+    (2, 16)
+    >>> obs, reward, terminated, truncated, info = envs.step(np.zeros((2, 2), np.float32))
+    >>> reward.shape, bool(np.all(np.isfinite(obs)))
+    ((2,), True)
+    >>> envs.close()
     """
 
     def __init__(self, num_envs: int = 1, *, max_episode_steps: int | None = None, device=None, graph: bool = True,
