@@ -191,6 +191,14 @@ def test_a_non_finite_world_truncates_and_resets_alone(warp_envs):
 
 
 @needs_warp
+def test_attributes_are_the_shared_prototype_s(warp_envs):
+    assert warp_envs.unwrapped.get_attr("field_limit") == (2e-3,) * 3
+    assert warp_envs.unwrapped.call("open_loop_action", 0.0)[0].shape == (2,)
+    with pytest.raises(ValueError, match="share their parameters"):
+        warp_envs.unwrapped.set_attr("crawl_penalty", [1.0, 2.0, 3.0])
+
+
+@needs_warp
 def test_reset_mask_resets_only_the_masked_worlds(warp_envs):
     envs = warp_envs
     envs.reset(seed=2)

@@ -432,6 +432,25 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
         """No rendering on the Warp backend (None)."""
         return None
 
+    def get_attr(self, name: str) -> tuple:
+        """Attribute ``name`` of the worlds' env: all worlds share one parameter set (the prototype single env's)."""
+        return (getattr(self.proto, name),) * self.num_envs
+
+    def call(self, name: str, *args, **kwargs) -> tuple:
+        """Method ``name`` of the prototype single env (or its attribute), once, as every world's value."""
+        attr = getattr(self.proto, name)
+        value = attr(*args, **kwargs) if callable(attr) else attr
+        return (value,) * self.num_envs
+
+    def set_attr(self, name: str, values) -> None:
+        """Set attribute ``name`` of the worlds' shared env (one value for all: the worlds share their parameters;
+        those read on the host, such as the reward weights, take effect at the next step)."""
+        if isinstance(values, (list, tuple)):
+            if len(values) != self.num_envs or any(v is not values[0] and v != values[0] for v in values):
+                raise ValueError("backend='warp' worlds share their parameters: set_attr takes one value for all.")
+            values = values[0]
+        setattr(self.proto, name, values)
+
     def close_extras(self, **kwargs) -> None:
         """Close the prototype env; the device arrays go with the batch."""
         proto = getattr(self, "proto", None)
