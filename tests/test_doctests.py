@@ -18,7 +18,7 @@ import magsoft_env
 
 PACKAGE = Path(magsoft_env.__file__).parent
 #: Third-party packages a module may need that the test environment may lack (its examples are skipped then).
-OPTIONAL = {"torch", "stable_baselines3", "rl_zoo3", "sb3_contrib", "tensorboard"}
+OPTIONAL = {"torch", "stable_baselines3", "rl_zoo3", "sb3_contrib", "tensorboard", "warp", "mujoco_warp"}
 
 
 def _modules_with_examples() -> list[str]:

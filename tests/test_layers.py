@@ -39,9 +39,10 @@ ALLOWED = {
     "facade": {"spec", "leaf"},  # the rest is reached lazily by name (importlib), never imported at import time
 }
 # third-party packages a unit may import; all others may import none of these
-HEAVY = {"mujoco", "gymnasium", "torch", "stable_baselines3", "rl_zoo3", "matplotlib", "imageio", "ray"}
+HEAVY = {"mujoco", "gymnasium", "torch", "stable_baselines3", "rl_zoo3", "matplotlib", "imageio", "ray", "warp",
+         "mujoco_warp"}
 HEAVY_ALLOWED = {
-    "sim": {"mujoco"},
+    "sim": {"mujoco", "warp", "mujoco_warp"},  # warp: the optional extra, in sim/warp_extra.py only (lazily)
     "compare": {"mujoco"},
     "render": {"mujoco", "matplotlib", "imageio", "gymnasium"},
     "envs": {"mujoco", "gymnasium"},

@@ -219,6 +219,7 @@ class MagSoftCrawlVecEnv(VectorEnv):
     | | | usable CPUs) |
     | ``block`` | None | substeps of one robot the threads run before taking the next robot in turn; None: |
     | | | 25 in field mode, 100 in waveform mode (a whole period per control step) |
+    | ``backend`` | ``"cpu"`` | ``"warp"``: MuJoCo Warp worlds instead (``envs/warp_vector.py``, docs/gpu.md) |
     | ``**kwargs`` | | every argument of :attr:`env_class` (``robot``, ``field_limit``, ...), checked as there |
 
     ## Version History
@@ -241,8 +242,18 @@ class MagSoftCrawlVecEnv(VectorEnv):
     #: The single environment each robot runs.
     env_class = MagSoftCrawlEnv
 
+    def __new__(cls, num_envs: int = 1, *, backend: str = "cpu", **kwargs):
+        # backend="warp": the robots as MuJoCo Warp worlds (the optional extra; envs/warp_vector.py, imported here only)
+        if backend == "warp":
+            from .warp_vector import MagSoftCrawlWarpVecEnv
+
+            return MagSoftCrawlWarpVecEnv(num_envs, env_class=cls.env_class, **kwargs)
+        if backend != "cpu":
+            raise ValueError(f"backend must be 'cpu' or 'warp', got {backend!r}.")
+        return super().__new__(cls)
+
     def __init__(self, num_envs: int = 1, *, max_episode_steps: int | None = None, num_threads: int | None = None,
-                 block: int | None = None, **kwargs):
+                 block: int | None = None, backend: str = "cpu", **kwargs):
         allowed = constructor_arguments(self.env_class)
         refuse_unknown_kwargs(self, {k: v for k, v in kwargs.items() if k not in allowed}, classes=(self.env_class,))
         self.num_envs = _count("num_envs", num_envs)

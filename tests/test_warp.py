@@ -1,0 +1,284 @@
+"""The MuJoCo Warp backend (the optional extra ``warp``), on Warp's CPU device: agreement with C, graph replay,
+per-world health and resets, the vector-env contract, training through the SB3 adapter."""
+
+from __future__ import annotations
+
+import copy
+import subprocess
+import sys
+
+import gymnasium as gym
+import mujoco
+import numpy as np
+import pytest
+
+import magsoft_env  # noqa: F401  (registers the ids)
+from magsoft_env import Beam
+from magsoft_env.sim.warp_extra import INSTALL_HINT, warp_available
+
+needs_warp = pytest.mark.skipif(not warp_available(), reason=f"the optional extra 'warp' is not installed: "
+                                f"{INSTALL_HINT}")
+BEAM = Beam(length=25e-3, width=5e-3, thickness=1.13e-3)
+
+
+def test_nothing_imports_warp_until_the_backend_is_asked_for():
+    code = (
+        "import sys, gymnasium as gym, numpy as np, magsoft_env\n"
+        "import magsoft_env.sim.warp_extra, magsoft_env.envs.warp_reference\n"
+        "env = gym.make('MagSoftCrawl-v1', segments=4, sim_dt=1e-3); env.reset(seed=0)\n"
+        "envs = gym.make_vec('MagSoftCrawl-v1', num_envs=2, segments=4, sim_dt=1e-3); envs.reset(seed=0)\n"
+        "envs.step(np.zeros((2, 2), np.float32)); envs.close()\n"
+        "bad = sorted(m for m in sys.modules if m.split('.')[0] in ('warp', 'mujoco_warp'))\n"
+        "assert not bad, bad\n"
+        "print('ok')\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip().endswith("ok")
+
+
+def test_unknown_backend_is_refused():
+    with pytest.raises(ValueError, match="backend must be 'cpu' or 'warp'"):
+        gym.make_vec("MagSoftCrawl-v1", num_envs=1, backend="gpu", segments=4, sim_dt=1e-3)
+
+
+@needs_warp
+def test_warp_backend_refuses_what_it_does_not_run():
+    with pytest.raises(ValueError, match="MagSoftCrawl-v1"):
+        gym.make_vec("MagSoftChannel-v1", num_envs=1, backend="warp", device="cpu")
+    with pytest.raises(ValueError, match="field mode"):
+        gym.make_vec("MagSoftCrawlWaveform-v1", num_envs=1, backend="warp", device="cpu")
+
+
+# ---------------------------------------------------------------------- the rod batch against C
+def _c_worlds(sim, n):
+    return [copy.copy(sim.data) for _ in range(n)]
+
+
+def _step_c(sim, datas, fields, k):
+    from magsoft_env.sim.model import field_control
+
+    for d, (bx, bz) in zip(datas, fields, strict=True):
+        mag, w, y = field_control(float(bx), float(bz))
+        d.ctrl[:] = mag
+        d.mocap_quat[sim.rod.field_mocap] = [w, 0.0, y, 0.0]
+        mujoco.mj_step(sim.model, d, k)
+
+
+FIELDS = np.array([[1e-3, 1e-3], [-1.5e-3, 0.5e-3], [0.0, 2e-3], [0.0, 0.0]])
+
+
+@needs_warp
+@pytest.mark.parametrize("scene", ["cantilever", "floor"])
+def test_rod_batch_matches_c_to_1e6_rad_over_200_steps(scene):
+    """The cantilever and the soft floor (2 ms contact), started from a state settled in C: every world within
+    1e-6 rad (hinges) of MuJoCo's C step after 200 steps under its own field."""
+    from magsoft_env.sim import Simulator
+    from magsoft_env.sim.model import RodOptions
+    from magsoft_env.sim.warp_batch import WarpRodBatch
+
+    sim = Simulator(BEAM, RodOptions(scene=scene, segments=20, timestep=2e-4))
+    if scene == "floor":
+        sim.set_field((0.0, 0.0))
+        sim.step(500)
+    batch = WarpRodBatch(sim.rod, sim.data, len(FIELDS), device="cpu")
+    ref = _c_worlds(sim, len(FIELDS))
+    batch.set_fields(FIELDS)
+    hinges = np.asarray(sim.rod.hinge_qpos)
+    worst = 0.0
+    for _ in range(4):
+        batch.advance(50)
+        _step_c(sim, ref, FIELDS, 50)
+        q = batch.qpos()
+        worst = max(worst, max(np.abs(q[i, hinges] - ref[i].qpos[hinges]).max() for i in range(len(FIELDS))))
+    moved = max(np.abs(ref[i].qpos[hinges] - sim.data.qpos[hinges]).max() for i in range(len(FIELDS)))
+    assert moved > 1e-3  # the fields bend the rods: the agreement is not that of rods at rest
+    assert worst <= 1e-6, worst
+
+
+@needs_warp
+def test_graph_replay_equals_plain_launches():
+    from magsoft_env.sim import Simulator
+    from magsoft_env.sim.model import RodOptions
+    from magsoft_env.sim.warp_batch import WarpRodBatch
+
+    sim = Simulator(BEAM, RodOptions(scene="floor", segments=20, timestep=2e-4))
+    sim.set_field((0.0, 0.0))
+    sim.step(200)
+    a = WarpRodBatch(sim.rod, sim.data, 3, device="cpu", graph=True)
+    b = WarpRodBatch(sim.rod, sim.data, 3, device="cpu", graph=False)
+    for batch in (a, b):
+        batch.set_fields(FIELDS[:3])
+        for _ in range(3):
+            batch.advance(20)
+    sa, sb = a.state(), b.state()
+    for key in ("qpos", "qvel", "xpos", "clear_max", "cos_min", "depth"):
+        np.testing.assert_array_equal(sa[key], sb[key], err_msg=key)
+
+
+# ---------------------------------------------------------------------- the env
+@pytest.fixture(scope="module")
+def warp_envs():
+    if not warp_available():
+        pytest.skip(f"the optional extra 'warp' is not installed: {INSTALL_HINT}")
+    envs = gym.make_vec("MagSoftCrawl-v1", num_envs=3, backend="warp", device="cpu")
+    yield envs
+    envs.close()
+
+
+@needs_warp
+def test_env_contract_and_agreement_with_the_cpu_batch(warp_envs):
+    from magsoft_env.envs.warp_reference import restart_from
+
+    envs = warp_envs
+    cpu = gym.make_vec("MagSoftCrawl-v1", num_envs=3)
+    assert envs.metadata["autoreset_mode"] == gym.vector.AutoresetMode.NEXT_STEP
+    assert envs.single_observation_space == cpu.single_observation_space
+    assert envs.single_action_space == cpu.single_action_space
+    wo, wi = envs.reset(seed=5)
+    co, ci = cpu.reset(seed=5)
+    # the same reset noise as the CPU batch, on the beam settled in C
+    settled = envs.unwrapped._qpos_settled
+    hinges = np.asarray(cpu.envs[0].sim.rod.hinge_qpos)
+    for i in range(3):
+        noise = cpu.envs[i].sim.data.qpos[hinges] - cpu.envs[i].sim.model.qpos0[hinges]
+        np.testing.assert_allclose(envs.unwrapped.start_qpos[i, hinges] - settled[hinges], noise, atol=1e-15)
+        co[i] = restart_from(cpu.envs[i], envs.unwrapped.start_qpos[i])[0]
+    assert wo.dtype == np.float32 and wo.shape == (3, 48)
+    np.testing.assert_allclose(wo, co, atol=1e-6)
+    assert set(wi) == set(ci)
+    rng = np.random.default_rng(0)
+    n1 = cpu.envs[0].segments + 1
+    for _ in range(5):
+        a = (0.3 * rng.uniform(-1, 1, (3, 2))).astype(np.float32)
+        wo, wr, wt, wtr, wi = envs.step(a)
+        co, cr, ct, ctr, ci = cpu.step(a)
+        assert envs.observation_space.contains(wo)
+        assert np.abs(wo[:, :n1] - co[:, :n1]).max() < 1e-3  # angles (rad): the stiff contact, round-off apart
+        np.testing.assert_allclose(wr, cr, atol=0.05)
+        np.testing.assert_array_equal(wt, ct)
+        np.testing.assert_array_equal(wtr, ctr)
+        np.testing.assert_allclose(wi["x_position"], ci["x_position"], atol=1e-6)
+        np.testing.assert_allclose(wi["time"], ci["time"], atol=1e-12)
+        assert set(wi) == set(ci)
+    cpu.close()
+
+
+@needs_warp
+def test_a_non_finite_world_truncates_and_resets_alone(warp_envs):
+    """World 1 goes non-finite: it truncates and restarts at its next step; worlds 0 and 2 step on exactly as in a
+    twin batch where nothing happened (bit for bit)."""
+    envs = warp_envs.unwrapped
+    twin = gym.make_vec("MagSoftCrawl-v1", num_envs=3, backend="warp", device="cpu").unwrapped
+    act = np.full((3, 2), 0.4, np.float32)
+    for e in (envs, twin):
+        e.reset(seed=1)
+        e.step(act)
+    d = envs.batch.d
+    qvel = d.qvel.numpy()
+    qvel[1] = np.nan
+    d.qvel.assign(qvel)
+    obs, r, term, trunc, info = envs.step(act)
+    tobs, *_ = twin.step(act)
+    assert trunc.tolist() == [False, True, False] and not term.any()
+    assert info["_truncation_reason"].tolist() == [False, True, False]
+    assert "non-finite" in info["truncation_reason"][1]
+    assert r[1] == 0.0 and np.all(np.isfinite(obs))
+    np.testing.assert_array_equal(obs[[0, 2]], tobs[[0, 2]])
+    # the next step resets it (NEXT_STEP) from the settled state with fresh noise, the others step on
+    obs, r, term, trunc, info = envs.step(act)
+    tobs, *_ = twin.step(act)
+    assert not trunc.any() and not term.any() and r[1] == 0.0
+    assert info["time"][1] == 0.0 and info["time"][0] > 0.0
+    np.testing.assert_array_equal(envs.qpos()[[0, 2]], twin.qpos()[[0, 2]])
+    np.testing.assert_array_equal(obs[[0, 2]], tobs[[0, 2]])
+    obs, *_ = envs.step(act)
+    assert np.all(np.isfinite(obs)) and np.all(np.isfinite(envs.qpos()))
+    twin.close()
+
+
+@needs_warp
+def test_attributes_are_the_shared_prototype_s(warp_envs):
+    assert warp_envs.unwrapped.get_attr("field_limit") == (2e-3,) * 3
+    assert warp_envs.unwrapped.call("open_loop_action", 0.0)[0].shape == (2,)
+    with pytest.raises(ValueError, match="share their parameters"):
+        warp_envs.unwrapped.set_attr("crawl_penalty", [1.0, 2.0, 3.0])
+
+
+@needs_warp
+def test_reset_mask_resets_only_the_masked_worlds(warp_envs):
+    envs = warp_envs
+    envs.reset(seed=2)
+    for _ in range(2):
+        envs.step(np.full((3, 2), 0.5, np.float32))
+    before = envs.unwrapped.qpos()
+    mask = np.array([False, True, False])
+    obs, info = envs.reset(options={"reset_mask": mask})
+    after = envs.unwrapped.qpos()
+    np.testing.assert_array_equal(after[[0, 2]], before[[0, 2]])
+    assert info["_time"].tolist() == [False, True, False] and info["time"][1] == 0.0
+    again, _ = envs.reset(seed=[None, 2 + 1, None], options={"reset_mask": mask})
+    first, _ = envs.reset(seed=2)
+    np.testing.assert_array_equal(again[1], first[1])  # the same seed, the same start
+
+
+@needs_warp
+@pytest.mark.slow
+def test_crawl_displacement_statistics_match_c():
+    """The paper-5c gait at its default (stiff) contact, where lift-off and touchdown amplify round-off: the
+    distribution of the displacement over seeds agrees with C's within the scatter."""
+    from magsoft_env.envs.warp_reference import restart_from
+
+    n, steps = 6, 40
+    envs = gym.make_vec("MagSoftCrawl-v1", num_envs=n, backend="warp", device="cpu")
+    cpu = gym.make_vec("MagSoftCrawl-v1", num_envs=n, num_threads=1)
+    envs.reset(seed=100)
+    cpu.reset(seed=100)
+    for i in range(n):
+        restart_from(cpu.envs[i], envs.unwrapped.start_qpos[i])
+    x0w = envs.unwrapped._com[:, 0].copy()
+    x0c = np.array([e._com[0] for e in cpu.envs])
+    proto = cpu.envs[0]
+    for k in range(steps):
+        a = np.tile(proto.open_loop_action(k * proto.n_substeps * proto.sim_dt), (n, 1))
+        _, _, wt, wtr, wi = envs.step(a)
+        _, _, ct, ctr, ci = cpu.step(a)
+        assert not (wt | wtr | ct | ctr).any()
+    dw = wi["x_position"] - x0w
+    dc = ci["x_position"] - x0c
+    assert abs(dc.mean()) > 0.1e-3  # it moves (a fraction of a mm in 0.8 s)
+    print("displacement (mm): warp", dw * 1e3, "C", dc * 1e3)
+    spread = np.sqrt(dw.var(ddof=1) / n + dc.var(ddof=1) / n)
+    assert abs(dw.mean() - dc.mean()) <= 3 * spread + 0.03 * abs(dc.mean()), (dw, dc)
+    envs.close()
+    cpu.close()
+
+
+@needs_warp
+@pytest.mark.slow
+def test_ppo_trains_on_the_warp_batch_through_the_sb3_adapter():
+    pytest.importorskip("stable_baselines3")
+    from stable_baselines3 import PPO
+
+    from magsoft_env.rl.vec import make_sb3_vec_env
+
+    # SB3VecAdapter over the Warp batch, in VecMonitor: the same path as the CPU batch's
+    venv = make_sb3_vec_env("MagSoftCrawl-v1", 4, seed=0, backend="warp", device="cpu", max_episode_steps=10)
+    model = PPO("MlpPolicy", venv, n_steps=8, batch_size=16, n_epochs=1, seed=0, device="cpu")
+    model.learn(64)
+    assert model.num_timesteps >= 64
+    assert len(model.ep_info_buffer) >= 4  # episodes ended (time limit), were reset and logged
+    obs = venv.reset()
+    assert obs.shape == (4, 48) and np.all(np.isfinite(obs))
+    venv.close()
+
+
+@needs_warp
+@pytest.mark.slow
+def test_warp_bench_prints_the_table(capsys):
+    from magsoft_env.bench import warp_bench
+
+    assert warp_bench.main(["--worlds", "1,2", "--steps", "1", "--error-steps", "2", "--error-worlds", "2",
+                            "--device", "cpu"]) == 0
+    out = capsys.readouterr().out
+    assert "| backend | device | worlds | env steps/s |" in out
+    assert out.count("| warp | cpu |") >= 2 and "reference (C)" in out
