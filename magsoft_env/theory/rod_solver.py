@@ -28,7 +28,7 @@ from ..spec import Beam, Field
 from ..threads import single_threaded_blas
 from .collocation import Grid, make_grid
 from .rod import Load3, RodModel, angle_between, clamp_quaternion, qmat, rotate
-from .verify import rod_residual
+from .verify import outcome, rod_residual
 
 _MAX_NEWTON = 12
 _MAX_STEP_RAD = 0.6  # Newton updates larger than this (rad, max over nodes) are damped
@@ -569,21 +569,8 @@ class RodSolver:
     # result ----------------------------------------------------------------------------------------
     def result(self, ok, status, snapped, field_, gravity, tail, ver, messages, wall_time=0.0) -> RodResult:
         mdl, grid, q, load = self.model, self.grid, self.q, self.load
-        if not ok:
-            status = 1 if status == 0 else status
-        elif not ver <= self.opt.verify_tol:
-            status = 4
-        elif status == 0 and tail > self.opt.resolution_tol:
-            status = 2
-        msg = messages[status]
-        if not ok and self.note:
-            msg += " " + self.note
-        if self.events:
-            msg += f" Passed {len(self.events)} fold/bifurcation point(s) with a jump to a stable branch."
-        if status == 2:
-            msg += f" (trailing Chebyshev coefficient {tail:.1e}; verified between the nodes to {ver:.1e} rad)"
-        if status == 4:
-            msg += f" (residual between the nodes {ver:.1e} rad > verify_tol {self.opt.verify_tol:g})"
+        status, msg = outcome(ok, status, tail, ver, self.opt, note=self.note, events=len(self.events),
+                              nodes=int(mdl.uniq.size), messages=messages)
         u = mdl.uniq
         F = mdl.system(q, load)
         R = qmat(q)

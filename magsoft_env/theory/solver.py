@@ -19,7 +19,7 @@ from ..validate import boolean, choice, in_range, integer
 from .collocation import Grid, _grid_cached, make_grid
 from .model import BeamModel, Load
 from .rod_solver import MAX_ROD_NODES, RodResult, solve_rod_path
-from .verify import equation_residual
+from .verify import equation_residual, outcome
 
 #: The models :func:`solve_path` takes: the planar beam, the 3D rod, or the one the problem needs.
 MODELS = ("auto", "planar", "3d")
@@ -844,22 +844,8 @@ class _Solver:
         chord = math.atan2(z[-1], x[-1])
         mean_angle = float(grid.w @ th) / L
         chord += 2 * math.pi * round((mean_angle - chord) / (2 * math.pi))
-        if not ok:
-            status = 1 if status == 0 else status
-        elif not ver <= self.opt.verify_tol:
-            status = 4
-        elif status == 0 and tail > self.opt.resolution_tol:
-            status = 2
-        msg = TERMINATION_MESSAGES[status]
-        if not ok and self.note:
-            msg += " " + self.note
-        if self.events:
-            msg += f" Passed {len(self.events)} fold/bifurcation point(s) with a jump to a stable branch."
-        if status == 2:
-            msg += f" (trailing Chebyshev coefficient {tail:.1e} rad; verified between the nodes to {ver:.1e} rad)"
-        if status == 4:
-            msg += (f" (residual between the nodes {ver:.1e} rad > verify_tol {self.opt.verify_tol:g}, "
-                    f"on {u.size} nodes)")
+        status, msg = outcome(ok, status, tail, ver, self.opt, note=self.note, events=len(self.events),
+                              nodes=int(u.size), messages=TERMINATION_MESSAGES)
         return EquilibriumResult(
             success=ok and status in (0, 2),
             status=status,

@@ -252,4 +252,30 @@ def rod_residual(beam, grid, q_nodes, *, B, g: float, support: str, q0) -> float
     return out if math.isfinite(out) else math.nan
 
 
-__all__ = ["GAUSS_POINTS", "MAX_KNOT_EDGES", "equation_residual", "load_density", "rod_residual"]
+def outcome(ok: bool, status: int, tail: float, ver: float, options, *, note: str, events: int, nodes: int,
+            messages: dict) -> tuple[int, str]:
+    """The status and message of a result (planar or 3D) from what the solve and its verification found.
+
+    A failed solve keeps its status (1 if it had none); a solution whose verification exceeds
+    ``options.verify_tol`` is status 4; one resolved to the verification but not to
+    ``options.resolution_tol`` is status 2. The message adds why the solve stopped (``note``), the
+    folds and bifurcations passed (``events``) and the measured resolution."""
+    if not ok:
+        status = 1 if status == 0 else status
+    elif not ver <= options.verify_tol:
+        status = 4
+    elif status == 0 and tail > options.resolution_tol:
+        status = 2
+    msg = messages[status]
+    if not ok and note:
+        msg += " " + note
+    if events:
+        msg += f" Passed {events} fold/bifurcation point(s) with a jump to a stable branch."
+    if status == 2:
+        msg += f" (trailing Chebyshev coefficient {tail:.1e} rad; verified between the nodes to {ver:.1e} rad)"
+    if status == 4:
+        msg += f" (residual between the nodes {ver:.1e} rad > verify_tol {options.verify_tol:g}, on {nodes} nodes)"
+    return status, msg
+
+
+__all__ = ["GAUSS_POINTS", "MAX_KNOT_EDGES", "equation_residual", "load_density", "outcome", "rod_residual"]
