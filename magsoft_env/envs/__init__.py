@@ -7,12 +7,13 @@ Ids (see each class docstring for the spec sheet):
 - ``MagSoftChannel-v1``: crawl through the paper's 42 x 8.5 x 7.6 mm hollow box.
 - ``MagSoftObstacle-v1``: crawl over the paper's 7 x 5.5 x 2 mm block.
 - ``MagSoftShape-v0``: a clamped beam reaches a target tip pose by choosing the field.
+- ``MagSoftSteer-v0``: the 3D strip on a floor, steered to a goal point (x, y) by the field (B_x, B_y, B_z).
 
 The floor ids' v0 (crawl limits checked only at the end of each control step; the channel and obstacle
 observing 48 numbers) are no longer registered: ``gym.make("MagSoftCrawl-v0")`` raises Gymnasium's
 ``DeprecatedEnv``, which names the v1 id.
 
-The floor ids (crawl, waveform, channel, obstacle) also have a ``vector_entry_point``:
+The floor ids (crawl, waveform, channel, obstacle, steer) also have a ``vector_entry_point``:
 ``gym.make_vec(id, num_envs=n)`` returns a :class:`~magsoft_env.envs.vector.MagSoftCrawlVecEnv`, which
 steps all robots per call on a thread pool (``vectorization_mode="sync"`` / ``"async"`` still give
 Gymnasium's own vector envs).
@@ -31,6 +32,7 @@ ENV_SPECS = {
     "MagSoftChannel-v1": ("magsoft_env.envs.channel:MagSoftChannelEnv", 1500, {}),
     "MagSoftObstacle-v1": ("magsoft_env.envs.obstacle:MagSoftObstacleEnv", 1500, {}),
     "MagSoftShape-v0": ("magsoft_env.envs.shape:MagSoftShapeEnv", 100, {}),
+    "MagSoftSteer-v0": ("magsoft_env.envs.steer:MagSoftSteerEnv", 250, {}),
 }
 #: id -> vector entry point (``gym.make_vec``): the floor envs, batched on threads (envs/vector.py)
 VECTOR_ENTRY_POINTS = {
@@ -38,6 +40,7 @@ VECTOR_ENTRY_POINTS = {
     "MagSoftCrawlWaveform-v1": "magsoft_env.envs.vector:MagSoftCrawlVecEnv",
     "MagSoftChannel-v1": "magsoft_env.envs.vector:MagSoftChannelVecEnv",
     "MagSoftObstacle-v1": "magsoft_env.envs.vector:MagSoftObstacleVecEnv",
+    "MagSoftSteer-v0": "magsoft_env.envs.vector:MagSoftSteerVecEnv",
 }
 
 

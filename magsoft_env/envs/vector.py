@@ -19,6 +19,7 @@ from . import constructor_arguments, refuse_unknown_kwargs
 from .channel import MagSoftChannelEnv
 from .crawl import MagSoftCrawlEnv
 from .obstacle import MagSoftObstacleEnv
+from .steer import MagSoftSteerEnv
 
 #: Substeps per interleaved block in field mode (a 100-substep control step: 4 blocks); the trajectory does not
 #: depend on it. Waveform mode, whose control step is a whole field period (hundreds to thousands of substeps),
@@ -452,5 +453,19 @@ class MagSoftObstacleVecEnv(MagSoftCrawlVecEnv):
     env_class = MagSoftObstacleEnv
 
 
-__all__ = ["MagSoftChannelVecEnv", "MagSoftCrawlVecEnv", "MagSoftObstacleVecEnv", "ThreadTeam", "route_warnings",
-           "usable_cpus", "with_sink"]
+class MagSoftSteerVecEnv(MagSoftCrawlVecEnv):
+    """:class:`MagSoftCrawlVecEnv` of :class:`~magsoft_env.envs.steer.MagSoftSteerEnv` (``MagSoftSteer-v0``): the
+    3D strips on threads (each step's couples are written from Python, so the threads share the GIL for part of
+    every substep). CPU only: ``backend="warp"`` is refused."""
+
+    env_class = MagSoftSteerEnv
+
+    def __new__(cls, num_envs: int = 1, *, backend: str = "cpu", **kwargs):
+        if backend != "cpu":
+            raise ValueError(f"MagSoftSteer-v0 runs on backend 'cpu' only (the 3D strip is not on MuJoCo Warp), "
+                             f"got backend={backend!r}.")
+        return VectorEnv.__new__(cls)
+
+
+__all__ = ["MagSoftChannelVecEnv", "MagSoftCrawlVecEnv", "MagSoftObstacleVecEnv", "MagSoftSteerVecEnv", "ThreadTeam",
+           "route_warnings", "usable_cpus", "with_sink"]

@@ -48,7 +48,8 @@ class EvalResult:
     max_com_height : float
         Highest centre of mass over the episodes (m): hopping or standing up shows here.
     final_error : float
-        Shape env: mean tip-position error at the end of the episodes (m); NaN otherwise.
+        Shape env: mean tip-position error at the end of the episodes (m); steering env: mean distance to the
+        goal at the end (m); NaN otherwise.
     successes : int
         Episodes that ended with ``info["is_success"]`` (channel, obstacle, shape envs; count).
     success_seconds : float
@@ -137,7 +138,8 @@ def evaluate_open_loop(env_id: str, env_kwargs: dict | None = None, *, episodes:
     """The paper gaits played open loop in ``env_id`` with the same limits and timesteps.
 
     For a crawl-type env whose robot is ``paper-5X``: that robot's gait, and the same gait
-    with B_x inverted; for the shape env: holding the field whose equilibrium is the target.
+    with B_x inverted; for the shape env: holding the field whose equilibrium is the target; for the
+    steering env: its hand-designed controller (``baseline_action``, closed loop on the observation).
     Returns a list of :class:`EvalResult` (empty for other envs).
     """
     import gymnasium as gym
@@ -146,6 +148,11 @@ def evaluate_open_loop(env_id: str, env_kwargs: dict | None = None, *, episodes:
 
     env = gym.make(env_id, **(env_kwargs or {}))
     base = env.unwrapped
+    if hasattr(base, "baseline_action"):  # steering env: the hand-designed controller (turn to the goal, go)
+        res = run_episodes(env, lambda obs, e: e.unwrapped.baseline_action(obs), episodes=episodes, seed=seed,
+                           name="hand controller")
+        env.close()
+        return [res]
     if not hasattr(base, "open_loop_action"):
         env.close()
         return []

@@ -1,0 +1,409 @@
+"""MagSoftSteer-v0: the 3D strip on a floor, steered to a goal point by the three-axis field (B_x, B_y, B_z)."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from ..cases.gaits import numerics
+from ..cases.robots import resolve_robot
+from ..sim import SimulationError, Simulator
+from ..sim.gait import gait_rod_options
+from ..sim.health import UnphysicalError, check_steps
+from ..sim.model import MAX_TIMESTEP
+from ..validate import finite_number, nonnegative, positive
+from . import as_action, refuse_unknown_kwargs
+
+#: Default coil limit per axis (T). A field of 3 mT turning in a vertical plane at 1 Hz tumbles the paper-5c strip
+#: end over end at about 40 mm/s along the plane's horizontal direction (the strip turns into that plane within the
+#: first half-turn); at the crawl envs' 2 mT it crawls at under 1 mm/s.
+DEFAULT_FIELD_LIMIT = 3e-3
+#: Default control interval (s).
+DEFAULT_CTRL_DT = 0.02
+#: Default rod cells: the tumbling gait's displacement after 2 s differs by about 2 % of its 80 mm between 10 and 20
+#: cells, at half the cost.
+DEFAULT_SEGMENTS = 10
+#: Goal distance from the strip's starting centre of mass (m), drawn uniformly in this range.
+DEFAULT_GOAL_DISTANCE = (0.02, 0.06)
+#: Reached: the centre of mass within this horizontal distance of the goal (m).
+DEFAULT_GOAL_RADIUS = 5e-3
+#: Lost: the centre of mass farther than this from the goal ends the episode (m).
+DEFAULT_MAX_DISTANCE = 0.15
+#: Observation bounds (observations are clipped to them): positions (m), velocities (m/s).
+OBS_MAX_POSITION = 1.0
+OBS_MAX_VELOCITY = 10.0
+
+
+class MagSoftSteerEnv(gym.Env):
+    """
+    ## Description
+
+    The paper's Fig. 5c strip (or any robot) lies on a floor as the 3D MuJoCo rod (the flexcomp strip of
+    :mod:`magsoft_env.sim.cable`: bending both ways, twist, width-wise floor contact). A goal point on the
+    floor is drawn at every reset; the agent chooses the three-axis field and must bring the strip's centre of
+    mass within ``goal_radius`` of the goal.
+
+    How the field moves it: the strip's net magnetic moment is nearly axial, so a horizontal field turns it
+    (yaw) like a compass needle, and a field turning in a vertical plane rolls it end over end along that
+    plane's horizontal direction (tumbling; at 3 mT and 1 Hz about 40 mm/s). The plane's direction steers.
+    :func:`steer_controller` is the hand-designed baseline: the field turns at ``clock_frequency`` in the
+    vertical plane through the goal, so the strip turns toward the goal within the first half-turn and
+    tumbles to it. Fields up to about 2 mT crawl instead (under 1 mm/s; the crawl envs' regime).
+
+    ## Action Space
+
+    ``Box(-1, 1, (3,), float32)``; the field held for ``ctrl_dt`` seconds.
+
+    | Num | Action | Min | Max | Type (Unit) |
+    |-----|--------|-----|-----|-------------|
+    | 0 | B_x / field_limit | -1 | 1 | field (T) |
+    | 1 | B_y / field_limit | -1 | 1 | field (T) |
+    | 2 | B_z / field_limit | -1 | 1 | field (T) |
+
+    ## Observation Space
+
+    ``Box(-high, high, (3 P + 11,), float32)`` for the strip's P points (P = N + 2 for N = ``segments``:
+    paper-5c's default 10 cells give 47); world frame, SI, clipped to 1 m and 10 m/s:
+
+    | Num | Observation | Type (Unit) |
+    |-----|-------------|-------------|
+    | 0, 1 | goal minus centre of mass, x and y | position (m) |
+    | 2 | horizontal distance to the goal | position (m) |
+    | 3 .. 5 | centre-of-mass velocity (x, y, z), mean over the last step | velocity (m/s) |
+    | 6 .. 3P+5 | the strip's points minus its centre of mass, (x, y, z) per point, first end first | position (m) |
+    | 3P+6 .. 3P+8 | the field now, B / field_limit | dimensionless |
+    | 3P+9, 3P+10 | sin and cos of the clock phase ``2 pi clock_frequency t`` | dimensionless |
+
+    ## Rewards
+
+    ``reward = progress + field_cost + success``, each term in ``info`` (``reward_progress``,
+    ``reward_field``, ``reward_success``):
+
+    - ``progress = progress_reward_weight * (d_before - d_after)``: the step's approach to the goal (default
+      weight 1000 / m: the term reads in mm, and an episode's sum is the distance covered toward the goal).
+    - ``field_cost = -field_cost_weight * |B|^2 / field_limit^2``.
+    - ``success = success_reward`` on the step that reaches the goal.
+
+    ## Starting State
+
+    The straight strip lies flat on the floor along +x, first end at the origin, at rest, zero field; its
+    vertices perturbed by ``U(-reset_noise_scale, reset_noise_scale)`` m horizontally. The goal lies at a
+    distance drawn from ``U(goal_distance)`` and a bearing from ``U(-pi, pi)`` from the centre of mass
+    (``reset(options={"goal": (x, y)})`` sets it).
+
+    ## Episode End
+
+    - Termination: the goal reached (``info["is_success"]``, ``info["time_to_goal"]``), or the centre of mass
+      farther than ``max_distance`` from it (``info["lost"]``).
+    - Truncation: the time limit (``max_episode_steps`` of the registered id: 250 steps = 5 s), or an unstable
+      or unphysical simulation (``info["truncation_reason"]``, and ``info["unphysical"]`` with its figures, as
+      in the crawl envs; docs/sim.md, "Physical checks").
+
+    ``info`` also carries the goal, the centre of mass (``x_position``, ``y_position``, ``z_position``), the
+    ``heading`` (rad, of the second end from the first, on the floor), ``distance`` (= ``position_error``), the ``field`` (T, three
+    components), ``time`` and ``max_penetration`` (m).
+
+    ## Arguments
+
+    | Parameter | Default | Description |
+    |-----------|---------|-------------|
+    | ``robot`` | ``"paper-5c"`` | built-in name (``list_robots()``), robot file (.yml, .json) or ``Robot`` |
+    | ``field_limit`` | 0.003 | coil limit per axis (T) |
+    | ``ctrl_dt`` | 0.02 | control interval (s), >= ``sim_dt`` |
+    | ``sim_dt`` | None | simulation step (s); None: the robot's own (paper-5c: 0.2 ms) |
+    | ``segments`` | 10 | strip cells |
+    | ``friction`` | None | strip-floor sliding friction; None: the robot's (0.5) |
+    | ``goal_distance`` | (0.02, 0.06) | range of the goal's distance at reset (m) |
+    | ``goal_radius`` | 0.005 | reached within this distance (m) |
+    | ``max_distance`` | 0.15 | lost beyond this distance (m) |
+    | ``progress_reward_weight`` | 1000 | (1/m) |
+    | ``field_cost_weight`` | 0.1 | weight of the normalized field power |
+    | ``success_reward`` | 20 | reward on reaching the goal |
+    | ``clock_frequency`` | 1 | clock observed as sin/cos (Hz) |
+    | ``reset_noise_scale`` | 1e-5 | initial vertex noise (m) |
+    | ``render_mode`` | None | ``"rgb_array"`` |
+    | ``width``, ``height`` | 960, 540 | frame size (pixels) |
+
+    ## Version History
+
+    - v0: initial version.
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 50}
+    #: The action is a held field (the batched envs read it).
+    action_mode = "field"
+
+    def __init__(
+        self,
+        robot="paper-5c",
+        *,
+        field_limit: float = DEFAULT_FIELD_LIMIT,
+        ctrl_dt: float = DEFAULT_CTRL_DT,
+        sim_dt: float | None = None,
+        segments: int = DEFAULT_SEGMENTS,
+        friction: float | None = None,
+        goal_distance: tuple[float, float] = DEFAULT_GOAL_DISTANCE,
+        goal_radius: float = DEFAULT_GOAL_RADIUS,
+        max_distance: float = DEFAULT_MAX_DISTANCE,
+        progress_reward_weight: float = 1000.0,
+        field_cost_weight: float = 0.1,
+        success_reward: float = 20.0,
+        clock_frequency: float = 1.0,
+        reset_noise_scale: float = 1e-5,
+        render_mode: str | None = None,
+        width: int = 960,
+        height: int = 540,
+        **unknown,
+    ):
+        refuse_unknown_kwargs(self, unknown)
+        self.gait = resolve_robot(robot)  # checked before any work
+        self.field_limit = positive("field_limit", field_limit, unit="T")
+        if self.field_limit > 0.1:
+            raise ValueError(f"field_limit must be <= 0.1 T (fields are in tesla: 3 mT is 0.003), got {field_limit!r}.")
+        if sim_dt is not None:
+            positive("sim_dt", sim_dt, unit="s")
+        if isinstance(segments, (bool, np.bool_)) or not isinstance(segments, (int, np.integer)) \
+                or not 2 <= segments <= 200:
+            raise ValueError(f"segments must be an integer in [2, 200], got {segments!r}.")
+        segments, self.sim_dt = numerics(self.gait, segments=int(segments), timestep=sim_dt)
+        if self.sim_dt > MAX_TIMESTEP:
+            raise ValueError(f"sim_dt must lie in (0, {MAX_TIMESTEP:g}] s, got {sim_dt!r}.")
+        self.ctrl_dt = positive("ctrl_dt", ctrl_dt, unit="s")
+        if self.sim_dt > self.ctrl_dt:
+            raise ValueError(f"sim_dt must be <= ctrl_dt ({self.ctrl_dt:g} s), got {sim_dt!r}.")
+        self.n_substeps = max(1, int(round(check_steps(
+            f"ctrl_dt / sim_dt = {self.ctrl_dt:g} s / {self.sim_dt:g} s per env step", self.ctrl_dt / self.sim_dt,
+            "Use a larger sim_dt or a smaller ctrl_dt."))))
+        self.goal_distance = _range("goal_distance", goal_distance, unit="m")
+        self.goal_radius = positive("goal_radius", goal_radius, unit="m")
+        self.max_distance = positive("max_distance", max_distance, unit="m")
+        if self.max_distance <= self.goal_distance[1]:
+            raise ValueError(f"max_distance must exceed the largest goal distance {self.goal_distance[1]:g} m, "
+                             f"got {max_distance!r}.")
+        self.progress_reward_weight = nonnegative("progress_reward_weight", progress_reward_weight, unit="1/m")
+        self.field_cost_weight = nonnegative("field_cost_weight", field_cost_weight)
+        self.success_reward = nonnegative("success_reward", success_reward)
+        self.clock_frequency = positive("clock_frequency", clock_frequency, unit="Hz")
+        self.reset_noise_scale = nonnegative("reset_noise_scale", reset_noise_scale, unit="m")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}.")
+        for name, v in (("width", width), ("height", height)):
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 16 <= v <= 4096:
+                raise ValueError(f"{name} must be an integer number of pixels in [16, 4096], got {v!r}.")
+        self.render_mode = render_mode
+        self.width, self.height = int(width), int(height)
+
+        self.robot = self.gait.name
+        options = gait_rod_options(self.gait, segments=segments, timestep=self.sim_dt, friction=friction, rod="cable")
+        self.sim = Simulator(self.gait.beam, options, field=(0.0, 0.0, 0.0), check_every=max(50, self.n_substeps))
+        self.segments = options.segments
+        self._npoints = len(self.sim.centerline()[0])
+        self.metadata = {**self.metadata, "render_fps": int(round(1.0 / (self.n_substeps * self.sim_dt)))}
+        self.action_space = spaces.Box(-1.0, 1.0, (3,), np.float32)
+        p = self._npoints
+        high = np.concatenate([np.full(3, OBS_MAX_POSITION), np.full(3, OBS_MAX_VELOCITY),
+                               np.full(3 * p, OBS_MAX_POSITION), np.ones(5)]).astype(np.float32)
+        self.observation_space = spaces.Box(-high, high, dtype=np.float32)
+        self._renderer = None
+        self._field = np.zeros(3)
+        self._goal = np.zeros(2)
+        self._com = np.zeros(3)
+        self._com_vel = np.zeros(3)
+        self._distance = 0.0
+        self._broken = False
+        self._success = False
+        self._last_obs = np.zeros(self.observation_space.shape, np.float32)
+
+    # ------------------------------------------------------------------ readouts
+    @property
+    def goal(self) -> np.ndarray:
+        """The goal point (x, y) on the floor (m)."""
+        return self._goal.copy()
+
+    def com_position(self) -> np.ndarray:
+        """Centre of mass (x, y, z) of the strip (m)."""
+        return np.asarray(self.sim.center_of_mass(), dtype=float)
+
+    def heading(self) -> float:
+        """Direction of the strip's second end from its first, on the floor (rad from +x toward +y)."""
+        x, y, _ = self.sim.centerline()
+        return math.atan2(y[-1] - y[0], x[-1] - x[0])
+
+    def _horizontal_distance(self) -> float:
+        return float(math.hypot(*(self._goal - self._com[:2])))
+
+    def _get_obs(self) -> np.ndarray:
+        x, y, z = self.sim.centerline()
+        rel = np.stack([x, y, z], axis=1) - self._com
+        w = 2.0 * math.pi * self.clock_frequency * self.sim.time
+        obs = np.concatenate([self._goal - self._com[:2], [self._distance], self._com_vel, rel.ravel(),
+                              self._field / self.field_limit, [math.sin(w), math.cos(w)]]).astype(np.float32)
+        return np.clip(obs, self.observation_space.low, self.observation_space.high)
+
+    # ------------------------------------------------------------------ gymnasium API
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        options = dict(options or {})
+        goal = options.pop("goal", None)
+        if options:
+            raise ValueError(f"reset options must be None or {{'goal': (x, y)}} (m), got keys {sorted(options)}.")
+        sim = self.sim
+        sim.reset()
+        sim.set_field((0.0, 0.0, 0.0))
+        if self.reset_noise_scale > 0.0:
+            self._perturb()
+        self._field = np.zeros(3)
+        self._com = self.com_position()
+        self._com_vel = np.zeros(3)
+        if goal is None:
+            r = self.np_random.uniform(*self.goal_distance)
+            bearing = self.np_random.uniform(-math.pi, math.pi)
+            self._goal = self._com[:2] + r * np.array([math.cos(bearing), math.sin(bearing)])
+        else:
+            g = np.asarray(goal, dtype=float)
+            if g.shape != (2,) or not np.all(np.isfinite(g)):
+                raise ValueError(f"options['goal'] must be a finite point (x, y) in m, got {goal!r}.")
+            self._goal = g.copy()
+        self._distance = self._horizontal_distance()
+        if goal is not None and self._distance >= self.max_distance:
+            raise ValueError(f"options['goal'] must lie within max_distance = {self.max_distance:g} m of the strip's "
+                             f"centre of mass, got {self._distance:g} m.")
+        self._start_distance = self._distance
+        self._broken = False
+        self._success = False
+        self._last_obs = self._get_obs()
+        return self._last_obs, self._info(0.0)
+
+    def _perturb(self) -> None:
+        """Move the free vertices horizontally by ``U(-reset_noise_scale, reset_noise_scale)`` (m)."""
+        import mujoco
+
+        sim, cm = self.sim, self.sim.backend.rod
+        adr = cm.vertex_qpos[cm.vertex_body > 0][:, :2].ravel()  # slides x, y of each free vertex
+        sim.data.qpos[adr] += self.np_random.uniform(-self.reset_noise_scale, self.reset_noise_scale, adr.size)
+        mujoco.mj_forward(sim.model, sim.data)
+
+    def field_of_action(self, action) -> np.ndarray:
+        """The field (T) an action in [-1, 1]^3 asks for."""
+        return np.clip(np.asarray(action, dtype=float), -1.0, 1.0) * self.field_limit
+
+    def baseline_action(self, obs=None) -> np.ndarray:
+        """The hand-designed controller's action (:func:`steer_controller`) for ``obs`` (default: the last
+        observation)."""
+        return steer_controller(self._last_obs if obs is None else obs)
+
+    def step(self, action):
+        steps = self._stepping(action)
+        while True:
+            try:
+                next(steps)
+            except StopIteration as done:
+                return done.value
+
+    def _stepping(self, action, block: int | None = None):
+        """:meth:`step` as a generator that yields between the physics' native blocks (the batched envs
+        interleave their robots with it) and returns ``(obs, reward, terminated, truncated, info)``."""
+        if self._broken:
+            raise RuntimeError("step() called after the simulation became unstable; call reset() first.")
+        action = as_action(self.action_space, action)
+        target = self.field_of_action(action)
+        self.sim.set_field(tuple(float(b) for b in target))
+        self._field = target
+        try:
+            yield from self.sim.stepping(self.n_substeps, block=block)
+        except SimulationError as err:
+            self._broken = True
+            info = self._info(0.0)
+            info.update(truncation_reason=str(err), instability=err.quantity)
+            if isinstance(err, UnphysicalError):
+                info.update(err.figures)
+                info["unphysical"] = err.reason
+            return self._last_obs.copy(), 0.0, False, True, info
+        com = self.com_position()
+        self._com_vel = (com - self._com) / (self.n_substeps * self.sim_dt)
+        self._com = com
+        before, self._distance = self._distance, self._horizontal_distance()
+        progress = self.progress_reward_weight * (before - self._distance)
+        field_cost = -self.field_cost_weight * float(np.sum(target**2)) / self.field_limit**2
+        reached = self._distance <= self.goal_radius
+        success = self.success_reward if reached else 0.0
+        self._success = reached
+        reward = progress + field_cost + success
+        obs = self._get_obs()
+        if not np.all(np.isfinite(obs)):
+            self._broken = True
+            info = self._info(0.0)
+            info.update(truncation_reason="non-finite observation", instability="observation")
+            return self._last_obs.copy(), 0.0, False, True, info
+        self._last_obs = obs
+        info = self._info(float(reward), progress=progress, field=field_cost, success=success)
+        lost = self._distance > self.max_distance
+        if lost:
+            info["lost"] = True
+        return obs, float(reward), bool(reached or lost), False, info
+
+    def _info(self, reward: float, *, progress: float = 0.0, field: float = 0.0, success: float = 0.0) -> dict:
+        info = {
+            "reward_progress": float(progress), "reward_field": float(field), "reward_success": float(success),
+            "reward": float(reward), "goal": self._goal.copy(), "distance": self._distance,
+            "x_position": float(self._com[0]), "y_position": float(self._com[1]),
+            "z_position": float(self._com[2]), "heading": self.heading(), "field": self._field.copy(),
+            "time": self.sim.time, "is_success": self._success, "max_penetration": self.sim.max_penetration,
+            "position_error": self._distance,
+        }
+        if self._success:
+            info["time_to_goal"] = self.sim.time
+        return info
+
+    # ------------------------------------------------------------------ rendering
+    def render(self):
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' to the constructor.")
+            return None
+        if self._renderer is None:
+            from ..render import RodRenderer
+
+            self._renderer = RodRenderer(self.sim, width=self.width, height=self.height)
+        return self._renderer.render(field=self.sim.field, goal=tuple(self._goal))
+
+    def close(self):
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+
+def _range(name: str, value, *, unit: str) -> tuple[float, float]:
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != 2:
+        raise ValueError(f"{name} must be (low, high) in {unit}, got {value!r}.")
+    lo = finite_number(f"{name}[0]", value[0], unit=unit)
+    hi = finite_number(f"{name}[1]", value[1], unit=unit)
+    if not 0.0 < lo <= hi:
+        raise ValueError(f"{name} must satisfy 0 < low <= high ({unit}), got {value!r}.")
+    return lo, hi
+
+
+def steer_controller(obs: np.ndarray, *, amplitude: float = 1.0) -> np.ndarray:
+    """The hand-designed steering baseline: a field of ``amplitude`` (x field_limit) turning at the env's clock
+    in the vertical plane through the goal, ``B = amplitude (-cos(w t) u + sin(w t) z)`` with ``u`` the unit
+    vector from the centre of mass to the goal: the strip turns into that plane and tumbles along ``+u``.
+    Observations only (``obs`` of :class:`MagSoftSteerEnv`, one or a batch), so it runs in vector envs and the
+    evaluation scripts like a policy."""
+    o = np.asarray(obs, dtype=float)
+    single = o.ndim == 1
+    o = np.atleast_2d(o)
+    g = o[:, 0:2]
+    u = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-12)
+    s, c = o[:, -2], o[:, -1]
+    a = np.empty((o.shape[0], 3))
+    a[:, 0] = -c * u[:, 0]
+    a[:, 1] = -c * u[:, 1]
+    a[:, 2] = s
+    a = np.clip(amplitude * a, -1.0, 1.0).astype(np.float32)
+    return a[0] if single else a
+
+
+__all__ = ["MagSoftSteerEnv", "steer_controller"]
