@@ -60,12 +60,47 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="--rod cable: add B_y = AMP sin(2 pi f t + phase_y) to the drive (mT; default 0)")
     p.add_argument("--phase-y-deg", type=float, default=0.0, metavar="DEG",
                    help="--rod cable: the phase of B_y (deg; default 0)")
+    p.add_argument("--rotate-about", choices=["x", "y", "z"], default=None,
+                   help="replace the drive by a field of --rotation-mT turning right-handed about this world axis (z: "
+                        "the strip lying on the floor turns in place; x: it turns into the y-z plane and tumbles along "
+                        "y; y: end over end along x); x and z need --rod cable")
+    p.add_argument("--rotation-mT", type=float, default=2.0, metavar="MT",
+                   help="--rotate-about: the rotating field's magnitude (mT; default 2)")
+    p.add_argument("--frequency-hz", type=float, default=None, metavar="HZ",
+                   help="the drive's frequency (Hz; default: the robot's own)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
     p.add_argument("--out", type=Path, default=None, metavar="PATH",
                    help="also write the result as JSON to this file (checked before the run, written atomically)")
     add_planar_only_flags(p)
     p.set_defaults(run=run)
     return p
+
+
+def rotate_drive_args(args) -> None:
+    """Check ``--rotate-about``, ``--field-mT`` and ``--frequency-hz`` (ValueError naming the flag)."""
+    if args.rotate_about is not None:
+        if args.rotate_about != "y" and args.rod != "cable":
+            raise ValueError(f"--rotate-about {args.rotate_about} turns the field out of the x-z plane: add --rod "
+                             "cable (the planar rod takes --rotate-about y only).")
+        if not (math.isfinite(args.rotation_mT) and 0 < args.rotation_mT <= 100):
+            raise ValueError(f"--rotation-mT must lie in (0, 100] mT, got {args.rotation_mT}.")
+        if args.amplitude_y_mT or args.waveform not in (None, "sine") or args.field_scale != 1.0:
+            raise ValueError("--rotate-about replaces the drive: give it without --amplitude-y-mT, --waveform square "
+                             "or --field-scale.")
+    if args.frequency_hz is not None and not (math.isfinite(args.frequency_hz) and 0 < args.frequency_hz <= 100):
+        raise ValueError(f"--frequency-hz must lie in (0, 100] Hz, got {args.frequency_hz}.")
+
+
+def rotated_drive(args, preset):
+    """``preset`` with the drive of ``--rotate-about`` / ``--frequency-hz`` (unchanged without them)."""
+    from magsoft_env.spec.drive import Waveparams
+
+    f = preset.wave.frequency if args.frequency_hz is None else args.frequency_hz
+    if args.rotate_about is not None:
+        return dataclasses.replace(preset, drive=Waveparams.rotating(args.rotation_mT * 1e-3, f, args.rotate_about))
+    if args.frequency_hz is not None:
+        return dataclasses.replace(preset, drive=dataclasses.replace(preset.wave, frequency=f))
+    return preset
 
 
 def _turned_over(name: str):
@@ -104,6 +139,7 @@ def run(args) -> int:
         raise ValueError(f"--amplitude-y-mT must be finite and at most 1000 mT in size, got {args.amplitude_y_mT}.")
     if not math.isfinite(args.phase_y_deg):
         raise ValueError(f"--phase-y-deg must be finite, got {args.phase_y_deg}.")
+    rotate_drive_args(args)
     shape = args.waveform or "sine"
     if args.coil_ms and shape != "square":
         raise ValueError(f"--coil-ms applies to --waveform square only, got --coil-ms {args.coil_ms} with a {shape}.")
@@ -121,6 +157,7 @@ def run(args) -> int:
         w = dataclasses.replace(preset.wave, amplitude_y=args.amplitude_y_mT * 1e-3,
                                 phase_y=math.radians(args.phase_y_deg))
         preset = dataclasses.replace(preset, drive=w)
+    preset = rotated_drive(args, preset)
     if args.friction is not None:
         preset = dataclasses.replace(preset, friction=args.friction)
     if args.face_down:
@@ -169,7 +206,8 @@ def run(args) -> int:
               f"{out['max_orientation_deg']:.0f} deg ({out['locomotion']}); {out['wall_time_s']:.1f} s wall")
         if res.rod == "cable":
             print(f"3D strip: sideways travel {out['displacement_y_mm']:+.3f} mm, heading "
-                  f"{out['final_heading_deg']:+.2f} deg at the end, roll up to {out['max_roll_deg']:.1f} deg")
+                  f"{out['final_heading_deg']:+.2f} deg at the end (turned {out['turned_deg']:+.0f} deg on the floor), "
+                  f"roll up to {out['max_roll_deg']:.1f} deg")
         given = (f"fidelity {args.fidelity}" if args.fidelity else "the robot's own"
                  if args.segments is None and args.timestep_ms is None else "as given")
         print(f"numerics: {res.segments} segments, {res.timestep * 1e3:g} ms ({given}; docs/convergence.md)")

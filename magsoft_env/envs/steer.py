@@ -14,6 +14,7 @@ from ..sim import SimulationError, Simulator
 from ..sim.gait import gait_rod_options
 from ..sim.health import UnphysicalError, check_steps
 from ..sim.model import MAX_TIMESTEP
+from ..sim.readouts import PitchTracker, is_flipped, pitch_orientation
 from ..validate import finite_number, nonnegative, positive
 from . import as_action, refuse_unknown_kwargs
 
@@ -102,9 +103,12 @@ class MagSoftSteerEnv(gym.Env):
       or unphysical simulation (``info["truncation_reason"]``, and ``info["unphysical"]`` with its figures, as
       in the crawl envs; docs/sim.md, "Physical checks").
 
-    ``info`` also carries the goal, the centre of mass (``x_position``, ``y_position``, ``z_position``), the
-    ``heading`` (rad, of the second end from the first, on the floor), ``distance`` (= ``position_error``), the ``field`` (T, three
-    components), ``time`` and ``max_penetration`` (m).
+    ``info`` also carries ``orientation`` (rad, end over end: the strip's mean direction from the floor in its
+    own vertical plane, continuous, +-pi after one flip; :class:`~magsoft_env.sim.readouts.PitchTracker`),
+    ``flipped`` (it has been past vertical this episode: it tumbled), ``turned`` (rad, how far it turned on
+    the floor this episode), the goal, the centre of mass (``x_position``, ``y_position``, ``z_position``), the
+    ``heading`` (rad, of the second end from the first, on the floor), ``distance`` (= ``position_error``), the
+    ``field`` (T, three components), ``time`` and ``max_penetration`` (m).
 
     ## Arguments
 
@@ -216,6 +220,9 @@ class MagSoftSteerEnv(gym.Env):
         self._distance = 0.0
         self._broken = False
         self._success = False
+        self._pitch = PitchTracker()
+        self._heading0 = 0.0
+        self._flipped = False
         self._last_obs = np.zeros(self.observation_space.shape, np.float32)
 
     # ------------------------------------------------------------------ readouts
@@ -273,6 +280,10 @@ class MagSoftSteerEnv(gym.Env):
             raise ValueError(f"options['goal'] must lie within max_distance = {self.max_distance:g} m of the strip's "
                              f"centre of mass, got {self._distance:g} m.")
         self._start_distance = self._distance
+        self._pitch = PitchTracker()
+        pitch_orientation(sim, self._pitch)  # its reference heading: the strip's at the start
+        self._heading0 = self._pitch.heading
+        self._flipped = False
         self._broken = False
         self._success = False
         self._last_obs = self._get_obs()
@@ -347,7 +358,11 @@ class MagSoftSteerEnv(gym.Env):
         return obs, float(reward), bool(reached or lost), False, info
 
     def _info(self, reward: float, *, progress: float = 0.0, field: float = 0.0, success: float = 0.0) -> dict:
+        # end over end (continuous, +-pi per flip) and turns on the floor, apart (sim.readouts.PitchTracker)
+        turn = pitch_orientation(self.sim, self._pitch)
+        self._flipped = self._flipped or is_flipped(turn)
         info = {
+            "orientation": turn, "flipped": self._flipped, "turned": self._pitch.heading - self._heading0,
             "reward_progress": float(progress), "reward_field": float(field), "reward_success": float(success),
             "reward": float(reward), "goal": self._goal.copy(), "distance": self._distance,
             "x_position": float(self._com[0]), "y_position": float(self._com[1]),

@@ -23,7 +23,7 @@ from ..units import MM
 from ..validate import nonnegative, positive
 from .health import UnphysicalError, check_steps
 from .model import RodOptions, material_contact_timeconst
-from .readouts import is_flipped, orientation
+from .readouts import PitchTracker, is_flipped, orientation, pitch_orientation
 from .simulator import SimulationError, Simulator
 from .waveforms import as_waveform
 
@@ -140,6 +140,11 @@ class GaitResult:
     max_roll : float
         3D rod: largest roll of any edge about its own axis over the run, the width axis's angle from the floor
         (rad, at the recorded samples): about 0 while the strip crawls on its wide face; 0 for the planar rod.
+    turned : float
+        3D rod: how far the strip turned on the floor (about z) over the run, counted continuously (rad, +
+        from +x toward +y; two turns in place read 4 pi); 0 for the planar rod. Its orientation and
+        ``max_link_rotation`` are end over end only (:class:`~magsoft_env.sim.readouts.PitchTracker`): turning on
+        the floor is not a tumble.
     """
 
     name: str
@@ -173,6 +178,7 @@ class GaitResult:
     displacement_y: float = 0.0
     final_heading: float = 0.0
     max_roll: float = 0.0
+    turned: float = 0.0
 
     @property
     def flipped(self) -> bool:
@@ -212,6 +218,7 @@ class GaitResult:
             "displacement_y_mm": self.displacement_y / MM,
             "final_heading_deg": math.degrees(self.final_heading),
             "max_roll_deg": math.degrees(self.max_roll),
+            "turned_deg": math.degrees(self.turned),
         }
 
 
@@ -292,8 +299,10 @@ def run_gait(
     y0 = float(sim.center_of_mass()[1]) if three else 0.0
     roll = _roll(sim) if three else 0.0
     z = sim.centerline()[-1]
-    zmax, rot = float(np.max(z)), float(np.max(np.abs(sim.angles())))
-    turn = orientation(sim)
+    pitch = PitchTracker() if three else None  # the strip: end over end only, not turns on the floor
+    turn = pitch_orientation(sim, pitch) if three else orientation(sim)
+    heading0 = pitch.heading if three else 0.0
+    zmax, rot = float(np.max(z)), _link_rotation(sim, pitch)
     max_turn, flip_time = abs(turn), math.nan
     lift_l, lift_r = float(np.max(z[left])) - z_rest, float(np.max(z[right])) - z_rest
     ok, msg, done, unphysical = True, "ok", 0, ""
@@ -322,8 +331,8 @@ def run_gait(
             roll = max(roll, _roll(sim))
         zmax = max(zmax, float(np.max(z)))
         lift_l, lift_r = max(lift_l, float(np.max(z[left])) - z_rest), max(lift_r, float(np.max(z[right])) - z_rest)
-        rot = max(rot, float(np.max(np.abs(sim.angles()))))
-        turn = orientation(sim)
+        turn = pitch_orientation(sim, pitch) if three else orientation(sim)
+        rot = max(rot, _link_rotation(sim, pitch))
         max_turn = max(max_turn, abs(turn))
         if math.isnan(flip_time) and is_flipped(turn):
             flip_time = sim.time
@@ -353,7 +362,21 @@ def run_gait(
         energy_drift=sim.energy_drift, unphysical=unphysical, window=float(t[i1] - t[i0]), whole_periods=whole,
         segments=options.segments, timestep=options.timestep, locomotion=locomotion, max_orientation=max_turn,
         final_orientation=turn, flip_time=flip_time, rod=rod, displacement_y=dy, final_heading=heading, max_roll=roll,
+        turned=(pitch.heading - heading0) if three else 0.0,
     )
+
+
+def _link_rotation(sim, pitch) -> float:
+    """Largest |tangent angle| of any piece (rad): from +x toward +z (planar); for the 3D strip from the
+    reference heading of ``pitch`` (:class:`~magsoft_env.sim.readouts.PitchTracker`) toward +z, so that turning
+    on the floor does not count."""
+    if pitch is None:
+        return float(np.max(np.abs(sim.angles())))
+    from .cable import material_frames
+
+    t = material_frames(sim.backend.rod, sim.data)[0]
+    along = t[:, 0] * math.cos(pitch.heading) + t[:, 1] * math.sin(pitch.heading)
+    return float(np.max(np.abs(np.arctan2(t[:, 2], along))))
 
 
 def _roll(sim) -> float:

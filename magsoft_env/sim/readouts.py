@@ -86,9 +86,58 @@ def orientation(sim) -> float:
     return _mean_angle(sim.angles(), w, float(w.sum()), sim.tip_angle())
 
 
+class PitchTracker:
+    """The 3D strip's orientation end over end (rad), continuous in time, not counting turns on the floor.
+
+    The body's direction is its length-weighted mean tangent ``T``. Its orientation is the angle of ``T`` from a
+    horizontal reference heading ``h`` toward +z, in the vertical plane through ``h``, unwrapped between
+    samples. While the body lies within 45 deg of the floor, ``h`` follows its heading on the floor (turns about
+    z, however far, are not end over end), taking whichever of the heading and its reverse is nearer ``h`` (a
+    body that has flipped keeps reading about +-pi); steeper, ``h`` is held, so that passing through vertical
+    reads as the angle going past +-pi / 2. In the plane (``T_y = 0``, ``h = +x``) it is the planar
+    :func:`orientation` for bodies bent less than a half turn. Samples must be dense enough that the body turns
+    less than 90 deg between them.
+    """
+
+    #: Steepest elevation of T (rad) at which the reference heading still follows the body.
+    FOLLOW_ELEVATION = 0.25 * math.pi
+
+    def __init__(self):
+        self.heading = 0.0  # the reference heading h (rad from +x toward +y)
+        self.value: float | None = None
+
+    def update(self, tangents, lengths) -> float:
+        """The orientation (rad) for edge ``tangents`` (shape ``(n, 3)``) of ``lengths`` (shape ``(n,)``)."""
+        t = np.asarray(lengths, dtype=float) @ np.asarray(tangents, dtype=float)
+        horiz = math.hypot(t[0], t[1])
+        if not np.all(np.isfinite(t)):
+            return math.nan
+        if math.atan2(abs(t[2]), horiz) < self.FOLLOW_ELEVATION:
+            phi = math.atan2(t[1], t[0])
+            if self.value is None:
+                self.heading = phi
+            else:  # the heading or its reverse, whichever is nearer the reference
+                d = math.remainder(phi - self.heading, _TURN)
+                self.heading += d if abs(d) <= 0.5 * math.pi else math.remainder(d + math.pi, _TURN)
+        along = t[0] * math.cos(self.heading) + t[1] * math.sin(self.heading)
+        a = math.atan2(t[2], along)
+        if self.value is not None:
+            a += _TURN * round((self.value - a) / _TURN)
+        self.value = a
+        return a
+
+
+def pitch_orientation(sim, tracker: PitchTracker) -> float:
+    """:class:`PitchTracker` of a :class:`~magsoft_env.sim.Simulator` running the 3D strip, updated now."""
+    from .cable import material_frames
+
+    cm = sim.backend.rod
+    return tracker.update(material_frames(cm, sim.data)[0], cm.layout.edge_length)
+
+
 def is_flipped(orientation_rad: float) -> bool:
     """True when ``|orientation_rad|`` is past vertical (> :data:`FLIP_ANGLE`)."""
     return bool(abs(float(orientation_rad)) > FLIP_ANGLE)
 
 
-__all__ = ["FLIP_ANGLE", "body_orientation", "is_flipped", "orientation"]
+__all__ = ["FLIP_ANGLE", "PitchTracker", "body_orientation", "is_flipped", "orientation", "pitch_orientation"]

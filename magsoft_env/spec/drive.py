@@ -120,6 +120,25 @@ class Waveparams:
                 f"{self.coil_time!r} s with shape='sine'."
             )
 
+    @classmethod
+    def rotating(cls, magnitude: float, frequency: float, axis: str = "z") -> Waveparams:
+        """A field of ``magnitude`` (T) turning right-handed about the world ``axis`` (``"x"``, ``"y"`` or
+        ``"z"``) at ``frequency`` (Hz): about z ``(B cos wt, B sin wt, 0)`` (it turns a strip lying on the floor
+        in place), about x ``(0, B cos wt, B sin wt)`` (a strip lying along x turns into the y-z plane and tumbles
+        along y), about y ``(-B cos wt, 0, B sin wt)`` (planar: end over end along x). x and z have a y
+        component: 3D rod only."""
+        if axis not in ("x", "y", "z"):
+            raise ValueError(f"axis must be 'x', 'y' or 'z', got {axis!r}.")
+        b = field_component("magnitude", magnitude)
+        if b < 0.0:
+            raise ValueError(f"magnitude must be >= 0 T, got {magnitude!r}.")
+        half = 0.5 * math.pi
+        if axis == "z":
+            return cls(amplitude_x=b, amplitude_z=0.0, frequency=frequency, phase=half, amplitude_y=b, phase_y=0.0)
+        if axis == "x":
+            return cls(amplitude_x=0.0, amplitude_z=b, frequency=frequency, amplitude_y=b, phase_y=half)
+        return cls(amplitude_x=b, amplitude_z=b, frequency=frequency, phase=-half)
+
     @property
     def components(self) -> int:
         """2 (``B_x, B_z``), or 3 (``B_x, B_y, B_z``) with a y amplitude (a drive for the 3D rod only)."""
@@ -144,7 +163,8 @@ class Waveparams:
         """One line in mT, Hz and deg, e.g. ``"sine B_z 2 mT, 2 Hz"``."""
         parts = []
         if self.amplitude_x:
-            ph = f" {math.degrees(self.phase):+.0f} deg" if self.phase and self.amplitude_z else ""
+            other = self.amplitude_z or self.amplitude_y  # the phase is relative to the other axes
+            ph = f" {math.degrees(self.phase):+.0f} deg" if self.phase and other else ""
             parts.append(f"B_x {self.amplitude_x / MT:+g}{ph}")
         if self.amplitude_y:
             ph = f" {math.degrees(self.phase_y):+.0f} deg" if self.phase_y else ""
