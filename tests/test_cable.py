@@ -298,8 +298,11 @@ def test_simulator_steps_the_cable_rod():
     sim.set_field((0.0, 1e-3, 5e-3))  # a field with a y component bends it sideways
     sim.step(300)
     assert sim.tip_position()[1] > 1e-4 and sim.field.By == 1e-3
-    with pytest.raises(ValueError, match="planar trajectories"):
-        sim.run((0.0, 1e-3), 0.01)
+    tr = sim.run((0.0, 0.0, 5e-3), 0.02, record_every=10)  # the 3D rod records x, y, z and three components
+    assert tr.field.shape == (3, 3) and tr.y.shape == tr.x.shape == tr.z.shape == (3, 22)
+    np.testing.assert_array_equal(tr.field[-1], [0.0, 0.0, 5e-3])
+    np.testing.assert_allclose([tr.x[-1, -1], tr.y[-1, -1], tr.z[-1, -1]], sim.tip_position(), rtol=0, atol=0)
+    assert "y_m" in tr.to_dict()
 
 
 class _Rotating(Waveform):

@@ -83,12 +83,14 @@ class Trajectory:
     ----------
     time : (n,) ndarray
         Times (s).
-    field : (n, 2) ndarray
-        Applied field B_x, B_z (T).
+    field : (n, 2) or (n, 3) ndarray
+        Applied field B_x, B_z (T); the 3D rod: B_x, B_y, B_z.
     x, z : (n, N + 2) ndarray
         Centerline points (m), base to tip (see :meth:`Simulator.centerline`).
     tip_angle : (n,) ndarray
-        Tangent angle of the tip (rad).
+        Tangent angle of the tip (rad); the 3D rod: of its projection on the x-z plane.
+    y : (n, N + 2) ndarray or None
+        The 3D rod: the centerline points' y (m); None for the planar rod.
     """
 
     time: np.ndarray
@@ -96,6 +98,7 @@ class Trajectory:
     x: np.ndarray
     z: np.ndarray
     tip_angle: np.ndarray
+    y: np.ndarray | None = None
 
     def to_dict(self) -> dict:
         """The samples as nested lists of plain numbers (SI, unit in the key), for JSON."""
@@ -105,6 +108,7 @@ class Trajectory:
             "x_m": np.asarray(self.x, dtype=float).tolist(),
             "z_m": np.asarray(self.z, dtype=float).tolist(),
             "tip_angle_rad": np.asarray(self.tip_angle, dtype=float).tolist(),
+            **({} if self.y is None else {"y_m": np.asarray(self.y, dtype=float).tolist()}),
         }
 
 
@@ -551,20 +555,20 @@ class Simulator:
         duration = positive("duration", duration, unit="s")
         if isinstance(record_every, bool) or not isinstance(record_every, (int, np.integer)) or record_every < 1:
             raise ValueError(f"record_every must be a positive integer, got {record_every!r}.")
-        if self._per_step:
-            raise ValueError("Simulator.run records planar trajectories (x, z); with the 3D rod use set_waveform, "
-                             "step and the readouts (centerline() gives x, y, z).")
         nsteps = int(round(check_steps(f"duration / timestep = {duration:g} s / {self.timestep:g} s",
                                        duration / self.timestep, "Use a shorter duration or a larger timestep.")))
         self.set_waveform(waveform)
-        ts, fs, xs, zs, tips = [], [], [], [], []
+        ts, fs, xs, ys, zs, tips = [], [], [], [], [], []
+        three = self._per_step
 
         def record():
-            x, z = self.centerline()
+            pts = self.centerline()
             ts.append(self.time)
-            fs.append(self._B3[[0, 2]].copy())
-            xs.append(x)
-            zs.append(z)
+            fs.append(self._B3.copy() if three else self._B3[[0, 2]].copy())
+            xs.append(pts[0])
+            zs.append(pts[-1])
+            if three:
+                ys.append(pts[1])
             tips.append(self.tip_angle())
 
         record()
@@ -574,7 +578,8 @@ class Simulator:
             self.step(k)
             done += k
             record()
-        return Trajectory(np.array(ts), np.array(fs), np.array(xs), np.array(zs), np.array(tips))
+        return Trajectory(np.array(ts), np.array(fs), np.array(xs), np.array(zs), np.array(tips),
+                          np.array(ys) if three else None)
 
     # ------------------------------------------------------------------ statics
     def static_residual(self) -> float:
