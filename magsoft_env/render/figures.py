@@ -27,6 +27,7 @@ PALETTE = {
     "robot": "#2c3e50",        # the MuJoCo rod
     "field": "#c0392b",        # field arrow, B_x
     "field_z": "#8e44ad",      # B_z in the time panel
+    "field_y": "#1e8449",      # B_y in the time panel (the 3D strip)
     "trace": "#e67e22",        # centre-of-mass (or tip) path
     "start": "#7f8c8d",        # start marker
     "theory": "#1f77b4",       # analytical equilibrium

@@ -244,6 +244,10 @@ class RodRenderer:
         the panel's width (about half the height's 16:9 width, even).
     panel_seconds : float or None
         Time axis of the panel (s); None: grows with the time.
+    view : {None, "side"}
+        The planar rod's camera (the side view). For the 3D strip (``RodOptions(rod="cable")``)
+        ``RodRenderer(sim, ...)`` returns a :class:`~magsoft_env.render.strip.StripRenderer`, whose ``view`` is
+        ``"perspective"`` (default) or ``"top"``.
 
     Attributes
     ----------
@@ -267,10 +271,27 @@ class RodRenderer:
         For a size outside [16, 8192] pixels, a grid spacing, span or field scale that is not > 0.
     """
 
+    def __new__(cls, sim, **kwargs):
+        # the 3D strip's frames are drawn by their own class (perspective or top view)
+        if cls is RodRenderer and getattr(getattr(sim, "options", None), "rod", None) == "cable":
+            from .strip import StripRenderer
+
+            if kwargs.get("view") is None:
+                kwargs.pop("view", None)
+            for name in ("zoom", "zoom_span"):
+                if kwargs.get(name):
+                    raise ValueError(f"{name} is the side view's zoom inset; the 3D strip's frames have none.")
+                kwargs.pop(name, None)
+            return StripRenderer(sim, **kwargs)
+        return super().__new__(cls)
+
     def __init__(self, sim, *, width: int = 960, height: int = 540, follow: bool = True, span: float | None = None,
                  minor: float = 1 * MM, major: float = 5 * MM, field_scale: float | None = None, trace: bool = True,
                  panel: bool = False, panel_seconds: float | None = None, zoom: bool | None = None,
-                 zoom_span: float | None = None):
+                 zoom_span: float | None = None, view: str | None = None):
+        if view not in (None, "side"):
+            raise ValueError(f"view={view!r} draws the 3D strip (RodOptions(rod='cable')); the planar rod's frames "
+                             "are the side view (view='side' or None).")
         for name, v in (("width", width), ("height", height)):
             if int(v) != v or not 16 <= v <= 8192:
                 raise ValueError(f"{name} must be an integer in [16, 8192] pixels, got {v!r}.")
@@ -816,7 +837,8 @@ class RodRenderer:
 
 
 class TimePanel:
-    """A side panel for videos: displacement x(t) (mm) above the field B_x(t), B_z(t) (mT).
+    """A side panel for videos: displacement x(t) (mm) above the field B_x(t), B_z(t) (mT); with
+    ``components=3`` (the 3D strip) Δx(t) and Δy(t) above B_x(t), B_y(t), B_z(t).
 
     Drawn with matplotlib (Agg) in the figures' style (:data:`~magsoft_env.render.figures.RC_PARAMS`).
     Each :meth:`update` adds a sample and returns the panel, shape ``(height, width, 3)`` uint8;
@@ -831,12 +853,16 @@ class TimePanel:
         Pixels; default ``0.9 * height`` rounded to even.
     seconds : float or None
         Time axis (s); None: grows in 1-2-5 steps with the time.
-    x_label : str
-        Label of the upper plot.
+    x_label : str or None
+        Label of the upper plot; None: ``"Δx centre of mass (mm)"`` (``"centre of mass (mm)"`` with
+        ``components=3``).
+    components : {2, 3}
+        2: :meth:`update` takes a displacement ``x`` and a field ``(B_x, B_z)``; 3: a pair ``(Δx, Δy)`` and
+        ``(B_x, B_y, B_z)``.
     """
 
     def __init__(self, *, height: int, width: int | None = None, seconds: float | None = None,
-                 x_label: str = "\u0394x centre of mass (mm)"):
+                 x_label: str | None = None, components: int = 2):
         import matplotlib
         from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.figure import Figure
@@ -846,19 +872,37 @@ class TimePanel:
         if seconds is not None and not (seconds > 0 and math.isfinite(seconds)):
             raise ValueError(f"seconds must be a time > 0 (s) or None, got {seconds!r}.")
         self.seconds = None if seconds is None else float(seconds)
+        if components not in (2, 3):
+            raise ValueError(f"components must be 2 (B_x, B_z) or 3 (B_x, B_y, B_z), got {components!r}.")
+        self.components = int(components)
+        three = self.components == 3
+        if x_label is None:
+            x_label = "centre of mass (mm)" if three else "\u0394x centre of mass (mm)"
         dpi = 120.0 * max(self.height / 540.0, 0.2)
         with matplotlib.rc_context(_rc()):
             self.fig = Figure(figsize=(self.width / dpi, self.height / dpi), dpi=dpi, layout="constrained")
             self.canvas = FigureCanvasAgg(self.fig)
             self.ax_x, self.ax_b = self.fig.subplots(2, 1, sharex=True)
-            (self._lx,) = self.ax_x.plot([], [], color=PALETTE["trace"], lw=1.8, animated=True)
+            (self._lx,) = self.ax_x.plot([], [], color=PALETTE["trace"], lw=1.8, label="$\\Delta x$", animated=True)
+            self._lines_x = [self._lx]
+            if three:
+                (ly,) = self.ax_x.plot([], [], color=PALETTE["theory"], lw=1.6, ls="--", label="$\\Delta y$",
+                                       animated=True)
+                self._lines_x.append(ly)
+                self.ax_x.legend(loc="upper right", ncols=2)
             (self._lbx,) = self.ax_b.plot([], [], color=PALETTE["field"], lw=1.6, label="$B_x$", animated=True)
+            self._lines_b = [self._lbx]
+            if three:
+                (lby,) = self.ax_b.plot([], [], color=PALETTE["field_y"], lw=1.6, ls="-.", label="$B_y$",
+                                        animated=True)
+                self._lines_b.append(lby)
             (self._lbz,) = self.ax_b.plot([], [], color=PALETTE["field_z"], lw=1.6, ls="--", label="$B_z$",
                                           animated=True)
+            self._lines_b.append(self._lbz)
             self.ax_x.set_ylabel(x_label)
             self.ax_b.set_ylabel("field (mT)")
             self.ax_b.set_xlabel("t (s)")
-            self.ax_b.legend(loc="upper right", ncols=2)
+            self.ax_b.legend(loc="upper right", ncols=len(self._lines_b))
             for ax in (self.ax_x, self.ax_b):
                 ax.axhline(0.0, color=PALETTE["muted"], lw=0.6)
         self.reset()
@@ -871,22 +915,30 @@ class TimePanel:
         self._blim = (-0.5, 0.5)
         self._background = None
 
-    def update(self, t: float, x: float, b) -> np.ndarray:
-        """Add the sample (t s, x m, b = (B_x, B_z) T) and draw the panel."""
+    def update(self, t: float, x, b) -> np.ndarray:
+        """Add the sample (t s; x m, or (Δx, Δy) m with ``components=3``; b = (B_x, B_z) T, or (B_x, B_y, B_z))
+        and draw the panel."""
         import matplotlib
 
         t = float(t)
         if self._t and t < self._t[-1]:
             self.reset()
+        xs = np.atleast_1d(np.asarray(x, dtype=float)).ravel()
+        bs = np.asarray(b, dtype=float).ravel()
+        if xs.size != len(self._lines_x) or bs.size != self.components:
+            raise ValueError(f"this panel takes {len(self._lines_x)} displacement(s) and {self.components} field "
+                             f"components, got {xs.size} and {bs.size}.")
         self._t.append(t)
-        self._x.append(float(x) / MM)
-        self._b.append((float(b[0]) / MT, float(b[1]) / MT))
+        self._x.append(tuple(xs / MM))
+        self._b.append(tuple(bs / MT))
+        tx = np.asarray(self._x)
         tb = np.asarray(self._b)
-        self._lx.set_data(self._t, self._x)
-        self._lbx.set_data(self._t, tb[:, 0])
-        self._lbz.set_data(self._t, tb[:, 1])
+        for k, line in enumerate(self._lines_x):
+            line.set_data(self._t, tx[:, k])
+        for k, line in enumerate(self._lines_b):
+            line.set_data(self._t, tb[:, k])
         t_max = self.seconds if self.seconds is not None else _nice_ceil(max(t, 0.1))
-        self._xlim = _grow(self._xlim, min(self._x), max(self._x))
+        self._xlim = _grow(self._xlim, float(tx.min()), float(tx.max()))
         self._blim = _grow(self._blim, float(tb.min()), float(tb.max()))
         lims = (t_max, self._xlim, self._blim)
         with matplotlib.rc_context(_rc()):
@@ -899,9 +951,10 @@ class TimePanel:
                 self._lims = lims
             else:
                 self.canvas.restore_region(self._background)
-            self.ax_x.draw_artist(self._lx)
-            self.ax_b.draw_artist(self._lbx)
-            self.ax_b.draw_artist(self._lbz)
+            for line in self._lines_x:
+                self.ax_x.draw_artist(line)
+            for line in self._lines_b:
+                self.ax_b.draw_artist(line)
         img = np.asarray(self.canvas.buffer_rgba())[..., :3]
         if img.shape[:2] != (self.height, self.width):  # the figure size rounds to whole pixels
             out = np.full((self.height, self.width, 3), 255, np.uint8)
