@@ -56,10 +56,56 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--rod", choices=["planar", "cable"], default="planar",
                    help="planar: the hinge chain in the x-z plane (default); cable: the 3D flexcomp strip on the floor "
                         "(width-wise contact, twist free; about 10x the wall time; docs/sim.md)")
+    add_y_drive_flags(p)
+    add_rotate_flags(p)
+    p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+    p.add_argument("--out", type=Path, default=None, metavar="PATH",
+                   help="also write the result as JSON to this file (checked before the run, written atomically)")
+    add_planar_only_flags(p)
+    p.set_defaults(run=run)
+    return p
+
+
+#: What the help says of the y drive: how to make the field's horizontal part turn about z.
+Y_DRIVE_HELP = ("B_x = A_x sin(2 pi f t + phase_x) is the drive's own; with AMP = A_x and phase_y = phase_x - 90 deg "
+                "(paper-5c: --amplitude-y-mT 2 --phase-y-deg 0) its horizontal part (B_x, B_y) turns about +z, "
+                "counter-clockwise seen from above, while the drive's B_z stays; a field rotating about z alone: "
+                "--rotate-about z")
+
+
+def add_y_drive_flags(p) -> None:
+    """``--amplitude-y-mT`` and ``--phase-y-deg``: a third axis for the drive of the 3D rod (``magsoft gait``,
+    ``magsoft video``)."""
     p.add_argument("--amplitude-y-mT", type=float, default=0.0, metavar="MT",
-                   help="--rod cable: add B_y = AMP sin(2 pi f t + phase_y) to the drive (mT; default 0)")
+                   help="--rod cable: add B_y = AMP sin(2 pi f t + phase_y) to the drive (mT; default 0). "
+                        + Y_DRIVE_HELP)
     p.add_argument("--phase-y-deg", type=float, default=0.0, metavar="DEG",
                    help="--rod cable: the phase of B_y (deg; default 0)")
+
+
+def check_y_drive(args) -> None:
+    """The y drive's flags: finite, at most 1000 mT, and only with ``--rod cable``."""
+    if (args.amplitude_y_mT or args.phase_y_deg) and args.rod != "cable":
+        raise ValueError("--amplitude-y-mT and --phase-y-deg drive the 3D rod: add --rod cable (the planar rod has no "
+                         "y axis).")
+    if not (math.isfinite(args.amplitude_y_mT) and abs(args.amplitude_y_mT) <= 1000):
+        raise ValueError(f"--amplitude-y-mT must be finite and at most 1000 mT in size, got {args.amplitude_y_mT}.")
+    if not math.isfinite(args.phase_y_deg):
+        raise ValueError(f"--phase-y-deg must be finite, got {args.phase_y_deg}.")
+
+
+def with_y_drive(preset, args):
+    """``preset`` with ``B_y = amplitude_y sin(2 pi f t + phase_y)`` added to its drive (unchanged without one)."""
+    if not args.amplitude_y_mT:
+        return preset
+    w = dataclasses.replace(preset.wave, amplitude_y=args.amplitude_y_mT * 1e-3,
+                            phase_y=math.radians(args.phase_y_deg))
+    return dataclasses.replace(preset, drive=w)
+
+
+def add_rotate_flags(p) -> None:
+    """``--rotate-about``, ``--rotation-mT`` and ``--frequency-hz``: a field turning about a world axis instead of the
+    drive (``magsoft gait``, ``magsoft video``)."""
     p.add_argument("--rotate-about", choices=["x", "y", "z"], default=None,
                    help="replace the drive by a field of --rotation-mT turning right-handed about this world axis (z: "
                         "the strip lying on the floor turns in place; x: it turns into the y-z plane and tumbles along "
@@ -68,12 +114,6 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="--rotate-about: the rotating field's magnitude (mT; default 2)")
     p.add_argument("--frequency-hz", type=float, default=None, metavar="HZ",
                    help="the drive's frequency (Hz; default: the robot's own)")
-    p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
-    p.add_argument("--out", type=Path, default=None, metavar="PATH",
-                   help="also write the result as JSON to this file (checked before the run, written atomically)")
-    add_planar_only_flags(p)
-    p.set_defaults(run=run)
-    return p
 
 
 def rotate_drive_args(args) -> None:
@@ -84,7 +124,8 @@ def rotate_drive_args(args) -> None:
                              "cable (the planar rod takes --rotate-about y only).")
         if not (math.isfinite(args.rotation_mT) and 0 < args.rotation_mT <= 100):
             raise ValueError(f"--rotation-mT must lie in (0, 100] mT, got {args.rotation_mT}.")
-        if args.amplitude_y_mT or args.waveform not in (None, "sine") or args.field_scale != 1.0:
+        if (args.amplitude_y_mT or getattr(args, "waveform", None) not in (None, "sine")
+                or getattr(args, "field_scale", 1.0) != 1.0):
             raise ValueError("--rotate-about replaces the drive: give it without --amplitude-y-mT, --waveform square "
                              "or --field-scale.")
     if args.frequency_hz is not None and not (math.isfinite(args.frequency_hz) and 0 < args.frequency_hz <= 100):
@@ -132,13 +173,7 @@ def run(args) -> int:
                          f"turn a robot file's beam over in the file), got {got}.")
     if args.friction is not None and not 0 <= args.friction <= 10:
         raise ValueError(f"--friction must lie in [0, 10], got {args.friction}.")
-    if (args.amplitude_y_mT or args.phase_y_deg) and args.rod != "cable":
-        raise ValueError("--amplitude-y-mT and --phase-y-deg drive the 3D rod: add --rod cable (the planar rod has no "
-                         "y axis).")
-    if not (math.isfinite(args.amplitude_y_mT) and abs(args.amplitude_y_mT) <= 1000):
-        raise ValueError(f"--amplitude-y-mT must be finite and at most 1000 mT in size, got {args.amplitude_y_mT}.")
-    if not math.isfinite(args.phase_y_deg):
-        raise ValueError(f"--phase-y-deg must be finite, got {args.phase_y_deg}.")
+    check_y_drive(args)
     rotate_drive_args(args)
     shape = args.waveform or "sine"
     if args.coil_ms and shape != "square":
@@ -153,10 +188,7 @@ def run(args) -> int:
         w = dataclasses.replace(w, amplitude_x=w.amplitude_x * k, amplitude_z=w.amplitude_z * k, shape=shape,
                                 coil_time=args.coil_ms * 1e-3)
         preset = dataclasses.replace(preset, drive=w)
-    if args.amplitude_y_mT:
-        w = dataclasses.replace(preset.wave, amplitude_y=args.amplitude_y_mT * 1e-3,
-                                phase_y=math.radians(args.phase_y_deg))
-        preset = dataclasses.replace(preset, drive=w)
+    preset = with_y_drive(preset, args)
     preset = rotated_drive(args, preset)
     if args.friction is not None:
         preset = dataclasses.replace(preset, friction=args.friction)

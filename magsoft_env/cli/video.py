@@ -12,6 +12,7 @@ import difflib
 import math
 from pathlib import Path
 
+from .gait import add_rotate_flags, add_y_drive_flags, check_y_drive, rotate_drive_args, rotated_drive, with_y_drive
 from .solve import dumps_json, out_file
 
 
@@ -25,7 +26,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
             "inset of the rod's end over a 0.1 mm ruler (--no-zoom leaves it out). --preset NAME (or --robot "
             "FILE) renders a gait on the floor; --env ID renders a Gymnasium environment driven by a "
             "Stable-Baselines3 model (--policy model.zip) or, without one, by the robot's open-loop gait "
-            "(--robot FILE: that robot in the environment). --panel adds plots of x(t) and B(t) beside the frames."
+            "(--robot FILE: that robot in the environment). --panel adds plots of x(t) and B(t) beside the frames. "
+            "--rod cable renders the gait of the 3D strip on the floor (--view perspective or top), with a "
+            "three-axis drive from --amplitude-y-mT and --phase-y-deg, or a field turning about an axis "
+            "(--rotate-about z: the strip turns in place), as in magsoft gait."
         ),
     )
     src = p.add_mutually_exclusive_group()
@@ -48,6 +52,15 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                         "of a gait, so that a 1-2 mm crawl shows)")
     p.add_argument("--timestep-ms", type=float, default=None,
                    help="simulation step for --preset, ms (default: the robot's own, as magsoft gait)")
+    p.add_argument("--rod", choices=["planar", "cable"], default="planar",
+                   help="gaits: planar = the hinge chain in its side view (default); cable = the 3D flexcomp strip on "
+                        "the floor, seen in perspective or from above (--view), its field (B_x, B_y, B_z) as an arrow "
+                        "over the robot (docs/rendering.md, 'The 3D strip')")
+    p.add_argument("--view", choices=["perspective", "top"], default=None,
+                   help="--rod cable: perspective (default; a camera above and behind the robot, looking down at 40 "
+                        "deg) or top (orthographic, straight down, x right, y up)")
+    add_y_drive_flags(p)
+    add_rotate_flags(p)
     p.add_argument("--out", type=Path, required=True, help="output file, .mp4 or .gif")
     p.set_defaults(run=run)
     return p
@@ -101,6 +114,18 @@ def run(args) -> int:
         raise ValueError(f"--timestep-ms must lie in (0, 10] ms, got {args.timestep_ms}.")
     if args.policy is not None and args.env is None:
         raise ValueError("--policy needs --env (the environment the policy was trained on).")
+    if args.rod != "planar" and not gait:
+        raise ValueError("--rod chooses the rod of a gait (--preset or --robot); an --env renders its own rod.")
+    if args.view is not None and args.rod != "cable":
+        raise ValueError(f"--view {args.view} is a camera of the 3D strip: add --rod cable (the planar rod's frames "
+                         "are its side view).")
+    if args.rod == "cable" and args.scene != "floor":
+        raise ValueError(f"--rod cable runs on the floor scene only, got --scene {args.scene}.")
+    check_y_drive(args)
+    rotate_drive_args(args)
+    if not gait and (args.rotate_about is not None or args.frequency_hz is not None or args.amplitude_y_mT):
+        raise ValueError("--amplitude-y-mT, --rotate-about and --frequency-hz change a gait's drive (--preset or "
+                         "--robot); an --env is driven by its policy.")
     robot = None
     if args.robot is not None:
         from magsoft_env.cases.robots import resolve_robot
@@ -111,6 +136,7 @@ def run(args) -> int:
 
         # an unknown name: the closest one suggested; a robot without a drive: refused
         preset = gait_preset(robot if robot is not None else args.preset, reverse=args.reverse)
+        preset = rotated_drive(args, with_y_drive(preset, args))
         step_ms = args.timestep_ms if args.timestep_ms is not None else preset.timestep * 1e3
         if args.seconds / (step_ms * 1e-3) > _MAX_STEPS:
             raise ValueError(f"--seconds / --timestep-ms = {args.seconds:g} s / {step_ms:g} ms is more than "
@@ -138,7 +164,9 @@ def run(args) -> int:
     if gait:
         _, summary = render_gait(preset, args.seconds, args.out, fps=args.fps, width=args.width, height=args.height,
                                  timestep=None if args.timestep_ms is None else args.timestep_ms * 1e-3,
-                                 scene=args.scene, panel=args.panel, zoom=False if args.no_zoom else None)
+                                 scene=args.scene, panel=args.panel,
+                                 zoom=None if args.rod == "cable" else False if args.no_zoom else None,
+                                 rod=args.rod, view=args.view)
     else:
         policy, env_kwargs = None, {}
         if args.policy is not None:

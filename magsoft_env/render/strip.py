@@ -676,7 +676,7 @@ class StripRenderer:
         cv.text((tx, c[1] - 3 * u), field_text3(b), col, px=16, bold=True, anchor="rd", box=True)
         sub = (f"|B| = {bmag / MT:.2f} mT   " if bmag >= _ZERO_FIELD else "") + f"ring = {self.field_scale / MT:g} mT"
         cv.text((tx, c[1] + 5 * u), sub, muted, px=12.5, anchor="ra", box=True)
-        cv.text((c[0], c[1] + R + 8 * u), "seen from above", muted, px=10.5, anchor="ma")
+        cv.text((c[0] + R, c[1] + R + 8 * u), "seen from above", muted, px=10.5, anchor="ra")
 
     def _draw_legend(self, cv: _Canvas, goal) -> None:
         u = cv.unit

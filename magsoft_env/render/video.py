@@ -49,14 +49,15 @@ def _check_size(width, height) -> tuple[int, int]:
 def render_gait(
     preset, seconds: float, path=None, *, fps: float = 25.0, width: int = 960, height: int = 540,
     timestep: float | None = None, segments: int | None = None, scene: str = "floor", panel: bool = False,
-    overlay=None, zoom: bool | None = None,
+    overlay=None, zoom: bool | None = None, rod: str = "planar", view: str | None = None,
 ) -> tuple[list[np.ndarray], dict]:
     """Frames of an open-loop gait (a :class:`~magsoft_env.cases.robots.Robot` with a drive), optionally written.
 
     Each frame is a :class:`~magsoft_env.render.frames.RodRenderer` side view: the robot on the
     floor, grid and scale bar, the field dial (full scale: the drive's peak |B| rounded up to 1-2-5
     mT), the centre-of-mass path and the start line, ``Δx`` since the start and (floor scene) a zoom
-    inset of the rod's end over a 0.1 mm ruler.
+    inset of the rod's end over a 0.1 mm ruler. With ``rod="cable"`` the 3D strip on the floor in
+    perspective or from above (:class:`~magsoft_env.render.strip.StripRenderer`).
 
     Parameters
     ----------
@@ -82,7 +83,13 @@ def render_gait(
         ``overlay(sim) -> (x, z)`` arrays (m), drawn dashed on each frame (e.g. an analytical shape).
     zoom : bool or None
         The zoom inset of the rod's end with its 0.1 mm ruler (:class:`~magsoft_env.render.frames.RodRenderer`),
-        so that a 1-2 mm crawl shows; None: on for the ``floor`` scene.
+        so that a 1-2 mm crawl shows; None: on for the ``floor`` scene (the planar rod only).
+    rod : {"planar", "cable"}
+        The planar hinge chain in its side view (default), or the 3D strip on the floor
+        (:func:`~magsoft_env.sim.gait.gait_rod_options` with ``rod="cable"``; a three-axis drive, e.g. with
+        ``amplitude_y``, is played as given) in a :class:`~magsoft_env.render.strip.StripRenderer` frame.
+    view : {None, "perspective", "top"}
+        The 3D strip's camera (None: perspective); the planar rod takes None only.
 
     Returns
     -------
@@ -92,7 +99,8 @@ def render_gait(
     summary : dict
         ``displacement_mm``, ``speed_mm_s`` (centre of mass), ``frames``, ``fps``, ``width``,
         ``height`` (of the frames written), ``path``, ``message`` (``"ok"`` or the instability that
-        stopped the run early).
+        stopped the run early), ``rod``; the 3D strip adds ``displacement_y_mm`` (centre of mass, along +y),
+        ``heading_deg`` (tip minus base in the floor plane, from +x toward +y, at the end) and ``view``.
     """
     if path is not None:
         path = _check_path(path)
@@ -103,21 +111,43 @@ def render_gait(
     width, height = _check_size(width, height)
     if overlay is not None and not callable(overlay):
         raise ValueError(f"overlay must be a function sim -> (x, z) or None, got {type(overlay).__name__}.")
+    if rod not in ("planar", "cable"):
+        raise ValueError(f"rod must be 'planar' or 'cable', got {rod!r}.")
+    three = rod == "cable"
+    if three:
+        from .strip import STRIP_VIEWS
+
+        if view is not None and view not in STRIP_VIEWS:
+            raise ValueError(f"view must be one of {list(STRIP_VIEWS)} or None for the 3D strip, got {view!r}.")
+        if scene != "floor":
+            raise ValueError(f"the 3D strip's gaits run on the floor scene only, got scene={scene!r}.")
+        if zoom:
+            raise ValueError("zoom is the side view's inset of the planar rod's end; the 3D strip's frames have none.")
+        if overlay is not None:
+            raise ValueError("overlay draws an (x, z) curve in the planar rod's side view; the 3D strip has none.")
+    elif view is not None:
+        raise ValueError(f"view={view!r} is a camera of the 3D strip: give rod='cable' (the planar rod's frames are "
+                         "its side view).")
     select_gl_backend()
     from ..sim import SimulationError, Simulator, as_waveform
     from ..sim.gait import gait_rod_options
     from .frames import RodRenderer, dial_scale
 
     sim = Simulator(preset.beam, gait_rod_options(preset, scene=scene, segments=segments, timestep=timestep,
-                                                 render=True))
+                                                 render=not three, rod=rod))
     wave = as_waveform(preset.wave)
     sim.set_waveform(wave)
-    peak = float(np.max(np.hypot(*wave.sample(np.linspace(0.0, seconds, 1001)).T)))
-    renderer = RodRenderer(sim, width=width, height=height, field_scale=dial_scale(peak), panel=panel,
-                           panel_seconds=seconds, zoom=zoom)
+    peak = float(np.max(np.linalg.norm(wave.sample(np.linspace(0.0, seconds, 1001)), axis=1)))
+    if three:
+        renderer = RodRenderer(sim, width=width, height=height, field_scale=dial_scale(peak), panel=panel,
+                               panel_seconds=seconds, view=view or "perspective")
+    else:
+        renderer = RodRenderer(sim, width=width, height=height, field_scale=dial_scale(peak), panel=panel,
+                               panel_seconds=seconds, zoom=zoom)
     n_frames = int(round(seconds * fps))
     per_frame = max(1, int(round(1.0 / (fps * sim.timestep))))
-    x0 = sim.center_of_mass()[0]
+    com0 = np.array(sim.center_of_mass(), dtype=float)
+    x0 = com0[0]
 
     def frame():
         return renderer.render(label=preset.name, overlay=None if overlay is None else overlay(sim))
@@ -134,7 +164,12 @@ def render_gait(
     dx = float(sim.center_of_mass()[0] - x0)
     summary = {"displacement_mm": dx * 1e3, "speed_mm_s": dx / max(sim.time, 1e-12) * 1e3, "frames": len(frames),
                "fps": fps, "width": int(frames[0].shape[1]), "height": int(frames[0].shape[0]),
-               "path": None if path is None else str(path), "message": message}
+               "path": None if path is None else str(path), "message": message, "rod": rod}
+    if three:
+        cx, cy, _ = sim.centerline()
+        summary["displacement_y_mm"] = float(sim.center_of_mass()[1] - com0[1]) * 1e3
+        summary["heading_deg"] = float(np.degrees(np.arctan2(cy[-1] - cy[0], cx[-1] - cx[0])))
+        summary["view"] = view or "perspective"
     if path is not None:
         write_video(frames, path, fps=fps)
     return frames, summary
@@ -168,20 +203,24 @@ def render_policy(env_id: str, policy=None, seconds: float = 4.0, path=None, *, 
     x0 = info.get("x_position", 0.0)
     t_end = float(seconds)
     side = None
+    three = getattr(base.sim.options, "rod", "planar") == "cable"  # the 3D strip: (Δx, Δy) and three components
     if panel:
         from .frames import TimePanel
 
         floor = bool(base.sim.options.has_contact)
-        side = TimePanel(height=height, seconds=t_end,
-                         x_label="\u0394x centre of mass (mm)" if floor else "tip to target (mm)")
-        com0 = float(base.sim.center_of_mass()[0])
+        side = TimePanel(height=height, seconds=t_end, components=3 if three else 2,
+                         x_label=None if three else "\u0394x centre of mass (mm)" if floor else "tip to target (mm)")
+        com0 = np.array(base.sim.center_of_mass(), dtype=float)
 
     def frame(info):
         img = env.render()
         if side is None:
             return img
         sim = base.sim
-        x = sim.center_of_mass()[0] - com0 if floor else info.get("position_error", 0.0)
+        com = np.asarray(sim.center_of_mass(), dtype=float)
+        if three:
+            return np.concatenate([img, side.update(sim.time, com[:2] - com0[:2], sim.field.vector())], axis=1)
+        x = com[0] - com0[0] if floor else info.get("position_error", 0.0)
         return np.concatenate([img, side.update(sim.time, x, (sim.field.Bx, sim.field.Bz))], axis=1)
 
     frames, total, steps = [frame(info)], 0.0, 0
