@@ -251,6 +251,8 @@ def test_video_cli_writes_the_strip_with_a_three_axis_drive(tmp_path, capsys):
     (["--preset", "paper-5c", "--amplitude-y-mT", "1"], "add --rod cable"),
     (["--env", "MagSoftCrawl-v1", "--rod", "cable"], "an --env renders its own rod"),
     (["--preset", "paper-5c", "--rod", "cable", "--scene", "channel"], "floor scene only"),
+    (["--preset", "paper-5c", "--rotate-about", "z"], "add --rod cable"),
+    (["--env", "MagSoftCrawl-v1", "--rotate-about", "y"], "driven by its policy"),
 ])
 def test_video_cli_refuses_strip_options_before_any_work(tmp_path, capsys, argv, fragment):
     from magsoft_env.cli import main
