@@ -16,6 +16,7 @@ import importlib
 from ..gl import GL_BACKENDS, RenderBackendError, preselect_gl_backend, select_gl_backend
 
 _LAZY = {"RodRenderer": "magsoft_env.render.frames", "TimePanel": "magsoft_env.render.frames",
+         "StripRenderer": "magsoft_env.render.strip",
          "write_video": "magsoft_env.render.video", "render_gait": "magsoft_env.render.video",
          "render_policy": "magsoft_env.render.video", "PALETTE": "magsoft_env.render.figures"}
 
@@ -27,5 +28,5 @@ def __getattr__(name):
     return getattr(importlib.import_module(mod), name)
 
 
-__all__ = ["GL_BACKENDS", "PALETTE", "RenderBackendError", "RodRenderer", "TimePanel", "preselect_gl_backend",
-           "render_gait", "render_policy", "select_gl_backend", "write_video"]
+__all__ = ["GL_BACKENDS", "PALETTE", "RenderBackendError", "RodRenderer", "StripRenderer", "TimePanel",
+           "preselect_gl_backend", "render_gait", "render_policy", "select_gl_backend", "write_video"]

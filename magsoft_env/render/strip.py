@@ -472,7 +472,7 @@ class StripRenderer:
         base = cv.im
         layer = base.copy()
         cv.draw = ImageDraw.Draw(layer, "RGBA")
-        L, u = self._L, cv.unit
+        L = self._L
         # the grid: lines every minor (where at least 7 px apart at the camera's aim) and every major step, over
         # the part of the floor in view (minor lines within 0.9 span of the aim, where they stay apart)
         px_per_m = self.width / self.span
