@@ -389,7 +389,7 @@ class MagSoftSteerEnv(gym.Env):
             from ..render import RodRenderer
 
             self._renderer = RodRenderer(self.sim, width=self.width, height=self.height)
-        return self._renderer.render(field=self.sim.field, goal=tuple(self._goal))
+        return self._renderer.render(field=self.sim.field, goal=tuple(self._goal), label=self.robot)
 
     def close(self):
         if self._renderer is not None:

@@ -179,7 +179,8 @@ def render_policy(env_id: str, policy=None, seconds: float = 4.0, path=None, *, 
                   env_kwargs: dict | None = None, width: int = 960, height: int = 540,
                   panel: bool = False) -> tuple[list[np.ndarray], dict]:
     """Frames of an environment driven by ``policy`` (``obs -> action``; None: the robot's
-    open-loop gait for crawl envs, the target's field for the shape env), one frame per step.
+    open-loop gait for crawl envs, the target's field for the shape env, the hand-designed controller for the
+    steering env), one frame per step.
 
     The environment is made with ``render_mode="rgb_array"``, ``env_kwargs`` and the frame size
     ``width`` x ``height`` (these two win over ``env_kwargs``). ``panel`` adds a
@@ -227,6 +228,8 @@ def render_policy(env_id: str, policy=None, seconds: float = 4.0, path=None, *, 
     while base.sim.time < t_end - 1e-9:
         if policy is not None:
             action = policy(obs)
+        elif hasattr(base, "baseline_action"):  # steering: the hand-designed controller (turn to the goal, go)
+            action = base.baseline_action(obs)
         elif hasattr(base, "robot"):  # crawlers: the robot's paper gait
             action = base.open_loop_action(base.sim.time)
         elif hasattr(base, "open_loop_action"):  # shape env: hold the target's field
@@ -245,7 +248,8 @@ def render_policy(env_id: str, policy=None, seconds: float = 4.0, path=None, *, 
         side.close()
     summary = {"steps": steps, "return": total, "x_displacement_mm": (info.get("x_position", 0.0) - x0) * 1e3,
                "frames": len(frames), "fps": fps, "width": int(frames[0].shape[1]),
-               "height": int(frames[0].shape[0]), "path": None if path is None else str(path)}
+               "height": int(frames[0].shape[0]), "path": None if path is None else str(path),
+               "success": bool(info.get("is_success", False))}
     if path is not None:
         write_video(frames, path, fps=fps)
     return frames, summary
