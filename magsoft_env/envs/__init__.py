@@ -8,6 +8,8 @@ Ids (see each class docstring for the spec sheet):
 - ``MagSoftObstacle-v1``: crawl over the paper's 7 x 5.5 x 2 mm block.
 - ``MagSoftShape-v0``: a clamped beam reaches a target tip pose by choosing the field.
 - ``MagSoftSteer-v0``: the 3D strip on a floor, steered to a goal point (x, y) by the field (B_x, B_y, B_z).
+- ``MagSoftSteerWaveform-v0``: the same task, action = the vertical plane, magnitude and frequency of a rotating
+  field each 0.1 s.
 
 The floor ids' v0 (crawl limits checked only at the end of each control step; the channel and obstacle
 observing 48 numbers) are no longer registered: ``gym.make("MagSoftCrawl-v0")`` raises Gymnasium's
@@ -33,6 +35,9 @@ ENV_SPECS = {
     "MagSoftObstacle-v1": ("magsoft_env.envs.obstacle:MagSoftObstacleEnv", 1500, {}),
     "MagSoftShape-v0": ("magsoft_env.envs.shape:MagSoftShapeEnv", 100, {}),
     "MagSoftSteer-v0": ("magsoft_env.envs.steer:MagSoftSteerEnv", 250, {}),
+    # the field turning in a vertical plane chosen each 0.1 s step (direction, magnitude, frequency): 5 s
+    "MagSoftSteerWaveform-v0": ("magsoft_env.envs.steer:MagSoftSteerEnv", 50, {"action_mode": "waveform",
+                                                                               "ctrl_dt": 0.1}),
 }
 #: id -> vector entry point (``gym.make_vec``): the floor envs, batched on threads (envs/vector.py)
 VECTOR_ENTRY_POINTS = {
@@ -41,6 +46,7 @@ VECTOR_ENTRY_POINTS = {
     "MagSoftChannel-v1": "magsoft_env.envs.vector:MagSoftChannelVecEnv",
     "MagSoftObstacle-v1": "magsoft_env.envs.vector:MagSoftObstacleVecEnv",
     "MagSoftSteer-v0": "magsoft_env.envs.vector:MagSoftSteerVecEnv",
+    "MagSoftSteerWaveform-v0": "magsoft_env.envs.vector:MagSoftSteerVecEnv",
 }
 
 

@@ -15,7 +15,8 @@ from ..sim.gait import gait_rod_options
 from ..sim.health import UnphysicalError, check_steps
 from ..sim.model import MAX_TIMESTEP
 from ..sim.readouts import PitchTracker, is_flipped, pitch_orientation
-from ..validate import finite_number, nonnegative, positive
+from ..sim.waveforms import Conical
+from ..validate import choice, finite_number, nonnegative, positive
 from . import as_action, refuse_unknown_kwargs
 
 #: Default coil limit per axis (T). A field of 3 mT turning in a vertical plane at 1 Hz tumbles the paper-5c strip
@@ -38,6 +39,9 @@ DEFAULT_GOAL_DISTANCE = (0.02, 0.06)
 DEFAULT_GOAL_RADIUS = 5e-3
 #: Lost: the centre of mass farther than this from the goal ends the episode (m).
 DEFAULT_MAX_DISTANCE = 0.15
+#: Waveform mode: the rotating field's frequencies (Hz).
+DEFAULT_FREQUENCY_RANGE = (0.25, 2.0)
+ACTION_MODES = ("field", "waveform")
 #: Observation bounds (observations are clipped to them): positions (m), velocities (m/s).
 OBS_MAX_POSITION = 1.0
 OBS_MAX_VELOCITY = 10.0
@@ -61,13 +65,24 @@ class MagSoftSteerEnv(gym.Env):
 
     ## Action Space
 
-    ``Box(-1, 1, (3,), float32)``; the field held for ``ctrl_dt`` seconds.
+    ``action_mode="field"`` (default): ``Box(-1, 1, (3,), float32)``; the field held for ``ctrl_dt`` seconds.
 
     | Num | Action | Min | Max | Type (Unit) |
     |-----|--------|-----|-----|-------------|
     | 0 | B_x / field_limit | -1 | 1 | field (T) |
     | 1 | B_y / field_limit | -1 | 1 | field (T) |
     | 2 | B_z / field_limit | -1 | 1 | field (T) |
+
+    ``action_mode="waveform"`` (``MagSoftSteerWaveform-v0``, 0.1 s steps): ``Box(-1, 1, (4,), float32)``; each step
+    plays ``ctrl_dt`` seconds of a field of magnitude ``A`` turning at ``f`` in the vertical plane through the
+    horizontal direction ``u``, ``B = A (-cos(phi) u + sin(phi) z)``, which tumbles the strip along ``+u``; the
+    phase ``phi`` runs on from step to step (``2 pi f`` per second).
+
+    | Num | Action | Min | Max | Type (Unit) |
+    |-----|--------|-----|-----|-------------|
+    | 0, 1 | direction u (x, y), normalized; both 0: no field | -1 | 1 | dimensionless |
+    | 2 | A, mapped linearly onto [0, field_limit] | -1 | 1 | field (T) |
+    | 3 | f, mapped linearly onto ``frequency_range`` | -1 | 1 | frequency (Hz) |
 
     ## Observation Space
 
@@ -81,7 +96,7 @@ class MagSoftSteerEnv(gym.Env):
     | 3 .. 5 | centre-of-mass velocity (x, y, z), mean over the last step | velocity (m/s) |
     | 6 .. 3P+5 | the strip's points minus its centre of mass, (x, y, z) per point, first end first | position (m) |
     | 3P+6 .. 3P+8 | the field now, B / field_limit | dimensionless |
-    | 3P+9, 3P+10 | sin and cos of the clock phase ``2 pi clock_frequency t`` | dimensionless |
+    | 3P+9, 3P+10 | sin, cos of the clock phase ``2 pi clock_frequency t`` (waveform mode: ``phi``) | dimensionless |
 
     ## Rewards
 
@@ -90,7 +105,7 @@ class MagSoftSteerEnv(gym.Env):
 
     - ``progress = progress_reward_weight * (d_before - d_after)``: the step's approach to the goal (default
       weight 1000 / m: the term reads in mm, and an episode's sum is the distance covered toward the goal).
-    - ``field_cost = -field_cost_weight * |B|^2 / field_limit^2``.
+    - ``field_cost = -field_cost_weight * |B|^2 / field_limit^2`` (waveform mode: ``A^2 / field_limit^2``).
     - ``success = success_reward`` on the step that reaches the goal.
 
     ## Starting State
@@ -120,6 +135,7 @@ class MagSoftSteerEnv(gym.Env):
     | Parameter | Default | Description |
     |-----------|---------|-------------|
     | ``robot`` | ``"paper-5c"`` | built-in name (``list_robots()``), robot file (.yml, .json) or ``Robot`` |
+    | ``action_mode`` | ``"field"`` | ``"field"`` or ``"waveform"`` |
     | ``field_limit`` | 0.003 | coil limit per axis (T) |
     | ``ctrl_dt`` | 0.02 | control interval (s), >= ``sim_dt`` |
     | ``sim_dt`` | None | simulation step (s); None: the robot's own (paper-5c: 0.2 ms); 0.4 ms trains at half the |
@@ -132,24 +148,23 @@ class MagSoftSteerEnv(gym.Env):
     | ``progress_reward_weight`` | 1000 | (1/m) |
     | ``field_cost_weight`` | 0.1 | weight of the normalized field power |
     | ``success_reward`` | 20 | reward on reaching the goal |
-    | ``clock_frequency`` | 1 | clock observed as sin/cos (Hz) |
+    | ``clock_frequency`` | 1 | clock observed as sin/cos in field mode (Hz); the hand controller's frequency |
+    | ``frequency_range`` | (0.25, 2) | waveform-mode frequencies (Hz) |
     | ``reset_noise_scale`` | 1e-5 | initial vertex noise (m) |
     | ``render_mode`` | None | ``"rgb_array"`` |
     | ``width``, ``height`` | 960, 540 | frame size (pixels) |
 
     ## Version History
 
-    - v0: initial version.
+    - v0: initial version (``MagSoftSteer-v0``, ``MagSoftSteerWaveform-v0``).
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 50}
-    #: The action is a held field (the batched envs read it).
-    action_mode = "field"
-
     def __init__(
         self,
         robot="paper-5c",
         *,
+        action_mode: str = "field",
         field_limit: float = DEFAULT_FIELD_LIMIT,
         ctrl_dt: float = DEFAULT_CTRL_DT,
         sim_dt: float | None = None,
@@ -162,6 +177,7 @@ class MagSoftSteerEnv(gym.Env):
         field_cost_weight: float = 0.1,
         success_reward: float = 20.0,
         clock_frequency: float = 1.0,
+        frequency_range: tuple[float, float] = DEFAULT_FREQUENCY_RANGE,
         reset_noise_scale: float = 1e-5,
         render_mode: str | None = None,
         width: int = 960,
@@ -170,6 +186,7 @@ class MagSoftSteerEnv(gym.Env):
     ):
         refuse_unknown_kwargs(self, unknown)
         self.gait = resolve_robot(robot)  # checked before any work
+        self.action_mode = choice("action_mode", action_mode, ACTION_MODES)
         self.field_limit = positive("field_limit", field_limit, unit="T")
         if self.field_limit > 0.1:
             raise ValueError(f"field_limit must be <= 0.1 T (fields are in tesla: 3 mT is 0.003), got {field_limit!r}.")
@@ -197,6 +214,7 @@ class MagSoftSteerEnv(gym.Env):
         self.field_cost_weight = nonnegative("field_cost_weight", field_cost_weight)
         self.success_reward = nonnegative("success_reward", success_reward)
         self.clock_frequency = positive("clock_frequency", clock_frequency, unit="Hz")
+        self.frequency_range = _range("frequency_range", frequency_range, unit="Hz")
         self.reset_noise_scale = nonnegative("reset_noise_scale", reset_noise_scale, unit="m")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
@@ -213,13 +231,14 @@ class MagSoftSteerEnv(gym.Env):
         self.segments = options.segments
         self._npoints = len(self.sim.centerline()[0])
         self.metadata = {**self.metadata, "render_fps": int(round(1.0 / (self.n_substeps * self.sim_dt)))}
-        self.action_space = spaces.Box(-1.0, 1.0, (3,), np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (3 if self.action_mode == "field" else 4,), np.float32)
         p = self._npoints
         high = np.concatenate([np.full(3, OBS_MAX_POSITION), np.full(3, OBS_MAX_VELOCITY),
                                np.full(3 * p, OBS_MAX_POSITION), np.ones(5)]).astype(np.float32)
         self.observation_space = spaces.Box(-high, high, dtype=np.float32)
         self._renderer = None
         self._field = np.zeros(3)
+        self._phase = 0.0  # waveform mode: the rotating field's phase (rad)
         self._goal = np.zeros(2)
         self._com = np.zeros(3)
         self._com_vel = np.zeros(3)
@@ -252,7 +271,7 @@ class MagSoftSteerEnv(gym.Env):
     def _get_obs(self) -> np.ndarray:
         x, y, z = self.sim.centerline()
         rel = np.stack([x, y, z], axis=1) - self._com
-        w = 2.0 * math.pi * self.clock_frequency * self.sim.time
+        w = 2.0 * math.pi * self.clock_frequency * self.sim.time if self.action_mode == "field" else self._phase
         obs = np.concatenate([self._goal - self._com[:2], [self._distance], self._com_vel, rel.ravel(),
                               self._field / self.field_limit, [math.sin(w), math.cos(w)]]).astype(np.float32)
         return np.clip(obs, self.observation_space.low, self.observation_space.high)
@@ -270,6 +289,7 @@ class MagSoftSteerEnv(gym.Env):
         if self.reset_noise_scale > 0.0:
             self._perturb()
         self._field = np.zeros(3)
+        self._phase = 0.0
         self._com = self.com_position()
         self._com_vel = np.zeros(3)
         if goal is None:
@@ -309,9 +329,51 @@ class MagSoftSteerEnv(gym.Env):
         return np.clip(np.asarray(action, dtype=float), -1.0, 1.0) * self.field_limit
 
     def baseline_action(self, obs=None) -> np.ndarray:
-        """The hand-designed controller's action (:func:`steer_controller`) for ``obs`` (default: the last
-        observation)."""
-        return steer_controller(self._last_obs if obs is None else obs)
+        """The hand-designed controller's action for ``obs`` (default: the last observation): field mode
+        :func:`steer_controller`; waveform mode the same field, full magnitude at ``clock_frequency`` toward the goal
+        (:meth:`action_of_wave`)."""
+        o = self._last_obs if obs is None else np.asarray(obs)
+        if self.action_mode == "field":
+            return steer_controller(o)
+        return self.action_of_wave(o[:2], self.field_limit, self.clock_frequency)
+
+    def wave_of_action(self, action) -> tuple[np.ndarray, float, float]:
+        """Waveform mode: ``(u, A, f)`` of an action: the unit direction (zeros: no field), magnitude (T) and
+        frequency (Hz)."""
+        a = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
+        n = math.hypot(a[0], a[1])
+        u = a[:2] / n if n > 1e-6 else np.zeros(2)
+        amp = 0.5 * (a[2] + 1.0) * self.field_limit if n > 1e-6 else 0.0
+        lo, hi = self.frequency_range
+        return u, amp, lo + 0.5 * (a[3] + 1.0) * (hi - lo)
+
+    def action_of_wave(self, direction, magnitude: float, frequency: float) -> np.ndarray:
+        """Waveform mode: the action for a field of ``magnitude`` (T) turning at ``frequency`` (Hz) that tumbles the
+        strip along ``direction`` (x, y)."""
+        d = np.asarray(direction, dtype=float)
+        n = float(np.hypot(*d))
+        u = d / n if n > 0 else np.zeros(2)
+        lo, hi = self.frequency_range
+        a = [u[0], u[1], 2.0 * magnitude / self.field_limit - 1.0, 2.0 * (frequency - lo) / (hi - lo) - 1.0 if hi > lo
+             else 0.0]
+        return np.clip(np.array(a), -1.0, 1.0).astype(np.float32)
+
+    def _apply(self, action) -> tuple[int, float]:
+        """Set the field of ``action`` for the coming step: ``(substeps, mean |B|^2 / field_limit^2)``."""
+        if self.action_mode == "field":
+            target = self.field_of_action(action)
+            self.sim.set_field(tuple(float(b) for b in target))
+            self._field = target
+            return self.n_substeps, float(np.sum(target**2)) / self.field_limit**2
+        u, amp, f = self.wave_of_action(action)
+        if amp == 0.0:
+            self.sim.set_field((0.0, 0.0, 0.0))
+        else:
+            back = (-u[0], -u[1], 0.0)  # e1 = -u, axis = -u x z: e2 = z (Conical's basis)
+            axis = (-u[1], u[0], 0.0)
+            self.sim.set_waveform(Conical(amp, f, axis=axis, reference=back, phase=self._phase))
+        self._phase = math.remainder(self._phase + 2.0 * math.pi * f * self.n_substeps * self.sim_dt, 2.0 * math.pi)
+        return self.n_substeps, (amp / self.field_limit) ** 2
 
     def step(self, action):
         steps = self._stepping(action)
@@ -327,11 +389,9 @@ class MagSoftSteerEnv(gym.Env):
         if self._broken:
             raise RuntimeError("step() called after the simulation became unstable; call reset() first.")
         action = as_action(self.action_space, action)
-        target = self.field_of_action(action)
-        self.sim.set_field(tuple(float(b) for b in target))
-        self._field = target
+        n, power = self._apply(action)
         try:
-            yield from self.sim.stepping(self.n_substeps, block=block)
+            yield from self.sim.stepping(n, block=block)
         except SimulationError as err:
             self._broken = True
             info = self._info(0.0)
@@ -345,7 +405,8 @@ class MagSoftSteerEnv(gym.Env):
         self._com = com
         before, self._distance = self._distance, self._horizontal_distance()
         progress = self.progress_reward_weight * (before - self._distance)
-        field_cost = -self.field_cost_weight * float(np.sum(target**2)) / self.field_limit**2
+        self._field = self.sim.field.vector()
+        field_cost = -self.field_cost_weight * power
         reached = self._distance <= self.goal_radius
         success = self.success_reward if reached else 0.0
         self._success = reached
