@@ -42,11 +42,20 @@ def test_unknown_backend_is_refused():
 
 
 @needs_warp
-def test_warp_backend_refuses_what_it_does_not_run():
-    with pytest.raises(ValueError, match="MagSoftCrawl-v1"):
-        gym.make_vec("MagSoftChannel-v1", num_envs=1, backend="warp", device="cpu")
-    with pytest.raises(ValueError, match="field mode"):
-        gym.make_vec("MagSoftCrawlWaveform-v1", num_envs=1, backend="warp", device="cpu")
+@pytest.mark.parametrize("env_id", ["MagSoftChannel-v1", "MagSoftObstacle-v1"])
+def test_warp_backend_refuses_the_channel_and_obstacle_naming_what_it_runs(env_id):
+    with pytest.raises(ValueError, match="MagSoftCrawl-v1 and MagSoftCrawlWaveform-v1"):
+        gym.make_vec(env_id, num_envs=1, backend="warp", device="cpu")
+
+
+@needs_warp
+def test_warp_backend_refuses_slew_rate_and_bad_per_world_values():
+    with pytest.raises(ValueError, match="slew_rate"):
+        gym.make_vec("MagSoftCrawl-v1", num_envs=1, backend="warp", device="cpu", slew_rate=0.1)
+    with pytest.raises(ValueError, match=r"field_scale must be .* one per world \(shape \(2,\)\)"):
+        gym.make_vec("MagSoftCrawl-v1", num_envs=2, backend="warp", device="cpu", field_scale=[1.0, 1.0, 1.0])
+    with pytest.raises(ValueError, match="friction must be"):
+        gym.make_vec("MagSoftCrawl-v1", num_envs=2, backend="warp", device="cpu", friction=[0.5, -0.1])
 
 
 # ---------------------------------------------------------------------- the rod batch against C
@@ -113,6 +122,50 @@ def test_graph_replay_equals_plain_launches():
     sa, sb = a.state(), b.state()
     for key in ("qpos", "qvel", "xpos", "clear_max", "cos_min", "depth"):
         np.testing.assert_array_equal(sa[key], sb[key], err_msg=key)
+
+
+WAVES = np.array([[1e-3, 1e-3, 4.0, 0.5], [-1.5e-3, 0.5e-3, 3.0, -1.0], [0.0, 2e-3, 3.7, 0.0]])
+
+
+@needs_warp
+def test_waveform_periods_match_c_to_1e6_rad_on_the_soft_floor():
+    """Three worlds play their own waveform periods (1250, 1667 and 1351 substeps, phase from the step counter) on
+    the soft floor (2 ms contact) for two periods: every world within 1e-6 rad of C's ``set_waveform`` run, and the
+    energy records agree with C's balance (no drift)."""
+    from magsoft_env.sim import PhaseShifted, Simulator
+    from magsoft_env.sim.model import RodOptions
+    from magsoft_env.sim.warp_batch import WarpRodBatch
+
+    def settled():
+        sim = Simulator(BEAM, RodOptions(scene="floor", segments=20, timestep=2e-4))
+        sim.set_field((0.0, 0.0))
+        sim.step(500)
+        return sim
+
+    sim = settled()
+    nsub = np.round(1.0 / (WAVES[:, 2] * 2e-4)).astype(int)
+    batch = WarpRodBatch(sim.rod, sim.data, len(WAVES), device="cpu", backend=sim.backend)
+    batch.reset_worlds(np.ones(len(WAVES), bool), np.tile(sim.data.qpos, (len(WAVES), 1)),
+                       np.zeros((len(WAVES), sim.model.nv)))
+    refs = [settled() for _ in WAVES]
+    hinges = np.asarray(sim.rod.hinge_qpos)
+    worst, moved = 0.0, 0.0
+    for _ in range(2):
+        batch.set_waveforms(WAVES, nsub)
+        batch.set_energy_scale(np.ones(len(WAVES)))
+        batch.advance_waveforms()
+        q = batch.qpos()
+        for i, ref in enumerate(refs):
+            ref.set_waveform(PhaseShifted(*WAVES[i]))
+            ref.step(int(nsub[i]))
+            worst = max(worst, np.abs(q[i, hinges] - ref.data.qpos[hinges]).max())
+            moved = max(moved, np.abs(ref.data.qpos[hinges] - sim.data.qpos[hinges]).max())
+    # MJWarp's float32 clock has drifted by parts in 1e5 (why the phase comes from the step counter)
+    np.testing.assert_allclose(batch.d.time.numpy(), 2 * nsub * 2e-4, rtol=1e-4)
+    s = batch.state()
+    assert moved > 1e-2
+    assert worst <= 1e-6, worst
+    assert np.all(s["ke_ratio"] < 1e-3) and np.all(np.abs(s["drift"]) < 1e-4), (s["ke_ratio"], s["drift"])
 
 
 # ---------------------------------------------------------------------- the env
@@ -194,6 +247,63 @@ def test_a_non_finite_world_truncates_and_resets_alone(warp_envs):
     obs, *_ = envs.step(act)
     assert np.all(np.isfinite(obs)) and np.all(np.isfinite(envs.qpos()))
     twin.close()
+
+
+@needs_warp
+def test_worlds_made_to_blow_up_truncate_and_reset_alone(warp_envs):
+    """World 1 is thrown upward at 300 m/s (kinetic energy above 100 x the energy scale: runaway), world 2 at 2 m/s
+    (below it, but 8 % of the energy scale that the field never supplied: a launch, from the device's energy
+    balance); both truncate with the CPU batch's reasons and restart at their next step, world 0 steps on as in a
+    twin batch."""
+    envs = warp_envs.unwrapped
+    twin = gym.make_vec("MagSoftCrawl-v1", num_envs=3, backend="warp", device="cpu").unwrapped
+    act = np.full((3, 2), 0.4, np.float32)
+    for e in (envs, twin):
+        e.reset(seed=1)
+        e.step(act)
+    z = int(envs.proto.sim.rod.base_qpos[1])  # the base's vertical slide
+    qvel = envs.batch.d.qvel.numpy()
+    qvel[1, z], qvel[2, z] = 300.0, 2.0
+    envs.batch.d.qvel.assign(qvel)
+    obs, r, term, trunc, info = envs.step(act)
+    tobs, *_ = twin.step(act)
+    assert trunc.tolist() == [False, True, True] and not term.any()
+    assert info["instability"][1] == "runaway kinetic energy (J)"
+    assert info["unphysical"][2] == "launch" and info["_unphysical"].tolist() == [False, False, True]
+    assert 0.01 < info["energy_drift"][2] < 100.0 and info["energy_created_J"][2] > 0.0
+    assert r[1] == r[2] == 0.0 and np.all(np.isfinite(obs))
+    np.testing.assert_allclose(obs[0], tobs[0], atol=1e-6)
+    obs, r, term, trunc, info = envs.step(act)
+    tobs, *_ = twin.step(act)
+    assert not trunc.any() and not term.any() and info["time"][1] == info["time"][2] == 0.0
+    np.testing.assert_allclose(obs[0], tobs[0], atol=1e-6)
+    obs, r, term, trunc, info = envs.step(act)
+    assert not trunc.any() and np.all(info["time"] > 0.0)
+    twin.close()
+
+
+@needs_warp
+def test_an_mjwarp_buffer_overflow_is_reported_for_its_world_alone(warp_envs):
+    """MJWarp's overflow bits are per world (``Data.overflow``): a world that set one (here: the contact buffer's)
+    truncates naming nconmax / njmax and restarts with its bits cleared; the solver's iteration caps are not
+    failures."""
+    import mujoco_warp as mjw
+
+    envs = warp_envs.unwrapped
+    act = np.zeros((3, 2), np.float32)
+    envs.reset(seed=3)
+    envs.step(act)
+    flags = envs.batch.d.overflow.numpy()
+    flags[0] |= int(mjw.OverflowType.NARROWPHASE)
+    flags[2] |= int(mjw.OverflowType.ITERATIONS)
+    envs.batch.d.overflow.assign(flags)
+    _, r, term, trunc, info = envs.step(act)
+    assert trunc.tolist() == [True, False, False] and info["instability"][0] == "overflow"
+    assert "raise nconmax / njmax" in info["truncation_reason"][0]
+    envs.step(act)
+    assert envs.batch.d.overflow.numpy()[0] == 0
+    _, r, term, trunc, info = envs.step(act)
+    assert not trunc.any()
 
 
 @needs_warp
