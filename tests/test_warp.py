@@ -217,6 +217,87 @@ def test_env_contract_and_agreement_with_the_cpu_batch(warp_envs):
 
 
 @needs_warp
+def test_waveform_env_matches_the_cpu_batch_and_autoresets_as_it():
+    """``MagSoftCrawlWaveform-v1`` on Warp against the CPU batch from the same start: gentle periods (0.3 mT or less,
+    the beam stays on the floor) of 3-4 Hz with their own lengths per world; observations, rewards, terminations,
+    truncations (time limit 2), the NEXT_STEP autoreset and the info keys as the CPU batch's."""
+    from magsoft_env.envs.warp_reference import restart_from
+
+    n = 3
+    envs = gym.make_vec("MagSoftCrawlWaveform-v1", num_envs=n, backend="warp", device="cpu", max_episode_steps=2)
+    cpu = gym.make_vec("MagSoftCrawlWaveform-v1", num_envs=n, num_threads=1, max_episode_steps=2)
+    assert envs.single_action_space == cpu.single_action_space and envs.single_action_space.shape == (4,)
+    assert envs.single_observation_space == cpu.single_observation_space
+    wo, wi = envs.reset(seed=5)
+    co, ci = cpu.reset(seed=5)
+    for i in range(n):
+        co[i] = restart_from(cpu.envs[i], envs.unwrapped.start_qpos[i])[0]
+    np.testing.assert_allclose(wo, co, atol=1e-6)
+    assert set(wi) == set(ci)
+    rng = np.random.default_rng(0)
+    n1 = cpu.envs[0].segments + 1
+    for step in range(3):
+        a = rng.uniform(-1, 1, (n, 4)).astype(np.float32)
+        a[:, :2] *= 0.15
+        a[:, 3] = rng.uniform(0.5, 1.0, n)  # 3.25-4 Hz: 1250-1540 substeps, a different length per world
+        wo, wr, wt, wtr, wi = envs.step(a)
+        co, cr, ct, ctr, ci = cpu.step(a)
+        assert set(wi) == set(ci)
+        np.testing.assert_array_equal(wt, ct)
+        np.testing.assert_array_equal(wtr, ctr)
+        if step < 2:
+            assert np.abs(wo[:, :n1] - co[:, :n1]).max() < 1e-4  # angles (rad); measured 1e-7 .. 6e-6
+            np.testing.assert_allclose(wo[:, -6:], co[:, -6:], atol=1e-6)  # COM velocity, the last action
+            np.testing.assert_allclose(wr, cr, atol=1e-4)  # measured 2e-6 .. 3e-6
+            np.testing.assert_allclose(wi["x_position"], ci["x_position"], atol=1e-8)
+            np.testing.assert_allclose(wi["time"], ci["time"], atol=1e-9)
+            np.testing.assert_array_equal(wi["field"], ci["field"])
+        else:  # the step after the time limit: every world restarts, reward 0, time 0, the reset observation
+            assert step == 2 and not (wt | wtr).any()
+            np.testing.assert_array_equal(wr, cr)
+            assert np.all(wi["time"] == 0.0) and np.all(ci["time"] == 0.0)
+            np.testing.assert_array_equal(wo[:, -4:], co[:, -4:])
+    assert wtr.sum() == 0
+    envs.close()
+    cpu.close()
+
+
+@needs_warp
+def test_friction_and_field_scale_per_world():
+    """``friction`` and ``field_scale`` one per world: a world equals the world of a batch built with its values
+    (round-off apart: the worlds' contacts are gathered together); the friction changes the crawl."""
+    gait = gym.make("MagSoftCrawl-v1").unwrapped
+    acts = [np.tile(gait.open_loop_action(k * gait.n_substeps * gait.sim_dt), (3, 1)) for k in range(6)]
+    mixed = gym.make_vec("MagSoftCrawl-v1", num_envs=3, backend="warp", device="cpu", friction=[0.5, 0.5, 0.1],
+                         field_scale=[1.0, 0.5, 1.0])
+    plain = gym.make_vec("MagSoftCrawl-v1", num_envs=3, backend="warp", device="cpu")
+    slippery = gym.make_vec("MagSoftCrawl-v1", num_envs=3, backend="warp", device="cpu", friction=0.1)
+    np.testing.assert_array_equal(mixed.unwrapped.friction, [0.5, 0.5, 0.1])
+    np.testing.assert_array_equal(slippery.unwrapped.friction, [0.1] * 3)
+    for e in (mixed, plain, slippery):
+        e.reset(seed=7)
+    for a in acts:
+        half = a.copy()
+        half[1] *= 0.5  # the scaled world's applied field (a power of two: the same bits)
+        mo, mr, *_, mi = mixed.step(a)
+        po, pr, *_, pi = plain.step(half)
+        so, sr, *_, si = slippery.step(a)
+    q = mixed.unwrapped.qpos()
+    np.testing.assert_allclose(q[0], plain.unwrapped.qpos()[0], atol=1e-4)
+    np.testing.assert_allclose(q[1], plain.unwrapped.qpos()[1], atol=1e-4)
+    np.testing.assert_allclose(q[2], slippery.unwrapped.qpos()[2], atol=1e-4)
+    np.testing.assert_allclose(mi["x_position"][2], si["x_position"][2], atol=1e-7)
+    # the observation keeps the commanded field; the friction moves the crawl
+    np.testing.assert_array_equal(mo[1, -4:-2], (a[1] / 1.0).astype(np.float32))
+    moved = abs(pi["x_position"][2] - mi["x_position"][2])
+    same = abs(si["x_position"][2] - mi["x_position"][2])
+    print(f"x of world 2 (m): mu 0.5 vs 0.1 apart by {moved:.3g}, the mu 0.1 twins by {same:.3g}")
+    assert moved > 1e-7 and moved > 10 * same, (moved, same)
+    for e in (mixed, plain, slippery, gait):
+        e.close()
+
+
+@needs_warp
 def test_a_non_finite_world_truncates_and_resets_alone(warp_envs):
     """World 1 goes non-finite: it truncates and restarts at its next step; worlds 0 and 2 step on exactly as in a
     twin batch where nothing happened (bit for bit)."""
