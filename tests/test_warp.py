@@ -473,3 +473,50 @@ def test_warp_bench_prints_the_table(capsys):
     out = capsys.readouterr().out
     assert "| backend | device | worlds | env steps/s |" in out
     assert out.count("| warp | cpu |") >= 2 and "reference (C)" in out
+
+
+# ---------------------------------------------------------------------- rl-zoo3 through train/train.py --vec warp
+def _train_script():
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "train" / "train.py"
+    spec = importlib.util.spec_from_file_location("train_train_warp", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_train_refuses_vec_warp_for_what_the_backend_does_not_run(tmp_path, capsys):
+    rc = _train_script().main(["--env", "MagSoftChannel-v1", "--vec", "warp", "--runs", str(tmp_path),
+                               "--run-id", "r"])
+    assert rc == 2
+    assert "vec='warp' trains MagSoftCrawl-v1 and MagSoftCrawlWaveform-v1" in capsys.readouterr().err
+    assert not (tmp_path / "r").exists()
+
+
+@needs_warp
+@pytest.mark.slow
+def test_train_py_runs_rl_zoo_on_the_warp_batch(tmp_path, capsys):
+    """``train/train.py --vec warp``: rl-zoo3's PPO (VecNormalize from the block) learns on 4 Warp worlds, evaluates in
+    a single C env, and writes the run folder with the Warp worlds' monitor file."""
+    pytest.importorskip("rl_zoo3")
+    import json
+
+    args = ["--env", "MagSoftCrawl-v1", "--vec", "warp", "--warp-device", "cpu", "--n-envs", "4", "--runs",
+            str(tmp_path), "--run-id", "w", "--timesteps", "64", "--set", "n_steps=16", "batch_size=32", "n_epochs=1",
+            "--eval-freq", "64", "--eval-episodes", "1", "--no-eval"]
+    assert _train_script().main(args) == 0
+    out = capsys.readouterr().out
+    assert "[training envs: MuJoCo Warp batch]" in out and "Eval num_timesteps=64" in out
+    run = tmp_path / "w"
+    rec = json.loads((run / "train.json").read_text())
+    assert rec["vec"] == "warp" and rec["warp_device"] == "cpu"
+    assert "backend='warp'" in (run / "zoo_command.txt").read_text()
+    log = run / "ppo" / "MagSoftCrawl-v1_1"
+    assert (log / "0.monitor.csv").exists() and (log / "MagSoftCrawl-v1.zip").exists()
+    assert (log / "MagSoftCrawl-v1" / "vecnormalize.pkl").exists()
+    from rl_zoo3.exp_manager import ExperimentManager
+
+    assert ExperimentManager.create_envs.__name__ == "create_envs"  # rl-zoo3's own again
+    assert ExperimentManager.create_envs.__qualname__.startswith("ExperimentManager")
