@@ -120,12 +120,12 @@ def check_vec(vec: str, env_id: str) -> None:
     if vec not in VEC_CHOICES:
         raise ValueError(f"vec must be one of {', '.join(VEC_CHOICES)}, got {vec!r}.")
     if vec == "warp":
-        from ..sim.warp_extra import INSTALL_HINT, warp_available
+        import importlib.util
 
         if env_id not in WARP_IDS:
             raise ValueError(f"vec='warp' trains {' and '.join(WARP_IDS)}, got {env_id!r}; use vec='threads'.")
-        if not warp_available():
-            raise ValueError(f"vec='warp' needs the optional extra 'warp': {INSTALL_HINT}.")
+        if any(importlib.util.find_spec(name) is None for name in ("warp", "mujoco_warp")):
+            raise ValueError("vec='warp' needs the optional extra 'warp': pip install -e \".[warp]\" (docs/gpu.md).")
 
 
 def train(block: dict, env_id: str, run_dir, *, algo: str = "ppo", seed: int = 0, eval_freq: int = 10000,
