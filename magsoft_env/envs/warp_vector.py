@@ -65,8 +65,8 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
     ``num_envs`` robots of :class:`~magsoft_env.envs.crawl.MagSoftCrawlEnv` (field or waveform mode) as MuJoCo
     Warp worlds, the ``backend="warp"`` of ``gym.make_vec("MagSoftCrawl-v1", num_envs=n, backend="warp")`` and of
     ``MagSoftCrawlWaveform-v1`` (the optional extra ``warp``). In waveform mode each world plays its own period
-    (its own number of substeps) from a per-world step counter; the batch steps until the longest ends. Spaces, observations, rewards, the crawl limits at every substep, terminations,
-    truncations, ``info`` and ``AutoresetMode.NEXT_STEP`` are the CPU batch's
+    (its own number of substeps) from a per-world step counter; the batch steps until the longest ends. Spaces,
+    observations, rewards, the crawl limits at every substep, terminations, truncations, ``info`` and ``AutoresetMode.NEXT_STEP`` are the CPU batch's
     (:class:`~magsoft_env.envs.vector.MagSoftCrawlVecEnv`); the numbers are MJWarp's float32 physics from a
     start state settled in C (module docstring, docs/gpu.md).
 
@@ -377,8 +377,8 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
                 reasons[i] = (f"MJWarp buffer overflow (OverflowType bits {int(over[i])}): raise nconmax / njmax",
                               "overflow", None, {})
             elif not ratio[i] <= RUNAWAY_FACTOR:
-                reasons[i] = (f"runaway kinetic energy (J): {ratio[i] * scale[i]:.3g} > {RUNAWAY_FACTOR:g} x the energy "
-                              f"scale {scale[i]:.3g} J", "runaway kinetic energy (J)", None, {})
+                reasons[i] = (f"runaway kinetic energy (J): {ratio[i] * scale[i]:.3g} > {RUNAWAY_FACTOR:g} x the "
+                              f"energy scale {scale[i]:.3g} J", "runaway kinetic energy (J)", None, {})
             elif depth[i] > self._pen_limit:
                 figs = {"penetration_m": float(depth[i]), "penetration_h": float(depth[i] / self._h)}
                 reasons[i] = (f"penetration {depth[i] * 1e3:.3f} mm > {self._pen_limit * 1e3:.3f} mm",

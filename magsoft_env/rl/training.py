@@ -198,8 +198,9 @@ def train(block: dict, env_id: str, run_dir, *, algo: str = "ppo", seed: int = 0
     command = "python -m rl_zoo3.train " + shlex.join(argv)
     note = {"threads": "# stepped by magsoft_env.rl.ThreadedVecEnv (rl-zoo3's DummyVecEnv on threads, the same "
                        "results; magsoft_env.rl.train(vec='threads'))\n",
-            "warp": f"# training envs: one MuJoCo Warp batch (gym.make_vec(..., backend='warp', device={warp_device!r})"
-                    " in SB3VecAdapter and VecMonitor; magsoft_env.rl.train(vec='warp')); evaluation in C\n"}.get(vec, "")
+            "warp": f"# training envs: one MuJoCo Warp batch (gym.make_vec(..., backend='warp', "
+                    f"device={warp_device!r}) in SB3VecAdapter and VecMonitor; magsoft_env.rl.train(vec='warp')); "
+                    "evaluation in C\n"}.get(vec, "")
     (run_dir / "zoo_command.txt").write_text(note + command + "\n")
     tag = {"threads": " [envs on threads: ThreadedVecEnv]", "warp": " [training envs: MuJoCo Warp batch]"}.get(vec, "")
     print(f"train: {command}" + tag, flush=True)
