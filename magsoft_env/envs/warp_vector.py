@@ -66,7 +66,8 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
     Warp worlds, the ``backend="warp"`` of ``gym.make_vec("MagSoftCrawl-v1", num_envs=n, backend="warp")`` and of
     ``MagSoftCrawlWaveform-v1`` (the optional extra ``warp``). In waveform mode each world plays its own period
     (its own number of substeps) from a per-world step counter; the batch steps until the longest ends. Spaces,
-    observations, rewards, the crawl limits at every substep, terminations, truncations, ``info`` and ``AutoresetMode.NEXT_STEP`` are the CPU batch's
+    observations, rewards, the crawl limits at every substep, terminations, truncations, ``info`` and
+    ``AutoresetMode.NEXT_STEP`` are the CPU batch's
     (:class:`~magsoft_env.envs.vector.MagSoftCrawlVecEnv`); the numbers are MJWarp's float32 physics from a
     start state settled in C (module docstring, docs/gpu.md).
 
