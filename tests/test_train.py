@@ -231,7 +231,7 @@ def test_train_refuses_an_unknown_vec_before_any_work(tmp_path):
     from magsoft_env.rl import load_hyperparams, train
 
     block = load_hyperparams(ROOT / "train" / "hyperparams.yml", "MagSoftCrawl-v1")
-    with pytest.raises(ValueError, match="vec must be one of threads, dummy, subproc, got 'gpu'"):
+    with pytest.raises(ValueError, match="vec must be one of threads, dummy, subproc, warp, got 'gpu'"):
         train(block, "MagSoftCrawl-v1", tmp_path / "r", vec="gpu")
     assert not (tmp_path / "r").exists()
 

@@ -42,11 +42,20 @@ def test_unknown_backend_is_refused():
 
 
 @needs_warp
-def test_warp_backend_refuses_what_it_does_not_run():
-    with pytest.raises(ValueError, match="MagSoftCrawl-v1"):
-        gym.make_vec("MagSoftChannel-v1", num_envs=1, backend="warp", device="cpu")
-    with pytest.raises(ValueError, match="field mode"):
-        gym.make_vec("MagSoftCrawlWaveform-v1", num_envs=1, backend="warp", device="cpu")
+@pytest.mark.parametrize("env_id", ["MagSoftChannel-v1", "MagSoftObstacle-v1"])
+def test_warp_backend_refuses_the_channel_and_obstacle_naming_what_it_runs(env_id):
+    with pytest.raises(ValueError, match="MagSoftCrawl-v1 and MagSoftCrawlWaveform-v1"):
+        gym.make_vec(env_id, num_envs=1, backend="warp", device="cpu")
+
+
+@needs_warp
+def test_warp_backend_refuses_slew_rate_and_bad_per_world_values():
+    with pytest.raises(ValueError, match="slew_rate"):
+        gym.make_vec("MagSoftCrawl-v1", num_envs=1, backend="warp", device="cpu", slew_rate=0.1)
+    with pytest.raises(ValueError, match=r"field_scale must be .* one per world \(shape \(2,\)\)"):
+        gym.make_vec("MagSoftCrawl-v1", num_envs=2, backend="warp", device="cpu", field_scale=[1.0, 1.0, 1.0])
+    with pytest.raises(ValueError, match="friction must be"):
+        gym.make_vec("MagSoftCrawl-v1", num_envs=2, backend="warp", device="cpu", friction=[0.5, -0.1])
 
 
 # ---------------------------------------------------------------------- the rod batch against C
@@ -115,6 +124,50 @@ def test_graph_replay_equals_plain_launches():
         np.testing.assert_array_equal(sa[key], sb[key], err_msg=key)
 
 
+WAVES = np.array([[1e-3, 1e-3, 4.0, 0.5], [-1.5e-3, 0.5e-3, 3.0, -1.0], [0.0, 2e-3, 3.7, 0.0]])
+
+
+@needs_warp
+def test_waveform_periods_match_c_to_1e6_rad_on_the_soft_floor():
+    """Three worlds play their own waveform periods (1250, 1667 and 1351 substeps, phase from the step counter) on
+    the soft floor (2 ms contact) for two periods: every world within 1e-6 rad of C's ``set_waveform`` run, and the
+    energy records agree with C's balance (no drift)."""
+    from magsoft_env.sim import PhaseShifted, Simulator
+    from magsoft_env.sim.model import RodOptions
+    from magsoft_env.sim.warp_batch import WarpRodBatch
+
+    def settled():
+        sim = Simulator(BEAM, RodOptions(scene="floor", segments=20, timestep=2e-4))
+        sim.set_field((0.0, 0.0))
+        sim.step(500)
+        return sim
+
+    sim = settled()
+    nsub = np.round(1.0 / (WAVES[:, 2] * 2e-4)).astype(int)
+    batch = WarpRodBatch(sim.rod, sim.data, len(WAVES), device="cpu", backend=sim.backend)
+    batch.reset_worlds(np.ones(len(WAVES), bool), np.tile(sim.data.qpos, (len(WAVES), 1)),
+                       np.zeros((len(WAVES), sim.model.nv)))
+    refs = [settled() for _ in WAVES]
+    hinges = np.asarray(sim.rod.hinge_qpos)
+    worst, moved = 0.0, 0.0
+    for _ in range(2):
+        batch.set_waveforms(WAVES, nsub)
+        batch.set_energy_scale(np.ones(len(WAVES)))
+        batch.advance_waveforms()
+        q = batch.qpos()
+        for i, ref in enumerate(refs):
+            ref.set_waveform(PhaseShifted(*WAVES[i]))
+            ref.step(int(nsub[i]))
+            worst = max(worst, np.abs(q[i, hinges] - ref.data.qpos[hinges]).max())
+            moved = max(moved, np.abs(ref.data.qpos[hinges] - sim.data.qpos[hinges]).max())
+    # MJWarp's float32 clock has drifted by parts in 1e5 (why the phase comes from the step counter)
+    np.testing.assert_allclose(batch.d.time.numpy(), 2 * nsub * 2e-4, rtol=1e-4)
+    s = batch.state()
+    assert moved > 1e-2
+    assert worst <= 1e-6, worst
+    assert np.all(s["ke_ratio"] < 1e-3) and np.all(np.abs(s["drift"]) < 1e-4), (s["ke_ratio"], s["drift"])
+
+
 # ---------------------------------------------------------------------- the env
 @pytest.fixture(scope="module")
 def warp_envs():
@@ -164,6 +217,87 @@ def test_env_contract_and_agreement_with_the_cpu_batch(warp_envs):
 
 
 @needs_warp
+def test_waveform_env_matches_the_cpu_batch_and_autoresets_as_it():
+    """``MagSoftCrawlWaveform-v1`` on Warp against the CPU batch from the same start: gentle periods (0.3 mT or less,
+    the beam stays on the floor) of 3-4 Hz with their own lengths per world; observations, rewards, terminations,
+    truncations (time limit 2), the NEXT_STEP autoreset and the info keys as the CPU batch's."""
+    from magsoft_env.envs.warp_reference import restart_from
+
+    n = 3
+    envs = gym.make_vec("MagSoftCrawlWaveform-v1", num_envs=n, backend="warp", device="cpu", max_episode_steps=2)
+    cpu = gym.make_vec("MagSoftCrawlWaveform-v1", num_envs=n, num_threads=1, max_episode_steps=2)
+    assert envs.single_action_space == cpu.single_action_space and envs.single_action_space.shape == (4,)
+    assert envs.single_observation_space == cpu.single_observation_space
+    wo, wi = envs.reset(seed=5)
+    co, ci = cpu.reset(seed=5)
+    for i in range(n):
+        co[i] = restart_from(cpu.envs[i], envs.unwrapped.start_qpos[i])[0]
+    np.testing.assert_allclose(wo, co, atol=1e-6)
+    assert set(wi) == set(ci)
+    rng = np.random.default_rng(0)
+    n1 = cpu.envs[0].segments + 1
+    for step in range(3):
+        a = rng.uniform(-1, 1, (n, 4)).astype(np.float32)
+        a[:, :2] *= 0.15
+        a[:, 3] = rng.uniform(0.5, 1.0, n)  # 3.25-4 Hz: 1250-1540 substeps, a different length per world
+        wo, wr, wt, wtr, wi = envs.step(a)
+        co, cr, ct, ctr, ci = cpu.step(a)
+        assert set(wi) == set(ci)
+        np.testing.assert_array_equal(wt, ct)
+        np.testing.assert_array_equal(wtr, ctr)
+        if step < 2:
+            assert np.abs(wo[:, :n1] - co[:, :n1]).max() < 1e-4  # angles (rad); measured 1e-7 .. 6e-6
+            np.testing.assert_allclose(wo[:, -6:], co[:, -6:], atol=1e-6)  # COM velocity, the last action
+            np.testing.assert_allclose(wr, cr, atol=1e-4)  # measured 2e-6 .. 3e-6
+            np.testing.assert_allclose(wi["x_position"], ci["x_position"], atol=1e-8)
+            np.testing.assert_allclose(wi["time"], ci["time"], atol=1e-9)
+            np.testing.assert_array_equal(wi["field"], ci["field"])
+        else:  # the step after the time limit: every world restarts, reward 0, time 0, the reset observation
+            assert step == 2 and not (wt | wtr).any()
+            np.testing.assert_array_equal(wr, cr)
+            assert np.all(wi["time"] == 0.0) and np.all(ci["time"] == 0.0)
+            np.testing.assert_array_equal(wo[:, -4:], co[:, -4:])
+    assert wtr.sum() == 0
+    envs.close()
+    cpu.close()
+
+
+@needs_warp
+def test_friction_and_field_scale_per_world():
+    """``friction`` and ``field_scale`` one per world: a world equals the world of a batch built with its values
+    (round-off apart: the worlds' contacts are gathered together); the friction changes the crawl."""
+    gait = gym.make("MagSoftCrawl-v1").unwrapped
+    acts = [np.tile(gait.open_loop_action(k * gait.n_substeps * gait.sim_dt), (3, 1)) for k in range(6)]
+    mixed = gym.make_vec("MagSoftCrawl-v1", num_envs=3, backend="warp", device="cpu", friction=[0.5, 0.5, 0.1],
+                         field_scale=[1.0, 0.5, 1.0])
+    plain = gym.make_vec("MagSoftCrawl-v1", num_envs=3, backend="warp", device="cpu")
+    slippery = gym.make_vec("MagSoftCrawl-v1", num_envs=3, backend="warp", device="cpu", friction=0.1)
+    np.testing.assert_array_equal(mixed.unwrapped.friction, [0.5, 0.5, 0.1])
+    np.testing.assert_array_equal(slippery.unwrapped.friction, [0.1] * 3)
+    for e in (mixed, plain, slippery):
+        e.reset(seed=7)
+    for a in acts:
+        half = a.copy()
+        half[1] *= 0.5  # the scaled world's applied field (a power of two: the same bits)
+        mo, mr, *_, mi = mixed.step(a)
+        po, pr, *_, pi = plain.step(half)
+        so, sr, *_, si = slippery.step(a)
+    q = mixed.unwrapped.qpos()
+    np.testing.assert_allclose(q[0], plain.unwrapped.qpos()[0], atol=1e-4)
+    np.testing.assert_allclose(q[1], plain.unwrapped.qpos()[1], atol=1e-4)
+    np.testing.assert_allclose(q[2], slippery.unwrapped.qpos()[2], atol=1e-4)
+    np.testing.assert_allclose(mi["x_position"][2], si["x_position"][2], atol=1e-7)
+    # the observation keeps the commanded field; the friction moves the crawl
+    np.testing.assert_array_equal(mo[1, -4:-2], (a[1] / 1.0).astype(np.float32))
+    moved = abs(pi["x_position"][2] - mi["x_position"][2])
+    same = abs(si["x_position"][2] - mi["x_position"][2])
+    print(f"x of world 2 (m): mu 0.5 vs 0.1 apart by {moved:.3g}, the mu 0.1 twins by {same:.3g}")
+    assert moved > 1e-7 and moved > 10 * same, (moved, same)
+    for e in (mixed, plain, slippery, gait):
+        e.close()
+
+
+@needs_warp
 def test_a_non_finite_world_truncates_and_resets_alone(warp_envs):
     """World 1 goes non-finite: it truncates and restarts at its next step; worlds 0 and 2 step on exactly as in a
     twin batch where nothing happened (bit for bit)."""
@@ -194,6 +328,63 @@ def test_a_non_finite_world_truncates_and_resets_alone(warp_envs):
     obs, *_ = envs.step(act)
     assert np.all(np.isfinite(obs)) and np.all(np.isfinite(envs.qpos()))
     twin.close()
+
+
+@needs_warp
+def test_worlds_made_to_blow_up_truncate_and_reset_alone(warp_envs):
+    """World 1 is thrown upward at 300 m/s (kinetic energy above 100 x the energy scale: runaway), world 2 at 2 m/s
+    (below it, but 8 % of the energy scale that the field never supplied: a launch, from the device's energy
+    balance); both truncate with the CPU batch's reasons and restart at their next step, world 0 steps on as in a
+    twin batch."""
+    envs = warp_envs.unwrapped
+    twin = gym.make_vec("MagSoftCrawl-v1", num_envs=3, backend="warp", device="cpu").unwrapped
+    act = np.full((3, 2), 0.4, np.float32)
+    for e in (envs, twin):
+        e.reset(seed=1)
+        e.step(act)
+    z = int(envs.proto.sim.rod.base_qpos[1])  # the base's vertical slide
+    qvel = envs.batch.d.qvel.numpy()
+    qvel[1, z], qvel[2, z] = 300.0, 2.0
+    envs.batch.d.qvel.assign(qvel)
+    obs, r, term, trunc, info = envs.step(act)
+    tobs, *_ = twin.step(act)
+    assert trunc.tolist() == [False, True, True] and not term.any()
+    assert info["instability"][1] == "runaway kinetic energy (J)"
+    assert info["unphysical"][2] == "launch" and info["_unphysical"].tolist() == [False, False, True]
+    assert 0.01 < info["energy_drift"][2] < 100.0 and info["energy_created_J"][2] > 0.0
+    assert r[1] == r[2] == 0.0 and np.all(np.isfinite(obs))
+    np.testing.assert_allclose(obs[0], tobs[0], atol=1e-6)
+    obs, r, term, trunc, info = envs.step(act)
+    tobs, *_ = twin.step(act)
+    assert not trunc.any() and not term.any() and info["time"][1] == info["time"][2] == 0.0
+    np.testing.assert_allclose(obs[0], tobs[0], atol=1e-6)
+    obs, r, term, trunc, info = envs.step(act)
+    assert not trunc.any() and np.all(info["time"] > 0.0)
+    twin.close()
+
+
+@needs_warp
+def test_an_mjwarp_buffer_overflow_is_reported_for_its_world_alone(warp_envs):
+    """MJWarp's overflow bits are per world (``Data.overflow``): a world that set one (here: the contact buffer's)
+    truncates naming nconmax / njmax and restarts with its bits cleared; the solver's iteration caps are not
+    failures."""
+    import mujoco_warp as mjw
+
+    envs = warp_envs.unwrapped
+    act = np.zeros((3, 2), np.float32)
+    envs.reset(seed=3)
+    envs.step(act)
+    flags = envs.batch.d.overflow.numpy()
+    flags[0] |= int(mjw.OverflowType.NARROWPHASE)
+    flags[2] |= int(mjw.OverflowType.ITERATIONS)
+    envs.batch.d.overflow.assign(flags)
+    _, r, term, trunc, info = envs.step(act)
+    assert trunc.tolist() == [True, False, False] and info["instability"][0] == "overflow"
+    assert "raise nconmax / njmax" in info["truncation_reason"][0]
+    envs.step(act)
+    assert envs.batch.d.overflow.numpy()[0] == 0
+    _, r, term, trunc, info = envs.step(act)
+    assert not trunc.any()
 
 
 @needs_warp
@@ -282,3 +473,50 @@ def test_warp_bench_prints_the_table(capsys):
     out = capsys.readouterr().out
     assert "| backend | device | worlds | env steps/s |" in out
     assert out.count("| warp | cpu |") >= 2 and "reference (C)" in out
+
+
+# ---------------------------------------------------------------------- rl-zoo3 through train/train.py --vec warp
+def _train_script():
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "train" / "train.py"
+    spec = importlib.util.spec_from_file_location("train_train_warp", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_train_refuses_vec_warp_for_what_the_backend_does_not_run(tmp_path, capsys):
+    rc = _train_script().main(["--env", "MagSoftChannel-v1", "--vec", "warp", "--runs", str(tmp_path),
+                               "--run-id", "r"])
+    assert rc == 2
+    assert "vec='warp' trains MagSoftCrawl-v1 and MagSoftCrawlWaveform-v1" in capsys.readouterr().err
+    assert not (tmp_path / "r").exists()
+
+
+@needs_warp
+@pytest.mark.slow
+def test_train_py_runs_rl_zoo_on_the_warp_batch(tmp_path, capsys):
+    """``train/train.py --vec warp``: rl-zoo3's PPO (VecNormalize from the block) learns on 4 Warp worlds, evaluates in
+    a single C env, and writes the run folder with the Warp worlds' monitor file."""
+    pytest.importorskip("rl_zoo3")
+    import json
+
+    args = ["--env", "MagSoftCrawl-v1", "--vec", "warp", "--warp-device", "cpu", "--n-envs", "4", "--runs",
+            str(tmp_path), "--run-id", "w", "--timesteps", "64", "--set", "n_steps=16", "batch_size=32", "n_epochs=1",
+            "--eval-freq", "64", "--eval-episodes", "1", "--no-eval"]
+    assert _train_script().main(args) == 0
+    out = capsys.readouterr().out
+    assert "[training envs: MuJoCo Warp batch]" in out and "Eval num_timesteps=64" in out
+    run = tmp_path / "w"
+    rec = json.loads((run / "train.json").read_text())
+    assert rec["vec"] == "warp" and rec["warp_device"] == "cpu"
+    assert "backend='warp'" in (run / "zoo_command.txt").read_text()
+    log = run / "ppo" / "MagSoftCrawl-v1_1"
+    assert (log / "0.monitor.csv").exists() and (log / "MagSoftCrawl-v1.zip").exists()
+    assert (log / "MagSoftCrawl-v1" / "vecnormalize.pkl").exists()
+    from rl_zoo3.exp_manager import ExperimentManager
+
+    assert ExperimentManager.create_envs.__name__ == "create_envs"  # rl-zoo3's own again
+    assert ExperimentManager.create_envs.__qualname__.startswith("ExperimentManager")

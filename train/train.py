@@ -15,7 +15,8 @@ train/hyperparams.yml`` (printed, and kept in zoo_command.txt), plus: the run fo
 exists, ``--set`` / ``--env-kwarg`` keys are checked against the algorithm's and the env's constructors
 (the closest name suggested) before any work, and the trained policy is evaluated against the open-loop
 paper gaits under the same limits (train/evaluate.py); with ``--vec threads`` (the default) the envs step
-on threads (magsoft_env.rl.ThreadedVecEnv: rl-zoo's DummyVecEnv results in less time). Writes
+on threads (magsoft_env.rl.ThreadedVecEnv: rl-zoo's DummyVecEnv results in less time); ``--vec warp
+[--warp-device cuda:0]`` steps the ``n_envs`` robots as one MuJoCo Warp batch (docs/gpu.md, "Training at scale"). Writes
 runs/<run-id>/: hyperparams.yml (resolved, rl-zoo's format), zoo_command.txt, train.json, rl-zoo's log
 folder <algo>/<env>_1/ (models, evaluations.npz, monitor, config.yml, args.yml, vecnormalize.pkl),
 evaluation.json, learning_curve.png.
@@ -59,7 +60,11 @@ def main(argv=None) -> int:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--vec", default="threads", choices=list(VEC_CHOICES),
                    help="vector env: threads (default; rl-zoo's DummyVecEnv with the envs stepped on threads, the same "
-                        "results in less time), dummy or subproc (rl-zoo's)")
+                        "results in less time), dummy or subproc (rl-zoo's), warp (the n_envs robots as one MuJoCo "
+                        "Warp batch, MagSoftCrawl-v1 and MagSoftCrawlWaveform-v1; docs/gpu.md)")
+    p.add_argument("--warp-device", default=None,
+                   help="Warp device of --vec warp (cpu, cuda:0; default: Warp's default, a GPU where there is one)")
+    p.add_argument("--device", default="cpu", help="torch device of the policy (rl-zoo's --device; default cpu)")
     p.add_argument("--runs", type=Path, default=Path("runs"), help="folder of run folders (default runs/)")
     p.add_argument("--run-id", default=None, help="run folder name (default <env>_<algo>_s<seed>_<time>); "
                    "refused if runs/<run-id> exists")
@@ -115,6 +120,7 @@ def main(argv=None) -> int:
               "choose another --run-id (or --continue-from it into a new one).", file=sys.stderr)
         return 2
     from magsoft_env.rl import check_env_kwargs, check_hyperparams, find_run, load_hyperparams
+    from magsoft_env.rl.training import check_vec
 
     try:
         for name in ("timesteps", "n_envs", "eval_episodes"):
@@ -131,6 +137,7 @@ def main(argv=None) -> int:
             block["n_envs"] = args.n_envs
         block["env_kwargs"] = {**(block.get("env_kwargs") or {}), **_key_values(args.env_kwarg, "--env-kwarg")}
         check_hyperparams(block, args.env, args.algo)
+        check_vec(args.vec, args.env)
         check_env_kwargs(args.env, block["env_kwargs"], build=True)  # the env's own checks on the values
         agent = None
         if args.continue_from is not None:
@@ -160,7 +167,8 @@ def main(argv=None) -> int:
     # checked above: errors from here on are not usage errors and keep their traceback
     rec = train(block, args.env, run_dir, algo=args.algo, seed=args.seed, eval_freq=args.eval_freq,
                 eval_episodes=args.eval_episodes, save_freq=args.save_freq, tensorboard=args.tensorboard,
-                progress=args.progress, trained_agent=agent, vec=args.vec,
+                progress=args.progress, trained_agent=agent, vec=args.vec, warp_device=args.warp_device,
+                device=args.device,
                 max_seconds=None if args.max_minutes is None else 60.0 * args.max_minutes)
     if args.no_eval:
         print(json.dumps({"run_dir": str(run_dir), "log_dir": str(rec.log_dir)}, indent=2))

@@ -15,10 +15,13 @@ Differences from the CPU batch, all stated in docs/gpu.md:
   its hinges: the same noise draws as the CPU batch's under the same seeds), not from the beam built at exactly
   zero contact distance, where float32 and float64 disagree on which contacts exist.
 - Health checks per world on the device's records: a non-finite state, kinetic energy above 100 x the energy
-  scale, a contact deeper than the penetration limit, the centreline below the floor by more than it, an MJWarp
-  buffer overflow. MuJoCo's C warnings and the energy-drift ("launch") check do not exist there.
-- Field mode of ``MagSoftCrawl-v1`` only (no ``slew_rate``, no waveform mode, no rendering); the channel and
-  obstacle ids refuse ``backend="warp"``.
+  scale and the energy drift ("launch") at the C simulator's checkpoints, a contact deeper than the penetration
+  limit, the centreline below the floor by more than it, an MJWarp buffer overflow. MuJoCo's C warnings do not
+  exist there.
+- ``MagSoftCrawl-v1`` and ``MagSoftCrawlWaveform-v1`` (field and waveform modes) without ``slew_rate`` or
+  rendering; the channel and obstacle ids refuse ``backend="warp"``.
+- Per-world parameters: ``friction`` (the rod-floor pairs' sliding friction) and ``field_scale`` (a factor on the
+  applied field) may be given one per world.
 """
 
 from __future__ import annotations
@@ -30,7 +33,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from ..sim.health import FIELD_FLOOR, RUNAWAY_FACTOR
+from ..sim.health import ENERGY_DRIFT_LIMIT, FIELD_FLOOR, RUNAWAY_FACTOR
 from ..sim.readouts import FLIP_ANGLE
 from ..sim.warp_batch import BUFFER_OVERFLOWS, WarpRodBatch
 from .crawl import AIRBORNE_TOLERANCE, MagSoftCrawlEnv
@@ -40,6 +43,10 @@ from .vector import _count
 DEFAULT_SETTLE_TIME = 0.05
 _TURN = 2.0 * math.pi
 _MODES = {"none": 0, "rotation": 1, "height": 2}
+#: The ids ``backend="warp"`` runs.
+SUPPORTED_IDS = ("MagSoftCrawl-v1", "MagSoftCrawlWaveform-v1")
+#: Substeps per graph of a waveform period (and between its energy checks, as the C simulator's waveform mode).
+WAVE_BLOCK = 100
 
 
 def _vector_info(values: dict, mask: np.ndarray | None = None) -> dict:
@@ -55,10 +62,12 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
     """
     ## Description
 
-    ``num_envs`` robots of :class:`~magsoft_env.envs.crawl.MagSoftCrawlEnv` (field mode) as MuJoCo Warp worlds,
-    the ``backend="warp"`` of ``gym.make_vec("MagSoftCrawl-v1", num_envs=n, backend="warp")`` (the optional
-    extra ``warp``). Spaces, observations, rewards, the crawl limits at every substep, terminations,
-    truncations, ``info`` and ``AutoresetMode.NEXT_STEP`` are the CPU batch's
+    ``num_envs`` robots of :class:`~magsoft_env.envs.crawl.MagSoftCrawlEnv` (field or waveform mode) as MuJoCo
+    Warp worlds, the ``backend="warp"`` of ``gym.make_vec("MagSoftCrawl-v1", num_envs=n, backend="warp")`` and of
+    ``MagSoftCrawlWaveform-v1`` (the optional extra ``warp``). In waveform mode each world plays its own period
+    (its own number of substeps) from a per-world step counter; the batch steps until the longest ends. Spaces,
+    observations, rewards, the crawl limits at every substep, terminations, truncations, ``info`` and
+    ``AutoresetMode.NEXT_STEP`` are the CPU batch's
     (:class:`~magsoft_env.envs.vector.MagSoftCrawlVecEnv`); the numbers are MJWarp's float32 physics from a
     start state settled in C (module docstring, docs/gpu.md).
 
@@ -72,6 +81,9 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
     | ``graph`` | True | replay one captured graph per env step (False: launch the kernels each step) |
     | ``settle_time`` | 0.05 | simulated time (s) the beam settles on the floor in C before every episode |
     | ``nconmax``, ``njmax`` | None | MJWarp contacts and constraint rows per world (None: sized for the rod) |
+    | ``friction`` | None | rod-floor sliding friction: one number (as the single env) or one per world |
+    | ``field_scale`` | None | factor on each world's applied field, one number or one per world (None: 1); |
+    | | | observations, rewards and ``info["field"]`` keep the commanded field |
     | ``**kwargs`` | | the single env's arguments (``robot``, ``field_limit``, ``segments``, ...) |
 
     Examples
@@ -89,18 +101,22 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
 
     def __init__(self, num_envs: int = 1, *, max_episode_steps: int | None = None, device=None, graph: bool = True,
                  settle_time: float = DEFAULT_SETTLE_TIME, nconmax: int | None = None, njmax: int | None = None,
-                 env_class=MagSoftCrawlEnv, **kwargs):
+                 friction=None, field_scale=None, env_class=MagSoftCrawlEnv, **kwargs):
         if env_class is not MagSoftCrawlEnv:
-            raise ValueError(f"backend='warp' runs MagSoftCrawl-v1 (field mode) only, not {env_class.__name__}; use "
-                             "the CPU batch (backend='cpu') for the channel and obstacle.")
+            raise ValueError(f"backend='warp' runs {' and '.join(SUPPORTED_IDS)} (the floor), not "
+                             f"{env_class.__name__} (its scene's walls and block are not built for MJWarp here); "
+                             "use the CPU batch (backend='cpu') for MagSoftChannel-v1 and MagSoftObstacle-v1.")
         self.num_envs = _count("num_envs", num_envs)
         self.max_episode_steps = None if max_episode_steps is None else _count("max_episode_steps", max_episode_steps)
         if not (isinstance(settle_time, (int, float)) and math.isfinite(settle_time) and settle_time >= 0):
             raise ValueError(f"settle_time must be a finite number of seconds >= 0, got {settle_time!r}.")
-        proto = env_class(**kwargs)
-        if proto.action_mode != "field" or proto.slew_rate is not None or proto.render_mode is not None:
-            raise ValueError("backend='warp' runs field mode without slew_rate or rendering (action_mode='field', "
-                             "slew_rate=None, render_mode=None); use the CPU batch for the others.")
+        per_world_friction = friction is not None and np.ndim(friction) > 0
+        proto = env_class(**kwargs) if per_world_friction else env_class(friction=friction, **kwargs)
+        if proto.slew_rate is not None or proto.render_mode is not None:
+            raise ValueError("backend='warp' runs without slew_rate or rendering (slew_rate=None, render_mode=None), "
+                             f"got slew_rate={proto.slew_rate!r}, render_mode={proto.render_mode!r}; use the CPU "
+                             "batch for them.")
+        self.action_mode = proto.action_mode
         self.proto = proto
         sim = proto.sim
         self.single_observation_space = proto.observation_space
@@ -127,7 +143,15 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
                   "cos_rotation": proto._cos_rotation, "max_height": proto.max_height, "mode": _MODES[cm],
                   "airborne_tolerance": AIRBORNE_TOLERANCE}
         self.batch = WarpRodBatch(rod, sim.data, self.num_envs, limits=limits, device=device, graph=graph,
-                                  nconmax=nconmax, njmax=njmax)
+                                  nconmax=nconmax, njmax=njmax, backend=sim.backend,
+                                  friction=friction if per_world_friction else None, field_scale=field_scale,
+                                  block=WAVE_BLOCK)
+        #: Every world's rod-floor sliding friction and field scale (what the device holds)
+        self.friction = (self.batch.friction if per_world_friction
+                         else np.full(self.num_envs, float(sim.model.pair_friction[0, 0]) if sim.model.npair
+                                      else math.nan))
+        self.field_scale = self.batch.field_scale
+        self._energy_on = bool(sim._health.energy_on)
         self.device = str(self.batch.device)
         backend = sim.backend
         self._mass = np.asarray(rod.disc.mass, dtype=float)
@@ -146,6 +170,7 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
         self._rngs: list = [None] * n
         self._obs = np.zeros((n, *self.single_observation_space.shape), dtype=np.float32)
         self._field = np.zeros((n, 2))
+        self._last_action = np.zeros((n, 4))
         self._com = np.zeros((n, 2))
         self._com_vel = np.zeros((n, 2))
         self._episode_forward = np.zeros(n)
@@ -162,7 +187,8 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
         self.start_qpos = np.tile(self._qpos_settled, (n, 1))
 
     def __repr__(self) -> str:
-        return f"{type(self).__name__}(MagSoftCrawl-v1, num_envs={self.num_envs}, device={self.device!r})"
+        name = SUPPORTED_IDS[self.action_mode == "waveform"]
+        return f"{type(self).__name__}({name}, num_envs={self.num_envs}, device={self.device!r})"
 
     # ------------------------------------------------------------------ readouts, vectorized over the worlds
     def _angles(self, s) -> np.ndarray:
@@ -196,9 +222,12 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
 
     def _observe(self, s, angles) -> np.ndarray:
         omega = -(s["qvel"] @ self._omega_map)
-        t = self._substeps * self._dt
-        w = 2.0 * math.pi * self.proto.clock_frequency * t
-        tail = np.column_stack([self._field / self.proto.field_limit, np.sin(w), np.cos(w)])
+        if self.action_mode == "waveform":
+            tail = self._last_action
+        else:
+            t = self._substeps * self._dt
+            w = 2.0 * math.pi * self.proto.clock_frequency * t
+            tail = np.column_stack([self._field / self.proto.field_limit, np.sin(w), np.cos(w)])
         obs = np.concatenate([angles, omega, self._com_vel, tail], axis=1).astype(np.float32)
         return np.clip(obs, self.single_observation_space.low, self.single_observation_space.high)
 
@@ -241,6 +270,7 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
         self._state = s
         m = mask
         self._field[m] = 0.0
+        self._last_action[m] = 0.0
         self._com[m] = self._com_of(s)[m]
         self._com_vel[m] = 0.0
         self._episode_forward[m] = 0.0
@@ -296,19 +326,36 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
         n, proto = self.num_envs, self.proto
         resetting = self._autoreset.copy()
         stepping = ~resetting
-        field = np.clip(a, -1.0, 1.0) * proto.field_limit
-        field[resetting] = 0.0
-        power = np.sum(field**2, axis=1) / proto.field_limit**2
-        self.batch.set_fields(field)
-        self.batch.advance(self._k)
+        backend = proto.sim.backend
+        if self.action_mode == "field":
+            field = np.clip(a, -1.0, 1.0) * proto.field_limit
+            field[resetting] = 0.0
+            power = np.sum(field**2, axis=1) / proto.field_limit**2
+            applied = np.hypot(field[:, 0], field[:, 1]) * self.field_scale
+            self.batch.set_fields(field)
+            self.batch.set_energy_scale(backend.energy_scale(np.maximum(applied, FIELD_FLOOR)))
+            self.batch.advance(self._k)
+            k = np.full(n, self._k, dtype=np.int64)
+        else:
+            act = np.clip(a, -1.0, 1.0)
+            act[resetting] = 0.0
+            waves, k = self._waves(act)
+            k[resetting] = 1  # reset after this step: one substep, so that it never sets the batch's length
+            power = 0.5 * (waves[:, 0] ** 2 + waves[:, 1] ** 2) / proto.field_limit**2
+            self.batch.set_waveforms(waves, k)
+            self.batch.set_energy_scale(backend.energy_scale(np.maximum(self._peaks(waves) * self.field_scale,
+                                                                        FIELD_FLOOR)))
+            self.batch.advance_waveforms()
+            field = np.zeros((n, 2))  # a whole period ends where it began
+            self._last_action[stepping] = act[stepping]
         s = self.batch.state()
         self._state = s
-        duration = self._k * self._dt
+        duration = k * self._dt
         old_obs = self._obs.copy()
         self._field[stepping] = field[stepping]
-        self._substeps[stepping] += self._k
+        self._substeps[stepping] += k[stepping]
         com = self._com_of(s)
-        self._com_vel[stepping] = ((com - self._com) / duration)[stepping]
+        self._com_vel[stepping] = ((com - self._com) / duration[:, None])[stepping]
         self._com[stepping] = com[stepping]
         self._highest_clearance = np.where(stepping, np.maximum(self._highest_clearance, s["clear_max"]),
                                            self._highest_clearance)
@@ -321,8 +368,8 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
         reasons: dict[int, tuple[str, str, str | None, dict]] = {}
         finite = np.isfinite(s["qpos"]).all(axis=1) & np.isfinite(s["qvel"]).all(axis=1)
         over = s["overflow"] & BUFFER_OVERFLOWS
-        kinetic = 0.5 * np.sum(s["qvel"] * s["mqvel"], axis=1)
-        scale = self.proto.sim.backend.energy_scale(np.maximum(np.hypot(field[:, 0], field[:, 1]), FIELD_FLOOR))
+        scale = self.batch._scale.numpy()
+        ratio, drift = s["ke_ratio"], s["drift"]
         clear_end, _, _ = self._centreline_limits(s)
         for i in np.flatnonzero(stepping).tolist():
             if not finite[i]:
@@ -330,9 +377,9 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
             elif over[i]:
                 reasons[i] = (f"MJWarp buffer overflow (OverflowType bits {int(over[i])}): raise nconmax / njmax",
                               "overflow", None, {})
-            elif not kinetic[i] <= RUNAWAY_FACTOR * scale[i]:
-                reasons[i] = (f"runaway kinetic energy (J): {kinetic[i]:.3g} > {RUNAWAY_FACTOR:g} x the energy scale "
-                              f"{scale[i]:.3g} J", "runaway kinetic energy (J)", None, {})
+            elif not ratio[i] <= RUNAWAY_FACTOR:
+                reasons[i] = (f"runaway kinetic energy (J): {ratio[i] * scale[i]:.3g} > {RUNAWAY_FACTOR:g} x the "
+                              f"energy scale {scale[i]:.3g} J", "runaway kinetic energy (J)", None, {})
             elif depth[i] > self._pen_limit:
                 figs = {"penetration_m": float(depth[i]), "penetration_h": float(depth[i] / self._h)}
                 reasons[i] = (f"penetration {depth[i] * 1e3:.3f} mm > {self._pen_limit * 1e3:.3f} mm",
@@ -342,6 +389,12 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
                 figs = {"penetration_m": float(depth_t), "penetration_h": float(depth_t / self._h)}
                 reasons[i] = (f"tunnelling: the centreline {depth_t * 1e3:.3f} mm below the floor",
                               "tunnelling (m)", "tunnelling", figs)
+            elif self._energy_on and drift[i] > ENERGY_DRIFT_LIMIT:
+                excess = float(drift[i] * scale[i])
+                figs = {"energy_created_J": excess, "energy_drift": float(drift[i])}
+                reasons[i] = (f"launch: the rod gained {excess:.3g} J more than the field supplied ({drift[i]:.3g} of "
+                              f"the energy scale {scale[i]:.3g} J, limit {ENERGY_DRIFT_LIMIT:g})", "launch", "launch",
+                              figs)
 
         # crawl limits at every substep (the device's records) and the rewards
         col = s["violation"]
@@ -371,7 +424,7 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
         infos = _vector_info(values)
         time_end = self._substeps * self._dt
         if violated.any():
-            infos.update(_vector_info({"crawl_violation": self._violation_texts(s, violated, time_end)},
+            infos.update(_vector_info({"crawl_violation": self._violation_texts(s, violated, time_end, k)},
                                       violated & ~broken))
         if reasons:
             mask = broken
@@ -404,14 +457,37 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
         np.logical_or(terminated, truncated, out=self._autoreset)
         return self._obs.copy(), reward, terminated, truncated, infos
 
-    def _violation_texts(self, s, violated, time_end) -> np.ndarray:
-        proto, k = self.proto, self._k
+    def _waves(self, act: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Rows ``(A_x, A_z, f, phase)`` of the waveform-mode actions ``act`` (clipped) and each period's substeps
+        (:meth:`MagSoftCrawlEnv.waveparams_of_action <magsoft_env.envs.crawl.MagSoftCrawlEnv.waveparams_of_action>`
+        and its ``round(1 / (f sim_dt))``)."""
+        proto = self.proto
+        f_lo, f_hi = proto.frequency_range
+        freq = f_lo + 0.5 * (act[:, 3] + 1.0) * (f_hi - f_lo)
+        waves = np.column_stack([act[:, 0] * proto.field_limit, act[:, 1] * proto.field_limit, freq,
+                                 act[:, 2] * math.pi])
+        k = np.maximum(1, np.round(1.0 / (freq * self._dt))).astype(np.int64)
+        return waves, k
+
+    @staticmethod
+    def _peaks(waves: np.ndarray) -> np.ndarray:
+        """Peak field (T) of each world's waveform as the C simulator takes it for its energy scale: the largest
+        |B_x| and |B_z| over 257 samples of its first second, combined."""
+        t = np.linspace(0.0, 1.0, 257)
+        w = 2.0 * np.pi * waves[:, 2:3] * t
+        bx = np.abs(waves[:, 0:1] * np.sin(w + waves[:, 3:4])).max(axis=1)
+        bz = np.abs(waves[:, 1:2] * np.sin(w)).max(axis=1)
+        return np.hypot(bx, bz)
+
+    def _violation_texts(self, s, violated, time_end, k) -> np.ndarray:
+        proto = self.proto
         out = np.full(self.num_envs, None, dtype=object)
         for i in np.flatnonzero(violated).tolist():
+            ki = int(k[i])
             j = int(s["violation"][i])
-            j = k if j == -2 else j  # -2: the end state (the last column)
+            j = ki if j == -2 else j  # -2: the end state (the last column)
             clear, top, cos = s["figures"][i]
-            when = f"at t = {time_end[i] - (k - j) * self._dt:.4f} s"
+            when = f"at t = {time_end[i] - (ki - j) * self._dt:.4f} s"
             if proto.max_clearance is not None and clear > proto.max_clearance:
                 out[i] = (f"airborne {when}: the lowest point is {clear * 1e3:.3f} mm above the floor > "
                           f"{proto.max_clearance * 1e3:.3f} mm (the whole beam off the floor: a hop, not a crawl)")
@@ -458,4 +534,4 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
             proto.close()
 
 
-__all__ = ["DEFAULT_SETTLE_TIME", "MagSoftCrawlWarpVecEnv"]
+__all__ = ["DEFAULT_SETTLE_TIME", "SUPPORTED_IDS", "MagSoftCrawlWarpVecEnv"]

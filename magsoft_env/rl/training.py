@@ -52,32 +52,86 @@ def zoo_argv(env_id: str, conf, log_folder, *, algo: str = "ppo", seed: int = 0,
     return argv
 
 
-#: ``vec`` choices of :func:`train`: rl-zoo3's two, and ``"threads"`` (:class:`~magsoft_env.rl.vec.ThreadedVecEnv`).
-VEC_CHOICES = ("threads", "dummy", "subproc")
+#: ``vec`` choices of :func:`train`: rl-zoo3's two, ``"threads"`` (:class:`~magsoft_env.rl.vec.ThreadedVecEnv`) and
+#: ``"warp"`` (the MuJoCo Warp batch, ``gym.make_vec(..., backend="warp")``: docs/gpu.md).
+VEC_CHOICES = ("threads", "dummy", "subproc", "warp")
+#: The ids ``vec="warp"`` trains (the Warp backend's; magsoft_env.envs.warp_vector.SUPPORTED_IDS, not imported here).
+WARP_IDS = ("MagSoftCrawl-v1", "MagSoftCrawlWaveform-v1")
 
 
-def run_zoo(argv: list[str], *, vec_env_cls=None) -> None:
+def warp_create_envs(original, device=None):
+    """rl-zoo3's ``ExperimentManager.create_envs`` with its training envs as one MuJoCo Warp batch: ``n_envs``
+    worlds of ``gym.make_vec(env_id, n_envs, backend="warp", device=device, **env_kwargs)`` in
+    :class:`~magsoft_env.rl.vec.SB3VecAdapter`, ``VecMonitor`` (its monitor file in rl-zoo3's log folder, as
+    ``0.monitor.csv``) and rl-zoo3's ``VecNormalize`` when the block asks for it; the evaluation env stays
+    rl-zoo3's own (single C envs), in a ``VecMonitor`` too, so that SB3 can copy the normalization statistics
+    between the two wrapper stacks (it walks them level by level). ``original``: the unpatched method."""
+
+    def create_envs(manager, n_envs: int, eval_env: bool = False, no_log: bool = False):
+        import os
+
+        from stable_baselines3.common.vec_env import VecMonitor
+
+        from .vec import make_sb3_vec_env
+
+        if manager.env_wrapper is not None or manager.vec_env_wrapper is not None or manager.frame_stack:
+            raise ValueError("vec='warp' takes no env_wrapper, vec_env_wrapper or frame_stack (the worlds are one "
+                             "batch, not single envs to wrap); remove them from the block or use vec='threads'.")
+        if eval_env:
+            manager.vec_env_wrapper = VecMonitor
+            try:
+                return original(manager, n_envs, eval_env=eval_env, no_log=no_log)
+            finally:
+                manager.vec_env_wrapper = None
+        log_dir = None if no_log else manager.save_path
+        venv = make_sb3_vec_env(manager.env_name.gym_id, n_envs, seed=manager.seed, monitor=False, backend="warp",
+                                device=device, **(manager.env_kwargs or {}))
+        venv = VecMonitor(venv, None if log_dir is None else os.path.join(log_dir, "0"), **manager.monitor_kwargs)
+        return manager._maybe_normalize(venv, eval_env)
+
+    return create_envs
+
+
+def run_zoo(argv: list[str], *, vec_env_cls=None, warp_device=None, warp: bool = False) -> None:
     """Run ``python -m rl_zoo3.train *argv`` in this process (rl-zoo3 parses ``sys.argv``); ``vec_env_cls``:
     the SB3 ``VecEnv`` class rl-zoo3 builds its envs with, for this run (its ``ExperimentManager``'s
-    ``default_vec_env_cls`` hook, which overrides ``--vec-env``)."""
+    ``default_vec_env_cls`` hook, which overrides ``--vec-env``); ``warp``: the training envs as one MuJoCo Warp
+    batch on ``warp_device`` (:func:`warp_create_envs`)."""
     from rl_zoo3.exp_manager import ExperimentManager
     from rl_zoo3.train import train as zoo_train
 
-    saved, saved_cls = sys.argv, ExperimentManager.default_vec_env_cls
+    saved, saved_cls, saved_create = sys.argv, ExperimentManager.default_vec_env_cls, ExperimentManager.create_envs
     sys.argv = ["rl_zoo3.train", *argv]
     if vec_env_cls is not None:
         ExperimentManager.default_vec_env_cls = vec_env_cls
+    if warp:
+        ExperimentManager.create_envs = warp_create_envs(saved_create, warp_device)
     try:
         zoo_train()
     finally:
         sys.argv = saved
         ExperimentManager.default_vec_env_cls = saved_cls
+        ExperimentManager.create_envs = saved_create
+
+
+def check_vec(vec: str, env_id: str) -> None:
+    """ValueError unless ``vec`` is one of :data:`VEC_CHOICES` that can run ``env_id`` here (``"warp"``: the
+    Warp backend's ids, with the extra installed)."""
+    if vec not in VEC_CHOICES:
+        raise ValueError(f"vec must be one of {', '.join(VEC_CHOICES)}, got {vec!r}.")
+    if vec == "warp":
+        import importlib.util
+
+        if env_id not in WARP_IDS:
+            raise ValueError(f"vec='warp' trains {' and '.join(WARP_IDS)}, got {env_id!r}; use vec='threads'.")
+        if any(importlib.util.find_spec(name) is None for name in ("warp", "mujoco_warp")):
+            raise ValueError("vec='warp' needs the optional extra 'warp': pip install -e \".[warp]\" (docs/gpu.md).")
 
 
 def train(block: dict, env_id: str, run_dir, *, algo: str = "ppo", seed: int = 0, eval_freq: int = 10000,
           eval_episodes: int = 2, save_freq: int = -1, tensorboard: bool = False, progress: bool = False,
           trained_agent=None, vec: str = "threads", num_threads: int = 1,
-          max_seconds: float | None = None) -> RunRecord:
+          max_seconds: float | None = None, warp_device=None, device: str = "cpu") -> RunRecord:
     """Train one run with rl-zoo3 into the new folder ``run_dir``.
 
     Writes ``run_dir/hyperparams.yml`` (``{env_id: block}``, rl-zoo's format: the resolved settings),
@@ -97,10 +151,16 @@ def train(block: dict, env_id: str, run_dir, *, algo: str = "ppo", seed: int = 0
     max_seconds : float, optional
         Wall-time budget for learning (s): a :class:`magsoft_env.rl.callbacks.WallTimeLimit` entry in the
         block's ``callback`` list; the model is saved when it runs out.
-    vec : {"threads", "dummy", "subproc"}
+    vec : {"threads", "dummy", "subproc", "warp"}
         The SB3 vector env of the run: ``"threads"`` (default), :class:`~magsoft_env.rl.vec.ThreadedVecEnv`,
         rl-zoo3's ``DummyVecEnv`` with the envs stepped on threads (the same results; zoo_command.txt then
-        reads ``--vec-env dummy``, with a comment); ``"dummy"`` / ``"subproc"``: rl-zoo3's own.
+        reads ``--vec-env dummy``, with a comment); ``"dummy"`` / ``"subproc"``: rl-zoo3's own; ``"warp"``: the
+        block's ``n_envs`` as MuJoCo Warp worlds (:func:`warp_create_envs`; ``MagSoftCrawl-v1`` and
+        ``MagSoftCrawlWaveform-v1``, the optional extra ``warp``), evaluated in single C envs.
+    warp_device : str, optional
+        Warp device of ``vec="warp"`` (None: Warp's default, a GPU where there is one).
+    device : str
+        Torch device of the policy (rl-zoo3's ``--device``).
 
     Returns
     -------
@@ -121,8 +181,7 @@ def train(block: dict, env_id: str, run_dir, *, algo: str = "ppo", seed: int = 0
         limit = {"magsoft_env.rl.callbacks.WallTimeLimit": {"max_seconds": float(max_seconds)}}
         block["callback"] = [*callbacks, limit]
     check_hyperparams(block, env_id, algo)
-    if vec not in VEC_CHOICES:
-        raise ValueError(f"vec must be one of {', '.join(VEC_CHOICES)}, got {vec!r}.")
+    check_vec(vec, env_id)
     if trained_agent is not None:
         trained = find_run(trained_agent)
         if trained.env_id != env_id:
@@ -133,25 +192,31 @@ def train(block: dict, env_id: str, run_dir, *, algo: str = "ppo", seed: int = 0
     conf.write_text(header + yaml.safe_dump({env_id: block}, sort_keys=False, default_flow_style=None))
     argv = zoo_argv(env_id, conf, run_dir, algo=algo, seed=seed, eval_freq=eval_freq, eval_episodes=eval_episodes,
                     save_freq=save_freq, tensorboard_log=run_dir / "tensorboard" if tensorboard else None,
-                    progress=progress, trained_agent=trained_agent, vec="dummy" if vec == "threads" else vec,
-                    num_threads=num_threads, eval_env_kwargs=block.get("env_kwargs") or None)
+                    progress=progress, trained_agent=trained_agent,
+                    vec="dummy" if vec in ("threads", "warp") else vec, num_threads=num_threads, device=device,
+                    eval_env_kwargs=block.get("env_kwargs") or None)
     command = "python -m rl_zoo3.train " + shlex.join(argv)
-    note = ("# stepped by magsoft_env.rl.ThreadedVecEnv (rl-zoo3's DummyVecEnv on threads, the same results; "
-            "magsoft_env.rl.train(vec='threads'))\n") if vec == "threads" else ""
+    note = {"threads": "# stepped by magsoft_env.rl.ThreadedVecEnv (rl-zoo3's DummyVecEnv on threads, the same "
+                       "results; magsoft_env.rl.train(vec='threads'))\n",
+            "warp": f"# training envs: one MuJoCo Warp batch (gym.make_vec(..., backend='warp', "
+                    f"device={warp_device!r}) in SB3VecAdapter and VecMonitor; magsoft_env.rl.train(vec='warp')); "
+                    "evaluation in C\n"}.get(vec, "")
     (run_dir / "zoo_command.txt").write_text(note + command + "\n")
-    print(f"train: {command}" + (" [envs on threads: ThreadedVecEnv]" if vec == "threads" else ""), flush=True)
+    tag = {"threads": " [envs on threads: ThreadedVecEnv]", "warp": " [training envs: MuJoCo Warp batch]"}.get(vec, "")
+    print(f"train: {command}" + tag, flush=True)
     vec_env_cls = None
     if vec == "threads":
         from .vec import ThreadedVecEnv
 
         vec_env_cls = ThreadedVecEnv
     t0 = time.perf_counter()
-    run_zoo(argv, vec_env_cls=vec_env_cls)
+    run_zoo(argv, vec_env_cls=vec_env_cls, warp=vec == "warp", warp_device=warp_device)
     wall = time.perf_counter() - t0
     rec = find_run(run_dir)
     (run_dir / "train.json").write_text(json.dumps(
         {"env_id": env_id, "algo": algo, "seed": int(seed), "n_timesteps": int(block["n_timesteps"]),
-         "wall_s": wall, "log_dir": str(rec.log_dir), "zoo_command": command, "vec": vec}, indent=2))
+         "wall_s": wall, "log_dir": str(rec.log_dir), "zoo_command": command, "vec": vec,
+         **({"warp_device": warp_device} if vec == "warp" else {})}, indent=2))
     return rec
 
 
@@ -316,8 +381,10 @@ def tune(block: dict, env_id: str, run_dir, *, algo: str = "ppo", seed: int = 0,
         if value is not None and (isinstance(value, bool) or not isinstance(value, int) or value < 1):
             raise ValueError(f"{name} must be an integer >= 1, got {value!r}.")
     check_hyperparams(block, env_id, algo)
-    if vec not in VEC_CHOICES:
-        raise ValueError(f"vec must be one of {', '.join(VEC_CHOICES)}, got {vec!r}.")
+    check_vec(vec, env_id)
+    if vec == "warp":
+        raise ValueError("vec='warp' trains one run (train); the hyperparameter search runs on the CPU batch "
+                         "(vec='threads', 'dummy' or 'subproc').")
     run_dir.mkdir(parents=True, exist_ok=False)
     conf = run_dir / "hyperparams.yml"
     conf.write_text(f"# hyperparameters the search starts from, rl-zoo3's format ({algo}); see zoo_command.txt\n"

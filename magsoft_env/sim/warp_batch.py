@@ -8,8 +8,12 @@ recorded once as a Warp graph (``wp.ScopedCapture``, on the CPU device too) and 
 launched kernel by kernel (``graph=False``: the same numbers, bit for bit). After every substep a small kernel
 reduces each world's centreline (the state that substep started from, as MuJoCo's history buffers hold it in C)
 to the crawl limits' figures, and another its deepest contact; the end state's kinematics and ``M qvel`` (for
-the kinetic energy) close the graph. Worlds are reset by mask from states the caller computes in C
-(:meth:`WarpRodBatch.reset_worlds`).
+the kinetic energy) close the graph. :meth:`WarpRodBatch.advance_waveforms` plays one period of a per-world
+waveform instead, the phase from a per-world step counter (MJWarp's ``d.time`` is float32), in graphs of
+``block`` substeps replayed until the longest period ends; a world whose period is over keeps its end state. The
+energy balance of :mod:`magsoft_env.sim.health` (runaway kinetic energy, energy drift) is kept per world on the
+device. Worlds are reset by mask from states the caller computes in C (:meth:`WarpRodBatch.reset_worlds`).
+Friction (the rod-floor contact pairs) and a field scale may differ per world (MJWarp's batched model arrays).
 """
 
 from __future__ import annotations
@@ -60,13 +64,19 @@ def _clear_records(clear_max: wp.array[float], cos_min: wp.array[float], airborn
 @wp.kernel
 def _limits(xpos: wp.array2d[wp.vec3], xmat: wp.array2d[wp.mat33], bodies: wp.array[int],
             inv_len: wp.array[float], tip_len: float, half_h: float, max_clearance: float, cos_rotation: float,
-            max_height: float, mode: int, airborne_tol: float, column: int, count: int,
-            clear_max: wp.array[float], cos_min: wp.array[float], airborne: wp.array[int],
+            max_height: float, mode: int, airborne_tol: float, column: int, count: int, step: wp.array[int],
+            nsub: wp.array[int], clear_max: wp.array[float], cos_min: wp.array[float], airborne: wp.array[int],
             violation: wp.array[int], figures: wp.array2d[float]):
     """One column of the crawl limits of every world: clearance of the lowest centreline point, the highest point
     and the cos of the largest piece angle; the first column that breaks a limit is kept with its figures.
-    ``mode``: 0 none, 1 rotation, 2 height."""
+    ``mode``: 0 none, 1 rotation, 2 height. The column is ``column + step[w]`` (``column`` -2: the end state);
+    a world whose ``step`` has reached its ``nsub`` (its period is over) is left out."""
     w = wp.tid()
+    if column != -2 and step[w] >= nsub[w]:
+        return
+    col = column
+    if column != -2:
+        col = column + step[w]
     n = bodies.shape[0]
     # float(): variables a Warp loop changes are declared dynamic
     lo = float(1.0e30)  # noqa: UP018
@@ -101,26 +111,190 @@ def _limits(xpos: wp.array2d[wp.vec3], xmat: wp.array2d[wp.mat33], bodies: wp.ar
         else:
             broken = broken or hi > max_height
         if broken:
-            violation[w] = column
+            violation[w] = col
             figures[w, 0] = clear
             figures[w, 1] = hi
             figures[w, 2] = cmin
 
 
 @wp.kernel
-def _deepest(nacon: wp.array[int], dist: wp.array[float], worldid: wp.array[int], depth: wp.array[float]):
+def _deepest(nacon: wp.array[int], dist: wp.array[float], worldid: wp.array[int], step: wp.array[int],
+             nsub: wp.array[int], depth: wp.array[float]):
     c = wp.tid()
     if c < nacon[0]:
-        wp.atomic_max(depth, worldid[c], -dist[c])
+        w = worldid[c]
+        if step[w] < nsub[w]:
+            wp.atomic_max(depth, w, -dist[c])
+
+
+@wp.func
+def _net_moment(xmat: wp.array2d[wp.mat33], w: int, b0: int, mx: wp.array[wp.float64],
+                mz: wp.array[wp.float64]) -> wp.vec2d:
+    """Net magnetic moment (world x, z; A m^2) of world ``w``'s pieces at the orientations in ``xmat``."""
+    mox = wp.float64(0.0)
+    moz = wp.float64(0.0)
+    for i in range(mx.shape[0]):
+        r = xmat[w, b0 + i]
+        mox += wp.float64(r[0, 0]) * mx[i] + wp.float64(r[0, 2]) * mz[i]
+        moz += wp.float64(r[2, 0]) * mx[i] + wp.float64(r[2, 2]) * mz[i]
+    return wp.vec2d(mox, moz)
+
+
+@wp.kernel
+def _book_work(field: wp.array2d[wp.float64], step: wp.array[int], nsub: wp.array[int], xmat: wp.array2d[wp.mat33],
+               b0: int, mx: wp.array[wp.float64], mz: wp.array[wp.float64], applied: wp.array2d[wp.float64],
+               work: wp.array[wp.float64]):
+    """The field's work on every world whose period runs: ``-M . dB``, ``M`` the net moment of the state the
+    substep started from (``xmat`` after ``mjw.step``), ``dB`` the change from the field the last substep applied."""
+    w = wp.tid()
+    if step[w] >= nsub[w]:
+        return
+    db0 = field[w, 0] - applied[w, 0]
+    db1 = field[w, 1] - applied[w, 1]
+    if db0 != wp.float64(0.0) or db1 != wp.float64(0.0):
+        mom = _net_moment(xmat, w, b0, mx, mz)
+        work[w] = work[w] - (mom[0] * db0 + mom[1] * db1)
+    applied[w, 0] = field[w, 0]
+    applied[w, 1] = field[w, 1]
+
+
+@wp.kernel
+def _energy(qpos: wp.array2d[float], qvel: wp.array2d[float], mqvel: wp.array2d[float], xipos: wp.array2d[wp.vec3],
+            xmat: wp.array2d[wp.mat33], hq: wp.array[int], hd: wp.array[int], stiffness: wp.array[wp.float64],
+            mass_g: wp.array[wp.float64], b0: int, mx: wp.array[wp.float64], mz: wp.array[wp.float64],
+            applied: wp.array2d[wp.float64], dt: wp.float64, staggered: int, rebase: int, mask: wp.array[int],
+            step: wp.array[int], nsub: wp.array[int], scale: wp.array[wp.float64], e0: wp.array[wp.float64],
+            work: wp.array[wp.float64], ke_max: wp.array[wp.float64], drift_max: wp.array[wp.float64]):
+    """Every world's energy (kinetic + elastic + gravitational + magnetic, J) under the field it applied last.
+
+    ``rebase``: the worlds of ``mask`` start their balance here (``e0``, the work and the records zeroed);
+    else the worlds whose period covered the whole block (``step <= nsub``) record their largest kinetic energy
+    and energy drift ``(E - e0 - work) / scale``. ``staggered``: positions of the last substep's start paired
+    with the new velocities (after ``mjw.step``), the hinge angles then ``qpos - dt qvel``."""
+    w = wp.tid()
+    if rebase != 0:
+        if mask[w] == 0:
+            return
+    elif step[w] > nsub[w]:
+        return
+    ke = wp.float64(0.0)
+    for i in range(qvel.shape[1]):
+        ke += wp.float64(qvel[w, i]) * wp.float64(mqvel[w, i])
+    ke = wp.float64(0.5) * ke
+    el = wp.float64(0.0)
+    for i in range(hq.shape[0]):
+        q = wp.float64(qpos[w, hq[i]])
+        if staggered != 0:
+            q = q - dt * wp.float64(qvel[w, hd[i]])
+        el += stiffness[i] * q * q
+    gr = wp.float64(0.0)
+    for i in range(mass_g.shape[0]):
+        gr += mass_g[i] * wp.float64(xipos[w, b0 + i][2])
+    mom = _net_moment(xmat, w, b0, mx, mz)
+    e = ke + wp.float64(0.5) * el + gr - (mom[0] * applied[w, 0] + mom[1] * applied[w, 1])
+    if rebase != 0:
+        e0[w] = e
+        work[w] = wp.float64(0.0)
+        ke_max[w] = wp.float64(0.0)
+        drift_max[w] = wp.float64(0.0)
+        return
+    ratio = ke / scale[w]
+    drift = (e - e0[w] - work[w]) / scale[w]
+    if not (ratio <= ke_max[w]):  # NaN is kept: a non-finite energy is a runaway
+        ke_max[w] = ratio
+    if not (drift <= drift_max[w]):
+        drift_max[w] = drift
+
+
+@wp.kernel
+def _clear_energy_records(ke_max: wp.array[wp.float64], drift_max: wp.array[wp.float64]):
+    w = wp.tid()
+    ke_max[w] = wp.float64(0.0)
+    drift_max[w] = wp.float64(-1.0e300)
+
+
+@wp.kernel
+def _wave_inputs(step: wp.array[int], nsub: wp.array[int], wave: wp.array2d[wp.float64], dt: wp.float64,
+                 mocap: int, field: wp.array2d[wp.float64], ctrl: wp.array2d[float],
+                 mocap_quat: wp.array2d[wp.quat]):
+    """The field of every world's present substep of its period, ``B_x = A_x sin(2 pi f t + phase)``,
+    ``B_z = A_z sin(2 pi f t)`` at ``t = step dt`` (float64, from the step counter), as the actuators' ``|B|`` and
+    the field frame's quaternion (:func:`~magsoft_env.sim.model.field_controls`' arithmetic); a world past its
+    period holds its last substep's field. ``wave`` rows: ``A_x, A_z, f, phase`` (T, T, Hz, rad)."""
+    w = wp.tid()
+    j = wp.min(step[w], nsub[w] - 1)
+    t = wp.float64(j) * dt
+    ph = wp.float64(2.0 * 3.141592653589793) * wave[w, 2] * t
+    bx = wave[w, 0] * wp.sin(ph + wave[w, 3])
+    bz = wave[w, 1] * wp.sin(ph)
+    field[w, 0] = bx
+    field[w, 1] = bz
+    mag = wp.sqrt(bx * bx + bz * bz)
+    c = mag + bx
+    s = bz
+    if bx < wp.float64(0.0):
+        c = bz
+        s = mag - bx
+    norm = wp.sqrt(c * c + s * s)
+    qw = wp.float64(1.0)
+    qy = wp.float64(0.0)
+    if norm != wp.float64(0.0):
+        qw = c / norm
+        qy = -(s / norm)
+    for u in range(ctrl.shape[1]):
+        ctrl[w, u] = float(mag)
+    if mocap >= 0:
+        mocap_quat[w, mocap] = wp.quat(float(qw), 0.0, float(qy), 0.0)
+
+
+@wp.kernel
+def _tick(step: wp.array[int], nsub: wp.array[int], qpos: wp.array2d[float], qvel: wp.array2d[float],
+          warm: wp.array2d[float], time: wp.array[float], overflow: wp.array[int], qpos_end: wp.array2d[float],
+          qvel_end: wp.array2d[float], warm_end: wp.array2d[float], time_end: wp.array[float],
+          overflow_end: wp.array[int]):
+    """After a substep: a world whose period has just ended keeps its state (restored by :func:`_restore` after
+    the block in which the longest period ends); the step counter moves on."""
+    w = wp.tid()
+    j = step[w]
+    if j + 1 == nsub[w]:
+        for i in range(qpos.shape[1]):
+            qpos_end[w, i] = qpos[w, i]
+        for i in range(qvel.shape[1]):
+            qvel_end[w, i] = qvel[w, i]
+            warm_end[w, i] = warm[w, i]
+        time_end[w] = time[w]
+        overflow_end[w] = overflow[w]
+    step[w] = j + 1
+
+
+@wp.kernel
+def _restore(qpos: wp.array2d[float], qvel: wp.array2d[float], warm: wp.array2d[float], time: wp.array[float],
+             overflow: wp.array[int], qpos_end: wp.array2d[float], qvel_end: wp.array2d[float],
+             warm_end: wp.array2d[float], time_end: wp.array[float], overflow_end: wp.array[int]):
+    w = wp.tid()
+    for i in range(qpos.shape[1]):
+        qpos[w, i] = qpos_end[w, i]
+    for i in range(qvel.shape[1]):
+        qvel[w, i] = qvel_end[w, i]
+        warm[w, i] = warm_end[w, i]
+    time[w] = time_end[w]
+    overflow[w] = overflow_end[w]
+
+
+@wp.kernel
+def _set_int(a: wp.array[int], value: int):
+    a[wp.tid()] = value
 
 
 @wp.kernel
 def _reset_masked(mask: wp.array[int], qpos_new: wp.array2d[float], qvel_new: wp.array2d[float],
                   qpos: wp.array2d[float], qvel: wp.array2d[float], qacc_warmstart: wp.array2d[float],
-                  time: wp.array[float], overflow: wp.array[int]):
+                  time: wp.array[float], overflow: wp.array[int], applied: wp.array2d[wp.float64]):
     w = wp.tid()
     if mask[w] == 0:
         return
+    applied[w, 0] = wp.float64(0.0)
+    applied[w, 1] = wp.float64(0.0)
     for i in range(qpos.shape[1]):
         qpos[w, i] = qpos_new[w, i]
     for i in range(qvel.shape[1]):
@@ -162,10 +336,21 @@ class WarpRodBatch:
         Record :meth:`advance` as a graph and replay it (False: launch the kernels each call).
     nconmax, njmax : int, optional
         Contacts and constraint rows per world (None: sized for the rod lying flat, with room to spare).
+    backend : PlanarRod, optional
+        The C simulator's rod backend (``Simulator.backend``): with it the energy balance is kept per world
+        (:meth:`energy_records`).
+    friction : array_like, optional
+        Sliding friction of the rod-floor contact pairs per world, shape ``(nworld,)`` (None: the model's). The
+        pairs' torsional and rolling friction stay the model's.
+    field_scale : array_like, optional
+        Factor on every world's applied field, shape ``(nworld,)`` (None: 1).
+    block : int
+        Substeps per graph of :meth:`advance_waveforms` (and between its energy checks).
     """
 
     def __init__(self, rod, data: mujoco.MjData, nworld: int, *, limits: dict | None = None, device=None,
-                 graph: bool = True, nconmax: int | None = None, njmax: int | None = None):
+                 graph: bool = True, nconmax: int | None = None, njmax: int | None = None, backend=None,
+                 friction=None, field_scale=None, block: int = 100):
         self.rod = rod
         self.nworld = int(nworld)
         self.device = wp.get_device(device)
@@ -175,12 +360,23 @@ class WarpRodBatch:
         self.nconmax = int(nconmax) if nconmax is not None else 4 * ngeom + 16
         rows = 6 if src.opt.cone == mujoco.mjtCone.mjCONE_PYRAMIDAL else 3
         self.njmax = int(njmax) if njmax is not None else rows * self.nconmax + int(src.nv)
+        self.block = int(block)
+        n = self.nworld
+        self.friction = None if friction is None else self._per_world("friction", friction, lo=0.0)
+        self.field_scale = np.ones(n) if field_scale is None else self._per_world("field_scale", field_scale)
+        if self.friction is not None and src.npair == 0:
+            raise ValueError("friction per world needs the rod's contact pairs (a floor scene); this model has none.")
         with wp.ScopedDevice(self.device):
-            self.m = mjw.put_model(src)
+            batch = {"pair_friction": n} if self.friction is not None else None
+            self.m = mjw.put_model(src, batch_sizes=batch)
+            if self.friction is not None:
+                pf = np.tile(np.asarray(src.pair_friction, dtype=np.float32), (n, 1, 1))
+                pf[:, :, 0] = pf[:, :, 1] = self.friction[:, None]
+                self.m.pair_friction.assign(pf)
             self.m.opt.warn_overflow = 0  # recorded per world in d.overflow, read by health()
             self.m.opt.contact_sensor_maxmatch = max(int(self.m.opt.contact_sensor_maxmatch), self.nconmax)
-            self.d = mjw.put_data(src, data, nworld=self.nworld, nconmax=self.nconmax, njmax=self.njmax)
-            n = self.nworld
+            self.d = mjw.put_data(src, data, nworld=n, nconmax=self.nconmax, njmax=self.njmax)
+            nq, nv = int(src.nq), int(src.nv)
             self._mag = wp.zeros(n, dtype=float)
             self._quat = wp.array(np.tile([1.0, 0.0, -0.0, 0.0], (n, 1)), dtype=float)
             self.clear_max = wp.zeros(n, dtype=float)
@@ -189,15 +385,45 @@ class WarpRodBatch:
             self.violation = wp.zeros(n, dtype=int)
             self.figures = wp.zeros((n, 3), dtype=float)
             self.depth = wp.zeros(n, dtype=float)
-            self.mqvel = wp.zeros((n, int(src.nv)), dtype=float)
+            self.mqvel = wp.zeros((n, nv), dtype=float)
             self._mask = wp.zeros(n, dtype=int)
-            self._qpos_new = wp.zeros((n, int(src.nq)), dtype=float)
-            self._qvel_new = wp.zeros((n, int(src.nv)), dtype=float)
+            self._qpos_new = wp.zeros((n, nq), dtype=float)
+            self._qvel_new = wp.zeros((n, nv), dtype=float)
             self._bodies = wp.array(np.asarray(rod.body_ids, dtype=np.int32), dtype=int)
+            # the substep counter of a waveform period and the periods' lengths (field mode: 0 and "never ends")
+            self._zero = wp.zeros(n, dtype=int)
+            self._never = wp.full(n, 2**30, dtype=int)
+            self._step = wp.zeros(n, dtype=int)
+            self._nsub = wp.zeros(n, dtype=int)
+            self._wave = wp.zeros((n, 4), dtype=wp.float64)
+            self._qpos_end = wp.zeros((n, nq), dtype=float)
+            self._qvel_end = wp.zeros((n, nv), dtype=float)
+            self._warm_end = wp.zeros((n, nv), dtype=float)
+            self._time_end = wp.zeros(n, dtype=float)
+            self._overflow_end = wp.zeros(n, dtype=int)
+            # the energy balance (float64): the field applied last, its work, the start energy, the records
+            self._field = wp.zeros((n, 2), dtype=wp.float64)
+            self._applied = wp.zeros((n, 2), dtype=wp.float64)
+            self._work = wp.zeros(n, dtype=wp.float64)
+            self._e0 = wp.zeros(n, dtype=wp.float64)
+            self._scale = wp.ones(n, dtype=wp.float64)
+            self.ke_max = wp.zeros(n, dtype=wp.float64)
+            self.drift_max = wp.zeros(n, dtype=wp.float64)
             disc = rod.disc
             lim = dict(limits or {})
             inv = lim.get("inv_piece_length", 1.0 / np.asarray(disc.piece_length))
             self._inv_len = wp.array(np.asarray(inv, dtype=np.float32).ravel(), dtype=float)
+            self.backend = backend
+            if backend is not None:
+                hq = np.arange(nq)[backend._hq] if isinstance(backend._hq, slice) else np.asarray(backend._hq)
+                hd = np.arange(nv)[backend._hd] if isinstance(backend._hd, slice) else np.asarray(backend._hd)
+                self._hq = wp.array(hq.astype(np.int32), dtype=int)
+                self._hd = wp.array(hd.astype(np.int32), dtype=int)
+                self._hinge_k = wp.array(np.asarray(backend._hinge_k, dtype=float), dtype=wp.float64)
+                self._mass_g = wp.array(np.asarray(backend._mass_g_ids, dtype=float), dtype=wp.float64)
+                self._mx = wp.array(np.asarray(backend._mx, dtype=float), dtype=wp.float64)
+                self._mz = wp.array(np.asarray(backend._mz, dtype=float), dtype=wp.float64)
+                self._b0 = int(backend.b0)
         self._tip_len = float(disc.piece_length[-1])
         self._half_h = float(lim.get("half_thickness", 0.0))
         self._max_clearance = float(lim.get("max_clearance", math.inf))
@@ -206,40 +432,104 @@ class WarpRodBatch:
         self._mode = int(lim.get("mode", 0))
         self._airborne_tol = float(lim.get("airborne_tolerance", math.inf))
         self._mocap = int(rod.field_mocap) if getattr(rod, "field_mocap", -1) is not None else -1
+        self._dt = float(src.opt.timestep)
         self.graph = bool(graph)
-        self._graphs: dict[int, object] = {}
+        self._graphs: dict[object, object] = {}
+        self._periods = np.zeros(n, dtype=np.int64)
+
+    def _per_world(self, name: str, values, *, lo: float | None = None) -> np.ndarray:
+        v = np.asarray(values, dtype=float)
+        if v.ndim == 0:
+            v = np.full(self.nworld, float(v))
+        if v.shape != (self.nworld,) or not np.all(np.isfinite(v)) or (np.any(v < lo) if lo is not None
+                                                                      else np.any(v <= 0.0)):
+            bound = f">= {lo:g}" if lo is not None else "> 0"
+            raise ValueError(f"{name} must be one finite number {bound} or one per world (shape ({self.nworld},)), "
+                             f"got {values!r}.")
+        return v
 
     # ------------------------------------------------------------------ inputs and the step
     def set_fields(self, fields: np.ndarray) -> None:
-        """Hold the fields ``(nworld, 2)`` (B_x, B_z; T), one per world, from the next :meth:`advance` on."""
-        mag, quat = field_controls(np.asarray(fields, dtype=float).reshape(self.nworld, 2))
+        """Hold the fields ``(nworld, 2)`` (B_x, B_z; T), one per world, from the next :meth:`advance` on (times
+        the world's ``field_scale``)."""
+        f = np.asarray(fields, dtype=float).reshape(self.nworld, 2) * self.field_scale[:, None]
+        mag, quat = field_controls(f)
         self._mag.assign(mag.astype(np.float32))
         self._quat.assign(quat.astype(np.float32))
+        self._field.assign(f)
 
-    def _limit_launch(self, column: int, count: int) -> None:
+    def set_energy_scale(self, scale: np.ndarray) -> None:
+        """The energy scale (J) of every world's present step (:meth:`PlanarRod.energy_scale
+        <magsoft_env.sim.planar.PlanarRod.energy_scale>` of its field), for the runaway and drift records."""
+        self._scale.assign(np.asarray(scale, dtype=float).reshape(self.nworld))
+
+    def _limit_launch(self, column: int, count: int, step=None, nsub=None) -> None:
         wp.launch(_limits, dim=self.nworld, inputs=[
             self.d.xpos, self.d.xmat, self._bodies, self._inv_len, self._tip_len, self._half_h,
             self._max_clearance, self._cos_rotation, self._max_height, self._mode, self._airborne_tol, column,
-            count, self.clear_max, self.cos_min, self.airborne, self.violation, self.figures])
+            count, self._zero if step is None else step, self._never if nsub is None else nsub, self.clear_max,
+            self.cos_min, self.airborne, self.violation, self.figures])
+
+    def _deepest_launch(self, step, nsub) -> None:
+        d = self.d
+        wp.launch(_deepest, dim=d.naconmax, inputs=[d.nacon, d.contact.dist, d.contact.worldid, step, nsub,
+                                                    self.depth])
+
+    def _work_launch(self, step, nsub) -> None:
+        if self.backend is not None:
+            wp.launch(_book_work, dim=self.nworld, inputs=[self._field, step, nsub, self.d.xmat, self._b0, self._mx,
+                                                           self._mz, self._applied, self._work])
+
+    def _energy_launch(self, *, staggered: bool, rebase: bool, step, nsub) -> None:
+        if self.backend is None:
+            return
+        d = self.d
+        mjw.mul_m(self.m, d, self.mqvel, d.qvel)
+        wp.launch(_energy, dim=self.nworld, inputs=[
+            d.qpos, d.qvel, self.mqvel, d.xipos, d.xmat, self._hq, self._hd, self._hinge_k, self._mass_g, self._b0,
+            self._mx, self._mz, self._applied, self._dt, int(staggered), int(rebase), self._mask, step, nsub,
+            self._scale, self._e0, self._work, self.ke_max, self.drift_max])
+
+    def _clear(self) -> None:
+        wp.launch(_clear_records, dim=self.nworld, inputs=[self.clear_max, self.cos_min, self.airborne,
+                                                           self.violation, self.figures, self.depth])
+        if self.backend is not None:
+            wp.launch(_clear_energy_records, dim=self.nworld, inputs=[self.ke_max, self.drift_max])
 
     def _launches(self, k: int) -> None:
         m, d, n = self.m, self.d, self.nworld
         if self._mocap >= 0 and m.nu:
             wp.launch(_write_inputs, dim=(n, int(m.nu)), inputs=[self._mag, self._quat, self._mocap, d.ctrl,
                                                                  d.mocap_quat])
-        wp.launch(_clear_records, dim=n, inputs=[self.clear_max, self.cos_min, self.airborne, self.violation,
-                                                 self.figures, self.depth])
+        self._clear()
         for j in range(k):
             mjw.step(m, d)
             # xpos / xmat now hold the state this substep started from (MuJoCo's history buffers in C)
             self._limit_launch(j, 1)
-            wp.launch(_deepest, dim=d.naconmax, inputs=[d.nacon, d.contact.dist, d.contact.worldid, self.depth])
+            wp.launch(_deepest, dim=d.naconmax, inputs=[d.nacon, d.contact.dist, d.contact.worldid, self._zero,
+                                                        self._never, self.depth])
+            if j == 0:  # a held field: its work is booked at its jump, with the moment of the state it jumps at
+                self._work_launch(self._zero, self._never)
+        # the energy check of the step's end, staggered as C's (positions of the last substep's start)
+        self._energy_launch(staggered=True, rebase=False, step=self._zero, nsub=self._never)
         self._close()
 
     def _close(self) -> None:
         mjw.kinematics(self.m, self.d)  # the end state's positions (readouts), as the C simulator's sync
         mjw.mul_m(self.m, self.d, self.mqvel, self.d.qvel)
         self._limit_launch(-2, 0)  # column -2: the end state (the caller names its time)
+
+    def _run(self, key, launches) -> None:
+        """``launches()`` as a graph recorded at the first call under ``key`` and replayed after (or plainly)."""
+        if not self.graph:
+            launches()
+            return
+        g = self._graphs.get(key)
+        if g is None:
+            with wp.ScopedCapture() as capture:
+                launches()
+            g = self._graphs[key] = capture.graph
+        wp.capture_launch(g)
 
     def advance(self, k: int) -> None:
         """``k`` substeps of every world under its held field; afterwards the records (:attr:`clear_max`,
@@ -248,21 +538,72 @@ class WarpRodBatch:
         computed. A graph per ``k``, recorded at its first call."""
         k = int(k)
         with wp.ScopedDevice(self.device):
-            if not self.graph:
-                self._launches(k)
-                return
-            g = self._graphs.get(k)
-            if g is None:
-                with wp.ScopedCapture() as capture:
-                    self._launches(k)
-                g = self._graphs[k] = capture.graph
-            wp.capture_launch(g)
+            self._run(k, lambda: self._launches(k))
+
+    # ------------------------------------------------------------------ waveform periods
+    def set_waveforms(self, waves: np.ndarray, nsub: np.ndarray) -> None:
+        """Every world's next period: rows ``(A_x, A_z, f, phase)`` (T, T, Hz, rad) of ``B_x = A_x sin(2 pi f t +
+        phase)``, ``B_z = A_z sin(2 pi f t)`` (the amplitudes times the world's ``field_scale``) and its length in
+        substeps ``nsub`` (``>= 1``)."""
+        w = np.array(waves, dtype=float).reshape(self.nworld, 4)
+        w[:, :2] *= self.field_scale[:, None]
+        nsub = np.asarray(nsub, dtype=np.int64).reshape(self.nworld)
+        if nsub.min() < 1:
+            raise ValueError(f"nsub must be >= 1 substep per world, got {nsub.min()}.")
+        self._wave.assign(w)
+        self._nsub.assign(nsub.astype(np.int32))
+        self._periods = nsub
+
+    def _wave_start(self) -> None:
+        wp.launch(_set_int, dim=self.nworld, inputs=[self._step, 0])
+        self._clear()
+
+    def _wave_block(self) -> None:
+        m, d, n = self.m, self.d, self.nworld
+        step, nsub = self._step, self._nsub
+        for _ in range(self.block):
+            wp.launch(_wave_inputs, dim=n, inputs=[step, nsub, self._wave, self._dt, self._mocap, self._field,
+                                                   d.ctrl, d.mocap_quat])
+            mjw.step(m, d)
+            self._limit_launch(0, 1, step, nsub)
+            self._deepest_launch(step, nsub)
+            self._work_launch(step, nsub)
+            wp.launch(_tick, dim=n, inputs=[step, nsub, d.qpos, d.qvel, d.qacc_warmstart, d.time, d.overflow,
+                                            self._qpos_end, self._qvel_end, self._warm_end, self._time_end,
+                                            self._overflow_end])
+        # the worlds whose period covered the whole block: the energy check, staggered as C's
+        self._energy_launch(staggered=True, rebase=False, step=step, nsub=nsub)
+
+    def _wave_end(self) -> None:
+        d = self.d
+        wp.launch(_restore, dim=self.nworld, inputs=[d.qpos, d.qvel, d.qacc_warmstart, d.time, d.overflow,
+                                                     self._qpos_end, self._qvel_end, self._warm_end, self._time_end,
+                                                     self._overflow_end])
+        mjw.kinematics(self.m, d)
+        mjw.com_pos(self.m, d)
+        mjw.crb(self.m, d)  # the end state's mass matrix (a world that ended early ran on past its end)
+        # the end state's energy check (positions and velocities of the end state) for every world
+        self._energy_launch(staggered=False, rebase=False, step=self._zero, nsub=self._never)
+        self._limit_launch(-2, 0)
+
+    def advance_waveforms(self) -> None:
+        """One period of every world's waveform (:meth:`set_waveforms`): ``ceil(max(nsub) / block)`` replays of
+        one graph of ``block`` substeps, the field of each from the world's step counter; a world whose period
+        ended keeps its end state, to which every world is set afterwards. The records then cover each world's
+        ``nsub`` substeps and its end state, as :meth:`advance`'s."""
+        blocks = -(-int(self._periods.max()) // self.block)
+        with wp.ScopedDevice(self.device):
+            self._run("wave_start", self._wave_start)
+            for _ in range(blocks):
+                self._run("wave_block", self._wave_block)
+            self._run("wave_end", self._wave_end)
 
     # ------------------------------------------------------------------ resets
     def reset_worlds(self, mask: np.ndarray, qpos: np.ndarray, qvel: np.ndarray) -> None:
         """Set the worlds of boolean ``mask`` to ``qpos`` / ``qvel`` rows (``(nworld, nq)``, ``(nworld, nv)``; only
-        the masked rows are read), time zero, warm start and overflow flags cleared; the others are untouched
-        (their positions are recomputed from the same state)."""
+        the masked rows are read), time zero, warm start and overflow flags cleared, the field applied zero and
+        the energy balance started again; the others are untouched (their positions are recomputed from the same
+        state)."""
         mask = np.asarray(mask, dtype=bool)
         if not mask.any():
             return
@@ -272,18 +613,21 @@ class WarpRodBatch:
             self._qvel_new.assign(np.asarray(qvel, dtype=np.float32))
             d = self.d
             wp.launch(_reset_masked, dim=self.nworld, inputs=[self._mask, self._qpos_new, self._qvel_new, d.qpos,
-                                                              d.qvel, d.qacc_warmstart, d.time, d.overflow])
+                                                              d.qvel, d.qacc_warmstart, d.time, d.overflow,
+                                                              self._applied])
             mjw.kinematics(self.m, d)
+            self._energy_launch(staggered=False, rebase=True, step=self._zero, nsub=self._never)
             mjw.mul_m(self.m, d, self.mqvel, d.qvel)
 
     # ------------------------------------------------------------------ readouts (host copies)
     def state(self) -> dict[str, np.ndarray]:
         """Host copies (float64) of what the env reads: ``qpos``, ``qvel``, ``xpos`` / ``xmat`` / ``xipos`` of
-        the rod's bodies (chain order), the substep records, the deepest contact, ``M qvel`` and the overflow
-        bits."""
+        the rod's bodies (chain order), the substep records, the deepest contact, ``M qvel``, the overflow bits
+        and, with a ``backend``, the energy records ``ke_ratio`` (largest kinetic energy over the energy scale at
+        the checks of the last call) and ``drift`` (largest energy drift there, in energy scales)."""
         b = np.asarray(self.rod.body_ids)
         d = self.d
-        return {
+        out = {
             "qpos": d.qpos.numpy().astype(float), "qvel": d.qvel.numpy().astype(float),
             "xpos": d.xpos.numpy()[:, b].astype(float), "xmat": d.xmat.numpy()[:, b].astype(float),
             "xipos": d.xipos.numpy()[:, b].astype(float),
@@ -292,6 +636,10 @@ class WarpRodBatch:
             "figures": self.figures.numpy().astype(float), "depth": self.depth.numpy().astype(float),
             "mqvel": self.mqvel.numpy().astype(float), "overflow": d.overflow.numpy().astype(np.int64),
         }
+        if self.backend is not None:
+            out["ke_ratio"] = self.ke_max.numpy()
+            out["drift"] = self.drift_max.numpy()
+        return out
 
     def qpos(self) -> np.ndarray:
         """Joint positions of every world, ``(nworld, nq)`` (float64 copy)."""
