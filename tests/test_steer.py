@@ -180,3 +180,31 @@ def test_pitch_tracker_counts_flips_not_turns():
     assert v == pytest.approx(2.0 * math.pi)
     planar = PitchTracker()
     assert planar.update(np.array([[math.cos(0.3), 0.0, math.sin(0.3)]] * 2), np.ones(2)) == pytest.approx(0.3)
+
+
+def test_waveform_mode_plays_a_rotating_field_and_its_baseline_reaches_the_goal():
+    env = gym.make("MagSoftSteerWaveform-v0", **FAST)
+    try:
+        base = env.unwrapped
+        assert env.action_space.shape == (4,) and base.ctrl_dt == 0.1 and env.spec.max_episode_steps == 50
+        check_env(base, skip_render_check=True)
+        a = base.action_of_wave((0.0, -2.0), 1.5e-3, 1.0)
+        u, amp, f = base.wave_of_action(a)
+        np.testing.assert_allclose(u, [0.0, -1.0], atol=1e-7)
+        assert amp == pytest.approx(1.5e-3, rel=1e-6) and f == pytest.approx(1.0, rel=1e-6)
+        assert base.wave_of_action([0.0, 0.0, 1.0, 0.0])[1] == 0.0  # no direction: no field
+        obs, info = env.reset(seed=0, options={"goal": (-0.02, 0.0)})
+        obs, r, *_ , info = env.step(base.action_of_wave((1.0, 0.0), 3e-3, 1.0))
+        # a tenth of a turn at 1 Hz from phi = 0; the field of the step's last substep (it started at 0.1 s - dt):
+        # B = A (-cos(phi) u + sin(phi) z), u = +x
+        phi = 2.0 * math.pi * (0.1 - base.sim_dt)
+        np.testing.assert_allclose(info["field"], 3e-3 * np.array([-math.cos(phi), 0.0, math.sin(phi)]), atol=1e-12)
+        assert info["reward_field"] == pytest.approx(-0.1)
+        obs, info = env.reset(seed=0, options={"goal": (0.012, -0.03)})
+        for _ in range(40):
+            obs, r, term, trunc, info = env.step(base.baseline_action(obs))
+            if term or trunc:
+                break
+        assert term and info["is_success"] and info["time_to_goal"] < 3.0, info
+    finally:
+        env.close()
