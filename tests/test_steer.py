@@ -158,6 +158,16 @@ def test_rotating_drives():
         Waveparams.rotating(2e-3, 1.0, "w")
 
 
+def test_a_three_axis_drive_survives_the_robot_file(tmp_path):
+    robot = ms.load_robot("paper-5c").replace(name="spinner", drive=Waveparams.rotating(2e-3, 0.5, "z"))
+    robot.save(tmp_path / "spinner.yml")
+    back = ms.load_robot(tmp_path / "spinner.yml")
+    assert back.drive.amplitude_y == pytest.approx(2e-3) and back.drive.phase == pytest.approx(0.5 * math.pi)
+    np.testing.assert_allclose(back.drive.sample([0.0, 0.5]), robot.drive.sample([0.0, 0.5]), atol=1e-15)
+    with pytest.raises(ValueError, match="y component"):
+        ms.run_gait(back, 0.01, segments=4)  # the planar rod refuses it
+
+
 def test_field_rotating_about_z_turns_the_strip_in_place():
     robot = ms.load_robot("paper-5c").replace(drive=Waveparams.rotating(2e-3, 0.5, "z"))
     res = ms.run_gait(robot, 2.0, segments=6, rod="cable")

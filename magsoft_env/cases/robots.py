@@ -15,6 +15,7 @@ File format (YAML or JSON by the extension; units in the key names; every key ch
            magnetization: {kind: jig_polyline, x_mm: [0, 12.5, 25], z_mm: [0, -3, 0]}}
     contact: {friction: 0.5, retardation_time_ms: 5}
     drive: {shape: sine, amplitude_x_mT: 0, amplitude_z_mT: 2, frequency_Hz: 2, phase_deg: 0}
+                                     # optional amplitude_y_mT, phase_y_deg: a three-axis drive (the 3D rod)
     simulation: {segments: 20, timestep_ms: 0.2,   # optional: the robot's own numerics (default 20, 0.2 ms),
                  scenes: {channel: {segments: 40, timestep_ms: 0.1}}}   # and a scene's, where they differ
     design_field_mT: [0.0, 19.99]    # optional: the held field a design found (magsoft design), [B_x, B_z]
@@ -82,7 +83,8 @@ MAX_FILE_BYTES = 50 * 2**20
 _TOP_KEYS = ("magsoft_robot", "name", "description", "source", "beam", "contact", "drive", "design_field_mT",
              "simulation", "paper", "reverse")
 _CONTACT_KEYS = ("friction", "retardation_time_ms")
-_DRIVE_KEYS = ("shape", "amplitude_x_mT", "amplitude_z_mT", "frequency_Hz", "phase_deg", "coil_time_ms")
+_DRIVE_KEYS = ("shape", "amplitude_x_mT", "amplitude_z_mT", "frequency_Hz", "phase_deg", "coil_time_ms",
+               "amplitude_y_mT", "phase_y_deg")
 _PAPER_KEYS = ("speed_mm_per_s", "direction")
 
 
@@ -209,6 +211,9 @@ class Robot:
                             "phase_deg": to_degrees(d.phase)}
             if d.coil_time:
                 out["drive"]["coil_time_ms"] = to_milli(d.coil_time)
+            if d.amplitude_y or d.phase_y:  # a three-axis drive (the 3D rod)
+                out["drive"]["amplitude_y_mT"] = to_milli(d.amplitude_y)
+                out["drive"]["phase_y_deg"] = to_degrees(d.phase_y)
         if self.design_field is not None:
             out["design_field_mT"] = [to_milli(self.design_field.Bx), to_milli(self.design_field.Bz)]
         out["simulation"] = {"segments": self.segments, "timestep_ms": to_milli(self.timestep)}
@@ -357,6 +362,8 @@ def _drive_from_dict(d, *, where: str) -> Waveparams:
         phase=_degrees(f"{where} phase_deg", d.get("phase_deg", 0.0)),
         shape=shape,
         coil_time=_milli(f"{where} coil_time_ms", d.get("coil_time_ms", 0.0), "ms"),
+        amplitude_y=_milli(f"{where} amplitude_y_mT", d.get("amplitude_y_mT", 0.0), "mT"),
+        phase_y=_degrees(f"{where} phase_y_deg", d.get("phase_y_deg", 0.0)),
     )
 
 
