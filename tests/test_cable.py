@@ -418,6 +418,47 @@ def test_floor_contact_takes_the_flex_parameters():
     np.testing.assert_allclose(d.contact.solref[:d.ncon], np.tile(cm.model.flex_solref[0], (d.ncon, 1)))
 
 
+def _pressed(cm):
+    """A free strip lying flat, pressed 2 um into the floor, its contacts found (``mj_forward``)."""
+    d = mujoco.MjData(cm.model)
+    d.qpos[cm.vertex_qpos[:, 2]] = -2e-6
+    mujoco.mj_forward(cm.model, d)
+    return d
+
+
+def test_floor_contact_is_the_elements_rolling_with_the_edges():
+    """On the box floor every edge's box touches with its four bottom corners, and each contact moves with its
+    edge's rotation: a corner's speed along the strip is the edge's in-plane angular velocity times h / 2 (what
+    the planar chain's capsules and boxes do); the plane touches only at the vertices, two corners each."""
+    n = 6
+    cm = _cable(scene="floor", segments=n, timestep=1e-4)
+    d = _pressed(cm)
+    c = d.contact
+    assert d.ncon == 4 * (n + 1)
+    assert np.all(c.elem[:d.ncon, 1] >= 0) and np.all(c.vert[:d.ncon] == -1)
+    np.testing.assert_array_equal(np.bincount(c.elem[:d.ncon, 1]), np.full(n + 1, 4))
+    # vertex z velocities only: each edge turns about the width axis at (zdot_1 - zdot_0) / l
+    zdot = np.random.default_rng(3).normal(size=n + 2)
+    d.qvel[:] = 0.0
+    d.qvel[cm.vertex_dof[:, 2]] = zdot
+    v = np.zeros(d.nefc)
+    mujoco.mj_mulJacVec(cm.model, d, v, d.qvel)
+    for k in range(d.ncon):
+        e = c.elem[k, 1]
+        row = c.efc_address[k]
+        frame = c.frame[k].reshape(3, 3)
+        world = v[row: row + 3] @ frame  # normal, first and second tangent rows: the point's world velocity
+        # the lever reaches the contact point, midway through the 2 um overlap
+        lever = (0.5 * BEAM.thickness + 0.5 * c.dist[k]) * (zdot[e + 1] - zdot[e]) / cm.layout.edge_length[e]
+        assert world[0] == pytest.approx(lever, rel=1e-6)
+    vert = C.build_cable(BEAM, RodOptions(rod="cable", scene="floor", segments=n, timestep=1e-4),
+                         floor_contact="vertex")
+    d = _pressed(vert)
+    assert d.ncon == 2 * (n + 2) and np.all(d.contact.vert[:d.ncon, 1] >= 0)
+    with pytest.raises(ValueError, match="floor_contact"):
+        C.build_cable(BEAM, RodOptions(rod="cable", scene="floor", segments=n), floor_contact="capsule")
+
+
 def test_simulator_strip_on_the_floor_books_the_work_of_three_components():
     """A held field jump and a field turning about z on the floor: the balance books the work of all three
     components (a launch would break it), so the passive strip stays at or below zero drift."""

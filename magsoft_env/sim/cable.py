@@ -46,6 +46,14 @@ The :class:`~magsoft_env.sim.Simulator` steps the strip, clamped or on the floor
 rod backend. On the floor the flex's contact parameters (the planar rod's friction, ``solref``, ``solimp``) win
 over the floor geom's (a higher priority; MuJoCo would otherwise mix them).
 
+Floor contact (``floor_contact`` of :func:`build_cable`). MuJoCo collides a plane with a 1D flex's vertices only:
+two corners of the box section at each vertex, each moving with one of the vertex's two edges (the edge that
+starts there), so the bottom surface's motion from the bending rate is taken from one side of every vertex (the
+planar chain's ``hinge_sphere`` layout; its crawl speeds converge slowly in N). The floor is therefore a box
+(top face at z = 0), which MuJoCo collides with the flex's elements, each edge's oriented box of the section:
+four bottom corners per edge lying flat, each moving with its own edge (its two vertices, its rotation and its
+twist; tested), the planar chain's capsule or box layout. ``floor_contact="vertex"`` keeps the plane.
+
 Limitations: no varying width or thickness (the Beam has none); scenes ``cantilever`` (clamped) and ``floor``
 (free, on a plane) only; MuJoCo's ``discrete``, ``euler`` or ``rk4`` integrator (its rod
 elasticity has no implicit variant); the couples of a transverse magnetization need the material frame every
@@ -75,6 +83,11 @@ EDGE_TIMECONST_STEPS = 1.0
 CABLE_SCENES = ("cantilever", "floor")
 #: Integrators MuJoCo's rod elasticity supports.
 CABLE_INTEGRATORS = ("discrete", "euler", "rk4")
+#: How the strip meets the floor (:func:`build_cable`): ``element``, each edge's box against a box floor (the
+#: default); ``vertex``, the box section's corners at the vertices against a plane.
+FLOOR_CONTACTS = ("element", "vertex")
+#: The strip's floor contact unless asked otherwise.
+DEFAULT_FLOOR_CONTACT = "element"
 
 
 @dataclass(frozen=True)
@@ -198,7 +211,7 @@ class CableModel:
     flex: int
 
 
-def build_cable(beam: Beam, options) -> CableModel:
+def build_cable(beam: Beam, options, *, floor_contact: str | None = None) -> CableModel:
     """Compile ``beam`` as a flexcomp strip with ``options`` (a :class:`~magsoft_env.sim.model.RodOptions`:
     ``segments``, ``scene`` (``cantilever``: clamped; ``floor``: free on a plane), ``timestep``, ``integrator``,
     ``gravity``, ``grading``, ``retardation_time``, ``friction``).
@@ -212,6 +225,9 @@ def build_cable(beam: Beam, options) -> CableModel:
                          f"no implicit variant), got integrator={options.integrator!r}.")
     if options.clamp_angle != 0.0:
         raise ValueError(f"{CABLE_ROD} is clamped along +x (clamp_angle = 0), got {options.clamp_angle!r}.")
+    floor_contact = DEFAULT_FLOOR_CONTACT if floor_contact is None else floor_contact
+    if floor_contact not in FLOOR_CONTACTS:
+        raise ValueError(f"floor_contact must be one of {FLOOR_CONTACTS}, got {floor_contact!r}.")
     lay = cable_layout(beam, options.segments, options.grading)
     clamped = options.scene == "cantilever"
     z0 = 0.0 if clamped else 0.5 * beam.thickness
@@ -235,9 +251,14 @@ def build_cable(beam: Beam, options) -> CableModel:
         spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_GRAVITY
     if clamped:
         spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
-    else:
+    elif floor_contact == "vertex":
         spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE,
                                 size=[10 * beam.length, 10 * beam.length, 1e-3])
+    else:
+        # a box, top face at z = 0: MuJoCo collides a plane with the flex's vertices only, a box with its elements
+        big = 10 * beam.length
+        spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_BOX, size=[big, big, beam.length],
+                                pos=[0.0, 0.0, -beam.length])
     model = spec.compile()
     n = options.segments
     nv = n + 2
