@@ -55,7 +55,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="floor friction coefficient (default: the preset's, 0.5; docs/envs.md, 'Tacky friction')")
     p.add_argument("--rod", choices=["planar", "cable"], default="planar",
                    help="planar: the hinge chain in the x-z plane (default); cable: the 3D flexcomp strip on the floor "
-                        "(width-wise contact, twist free; about 10x the wall time; docs/sim.md)")
+                        "(its edges' boxes on the floor, twist free; without --segments/--timestep-ms/--fidelity at "
+                        "least 40 segments and a step of at most 4 ms / segments; 5-8x the chain's wall time at the "
+                        "same numerics; docs/sim.md)")
     add_y_drive_flags(p)
     add_rotate_flags(p)
     p.add_argument("--json", action="store_true", help="print one JSON object instead of text")

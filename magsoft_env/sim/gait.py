@@ -27,6 +27,25 @@ from .readouts import PitchTracker, is_flipped, orientation, pitch_orientation
 from .simulator import SimulationError, Simulator
 from .waveforms import as_waveform
 
+#: The strip's floor numerics when a gait runs at its robot's own (``rod="cable"``, no ``segments``, ``timestep`` or
+#: ``fidelity`` given): at least this many segments ...
+CABLE_GAIT_MIN_SEGMENTS = 40
+#: ... and a timestep of at most this over the segments (s; 0.1 ms at 40, 0.05 ms at 80). Measured (docs/sim.md,
+#: "Measured: the paper's gaits on the strip"): there the strip crawls within 4 % of the planar chain at the same
+#: numerics for paper-5a, 5b and 5c (at 20 segments 10-14 % slower for 5c; at 80 segments and 0.1 ms 6-8 % off).
+CABLE_GAIT_STEP_SEGMENTS = 4e-3
+
+
+def cable_gait_numerics(segments: int, timestep: float) -> tuple[int, float]:
+    """The strip's floor numerics from a robot's own ``(segments, timestep)`` (s): at least
+    :data:`CABLE_GAIT_MIN_SEGMENTS` segments, a timestep of at most :data:`CABLE_GAIT_STEP_SEGMENTS` / segments.
+
+    >>> cable_gait_numerics(20, 2e-4), cable_gait_numerics(80, 1e-4), cable_gait_numerics(80, 2.5e-5)
+    ((40, 0.0001), (80, 5e-05), (80, 2.5e-05))
+    """
+    n = max(int(segments), CABLE_GAIT_MIN_SEGMENTS)
+    return n, min(float(timestep), CABLE_GAIT_STEP_SEGMENTS / n)
+
 
 def gait_rod_options(robot: Robot, *, scene: str = "floor", segments: int | None = None,
                      timestep: float | None = None, render: bool = False, feature_x: float | None = None,
@@ -40,8 +59,9 @@ def gait_rod_options(robot: Robot, *, scene: str = "floor", segments: int | None
     own. The gaits and the floor environments build their rods here, so both describe the same physics.
 
     ``rod="cable"``: the 3D flexcomp strip on the floor (:mod:`~magsoft_env.sim.cable`) with the same friction,
-    cone, damping, contact time constant and solver settings (its contact is the flex's own, width-wise; twist
-    free); floor scene only.
+    cone, damping, contact time constant and solver settings (its contact is its edges' boxes on a box floor,
+    width-wise; twist free); floor scene only. With neither ``segments``, ``timestep`` nor ``fidelity`` its
+    numerics are :func:`cable_gait_numerics` of the robot's own.
     """
     if not isinstance(robot, Robot):
         raise ValueError(f"robot must be a magsoft_env.Robot (see load_robot), got {type(robot).__name__}.")
@@ -49,7 +69,10 @@ def gait_rod_options(robot: Robot, *, scene: str = "floor", segments: int | None
         raise ValueError(f"rod must be 'planar' or 'cable', got {rod!r}.")
     if rod == "planar":
         robot.beam.require_planar(f"robot {robot.name!r} on the MuJoCo hinge-chain rod (gaits, floor environments)")
+    own = segments is None and timestep is None and fidelity is None
     segments, timestep = numerics(robot, fidelity=fidelity, segments=segments, timestep=timestep, scene=scene)
+    if rod == "cable" and own:
+        segments, timestep = cable_gait_numerics(segments, timestep)
     friction = robot.friction if friction is None else friction
     if rod == "cable":
         if scene != "floor" or feature_x is not None or render:
@@ -269,7 +292,9 @@ def run_gait(
     rod : {"planar", "cable"}
         The planar hinge chain (default) or the 3D flexcomp strip on the floor (:func:`gait_rod_options`; it takes
         drives with a y component, ``Waveparams(amplitude_y=...)``); the result then also reports the sideways
-        travel, the heading and the roll.
+        travel, the heading and the roll. The strip at the robot's own numerics runs :func:`cable_gait_numerics`
+        of them (paper-5a 80 segments at 0.05 ms, 5b 80 at 0.025 ms, 5c 40 at 0.1 ms), where it crawls within 4 %
+        of the chain at the same numerics.
 
     Returns
     -------
@@ -280,7 +305,10 @@ def run_gait(
         displacement is that of a tumble, not a crawl.
     """
     preset = gait_preset(preset)  # a name or a path loads; a robot without a drive is refused
+    own = segments is None and timestep is None and fidelity is None
     segments, timestep = numerics(preset, fidelity=fidelity, segments=segments, timestep=timestep)
+    if rod == "cable" and own:
+        segments, timestep = cable_gait_numerics(segments, timestep)
     seconds = positive("seconds", seconds, unit="s")
     warmup_cycles = nonnegative("warmup_cycles", warmup_cycles)
     sample_dt = positive("sample_dt", sample_dt, unit="s")
@@ -405,4 +433,5 @@ def speed_window(t, frequency: float, warmup_cycles: float = 1.0) -> tuple[int, 
     return i0, i1, True
 
 
-__all__ = ["GaitResult", "direction_of", "gait_rod_options", "run_gait", "speed_window"]
+__all__ = ["CABLE_GAIT_MIN_SEGMENTS", "CABLE_GAIT_STEP_SEGMENTS", "GaitResult", "cable_gait_numerics", "direction_of",
+           "gait_rod_options", "run_gait", "speed_window"]
