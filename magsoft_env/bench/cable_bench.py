@@ -56,8 +56,9 @@ CRAWL_GRID = ((20, 2e-4), (20, 1e-4), (20, 5e-5), (40, 1e-4), (40, 5e-5), (40, 2
 #: Tolerances of the knee: statics tip error / L per case, frequency error (relative), crawl speed against the
 #: chain's (relative).
 TOL = {"plane": 5e-3, "buckled": 1.5e-2, "frequency": 5e-3, "crawl": 5e-2}
-#: The strip's defaults: statics (``cable_equilibrium``), dynamics (``free_vibration``), the paper-5c crawl.
-DEFAULTS = {"statics": (20, 1e-3), "frequency": (20, 1e-4), "crawl": (20, 2e-4)}
+#: The strip's defaults: statics (``cable_equilibrium``), dynamics (``free_vibration``), the paper-5c crawl
+#: (``run_gait(rod="cable")``, :func:`~magsoft_env.sim.gait.cable_gait_numerics`).
+DEFAULTS = {"statics": (20, 1e-3), "frequency": (20, 1e-4), "crawl": (40, 1e-4)}
 QUICK = {"statics": ((10, 1e-3),), "frequency": ((10, 1e-3),), "crawl": ((10, 2e-4),)}
 BEAM = ms.Beam(length=25e-3, width=5e-3, thickness=1.13e-3, volume_fraction=0.2)
 
