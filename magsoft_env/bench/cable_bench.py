@@ -80,7 +80,8 @@ def statics(grid, cases=tuple(STATICS_CASES)) -> list[dict]:
             chain, t_chain = _timed(mujoco_equilibrium, BEAM, (field[0], field[2]), gravity=g)
             tip = np.array([chain.x[-1], 0.0, chain.z[-1]])
             rows.append({"case": case, "rod": "planar chain", "segments": 20, "timestep_ms": 10.0,
-                         "success": bool(chain.success), "tip_error_L": float(np.linalg.norm(tip - ref.tip_position)) / L,
+                         "success": bool(chain.success),
+                         "tip_error_L": float(np.linalg.norm(tip - ref.tip_position)) / L,
                          "twist_error_deg": 0.0, "edge_strain": 0.0, "steps": -1, "wall_s": t_chain,
                          "baseline_wall_s": t_ref})
         for n, dt in grid:

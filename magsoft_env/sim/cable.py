@@ -49,13 +49,14 @@ over the floor geom's (a higher priority; MuJoCo would otherwise mix them).
 Floor contact (``floor_contact`` of :func:`build_cable`). MuJoCo collides a plane with a 1D flex's vertices only:
 two corners of the box section at each vertex, each moving with one of the vertex's two edges (the edge that
 starts there), so the bottom surface's motion from the bending rate is taken from one side of every vertex (the
-planar chain's ``hinge_sphere`` layout; its crawl speeds converge slowly in N). The floor is therefore a box
-(top face at z = 0), which MuJoCo collides with the flex's elements, each edge's oriented box of the section:
-four bottom corners per edge lying flat, each moving with its own edge (its two vertices, its rotation and its
-twist; tested), the planar chain's capsule or box layout. ``floor_contact="vertex"`` keeps the plane.
+planar chain's ``hinge_sphere`` layout; crawl speeds -54 % to +17 % off the capsule chain's, docs/sim.md). The
+floor is therefore a box (top face at z = 0), which MuJoCo collides with the flex's elements, each edge's oriented
+box of the section: four bottom corners per edge lying flat, each moving with its own edge (its two vertices, its
+rotation and its twist; tested), the planar chain's capsule or box layout. ``floor_contact="vertex"`` keeps the
+plane.
 
 Limitations: no varying width or thickness (the Beam has none); scenes ``cantilever`` (clamped) and ``floor``
-(free, on a plane) only; MuJoCo's ``discrete``, ``euler`` or ``rk4`` integrator (its rod
+(free, on the floor) only; MuJoCo's ``discrete``, ``euler`` or ``rk4`` integrator (its rod
 elasticity has no implicit variant); the couples of a transverse magnetization need the material frame every
 step, so they are applied from Python (:func:`apply_field`).
 """
@@ -213,8 +214,11 @@ class CableModel:
 
 def build_cable(beam: Beam, options, *, floor_contact: str | None = None) -> CableModel:
     """Compile ``beam`` as a flexcomp strip with ``options`` (a :class:`~magsoft_env.sim.model.RodOptions`:
-    ``segments``, ``scene`` (``cantilever``: clamped; ``floor``: free on a plane), ``timestep``, ``integrator``,
+    ``segments``, ``scene`` (``cantilever``: clamped; ``floor``: free on the floor), ``timestep``, ``integrator``,
     ``gravity``, ``grading``, ``retardation_time``, ``friction``).
+
+    ``floor_contact`` (floor scene; None: :data:`DEFAULT_FLOOR_CONTACT`): ``element``, a box floor that MuJoCo
+    collides with each edge's box; ``vertex``, a plane that it collides with the vertices (module docstring).
 
     Every MuJoCo default the module docstring lists is replaced by the beam's own values.
     """
@@ -935,7 +939,8 @@ def cable_equilibrium(beam: Beam, field, **kwargs) -> CableEquilibrium:
 
 
 __all__ = [
-    "CABLE_ROD", "EDGE_STRAIN_LIMIT", "MODES", "CableEquilibrium", "CableLayout", "CableModel", "CableRod",
+    "CABLE_ROD", "DEFAULT_FLOOR_CONTACT", "EDGE_STRAIN_LIMIT", "FLOOR_CONTACTS", "MODES", "CableEquilibrium",
+    "CableLayout", "CableModel", "CableRod",
     "ContactRecord",
     "apply_field", "build_cable", "cable_equilibrium", "cable_layout", "cable_path", "edge_strain",
     "elastic_energy", "free_vibration", "frequencies", "magnetic_energy", "material_frames", "settle",
