@@ -5,8 +5,9 @@ Run: ``python -m magsoft_env.bench.steer_eval [--episodes 20] [--run RUN ...] [-
 
 Controllers: the hand-designed baseline of each id (:func:`magsoft_env.envs.steer.steer_controller`, the field
 turning at 1 Hz in the vertical plane through the goal), zero field and random actions (seeded), and every
-trained run given with ``--run`` (a ``train/train.py`` run folder; its final model, played in its own env id
-with its own env arguments, and again at ``--sim-dt`` when that differs). Episode ``k`` of every controller
+trained run given with ``--run`` (a ``train/train.py`` run folder; its final model, with ``--best`` also its best
+evaluated one, played in its own env id with its own env arguments, and again at ``--sim-dt`` when that
+differs). Episode ``k`` of every controller
 uses seed ``seed + k``: the same goals for all. Prints one row per controller and env: successes, mean and
 median time to goal over the successes (s), mean final distance (mm), mean return, episodes that ended unstable
 or unphysical, and the deepest floor contact (mm).
@@ -74,6 +75,7 @@ def main(argv=None) -> int:
     p.add_argument("--seed", type=int, default=1000)
     p.add_argument("--run", nargs="*", default=[], help="train/train.py run folders of the steering ids")
     p.add_argument("--sim-dt", type=float, default=2e-4, help="simulation step of the baselines (s; default 0.2 ms)")
+    p.add_argument("--best", action="store_true", help="also each run's best evaluated model (best_model.zip)")
     p.add_argument("--no-baselines", action="store_true", help="only the runs")
     p.add_argument("--json", action="store_true", help="print the rows as JSON")
     args = p.parse_args(argv)
@@ -97,13 +99,14 @@ def main(argv=None) -> int:
         from magsoft_env.rl import find_run, load_policy
 
         rec = find_run(run)
-        policy = load_policy(rec.model(), env=rec.env_id)
         trained = dict(rec.env_kwargs)
-        name = f"{rec.algo} {Path(run).name}"
-        for kwargs in ([trained, {**trained, "sim_dt": args.sim_dt}]
-                       if trained.get("sim_dt", 2e-4) != args.sim_dt else [trained]):
-            rows.append(run_controller(rec.env_id, lambda obs, env, pol=policy: pol(obs), episodes=args.episodes,
-                                       seed=args.seed, env_kwargs=kwargs, name=name))
+        for best in (False, True) if args.best else (False,):
+            policy = load_policy(rec.model(best=best), env=rec.env_id)
+            name = f"{rec.algo} {Path(run).name}{' best' if best else ''}"
+            for kwargs in ([trained, {**trained, "sim_dt": args.sim_dt}]
+                           if trained.get("sim_dt", 2e-4) != args.sim_dt else [trained]):
+                rows.append(run_controller(rec.env_id, lambda obs, env, pol=policy: pol(obs), episodes=args.episodes,
+                                           seed=args.seed, env_kwargs=kwargs, name=name))
     if args.json:
         print(json.dumps(rows, indent=1))
         return 0
