@@ -218,3 +218,15 @@ def test_waveform_mode_plays_a_rotating_field_and_its_baseline_reaches_the_goal(
         assert term and info["is_success"] and info["time_to_goal"] < 3.0, info
     finally:
         env.close()
+
+
+def test_steer_eval_counts_successes_and_times_on_shared_goals():
+    from magsoft_env.bench.steer_eval import _baseline, _zero, run_controller
+
+    hand = run_controller("MagSoftSteer-v0", _baseline, episodes=1, seed=3, env_kwargs=FAST, name="hand")
+    assert hand["successes"] == 1 and 0.2 < hand["time_to_goal_mean_s"] < 3.0
+    assert hand["final_distance_mean_mm"] <= 5.0 and hand["unstable"] == 0
+    still = run_controller("MagSoftSteer-v0", _zero, episodes=1, seed=3,
+                           env_kwargs={**FAST, "goal_distance": (0.03, 0.03)}, name="zero")
+    assert still["successes"] == 0 and math.isnan(still["time_to_goal_mean_s"])
+    assert still["final_distance_mean_mm"] == pytest.approx(30.0, abs=0.05)  # lying still, the goal 30 mm away
