@@ -98,6 +98,28 @@ def as_action(space, action):
     return a.reshape(space.shape)
 
 
+def run_to_end(steps):
+    """Drive a generator to its end and return its value: an env's ``step`` from its ``_stepping`` generator
+    (the batched envs interleave the generators instead)."""
+    while True:
+        try:
+            next(steps)
+        except StopIteration as done:
+            return done.value
+
+
+def instability_info(info: dict, err) -> dict:
+    """``info`` with what a :class:`~magsoft_env.sim.SimulationError` says: ``truncation_reason``,
+    ``instability`` and, for an unphysical run (penetration, tunnelling, launch), ``unphysical`` and its figures."""
+    from ..sim.health import UnphysicalError
+
+    info.update(truncation_reason=str(err), instability=err.quantity)
+    if isinstance(err, UnphysicalError):
+        info.update(err.figures)
+        info["unphysical"] = err.reason
+    return info
+
+
 def register_all() -> None:
     """Register every id with Gymnasium; ids already registered are left alone."""
     for env_id, (entry_point, steps, kwargs) in ENV_SPECS.items():
@@ -107,5 +129,5 @@ def register_all() -> None:
                  vector_entry_point=VECTOR_ENTRY_POINTS.get(env_id))
 
 
-__all__ = ["ENV_SPECS", "VECTOR_ENTRY_POINTS", "as_action", "constructor_arguments", "refuse_unknown_kwargs",
-           "register_all"]
+__all__ = ["ENV_SPECS", "VECTOR_ENTRY_POINTS", "as_action", "constructor_arguments", "instability_info",
+           "refuse_unknown_kwargs", "register_all", "run_to_end"]

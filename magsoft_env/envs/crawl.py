@@ -13,12 +13,12 @@ from ..cases.gaits import numerics
 from ..cases.robots import resolve_robot
 from ..sim import PhaseShifted, Ramp, SimulationError, Simulator
 from ..sim.gait import gait_rod_options
-from ..sim.health import MAX_STEPS, UnphysicalError, check_steps
+from ..sim.health import MAX_STEPS, check_steps
 from ..sim.model import CONTACT_HISTORY, MAX_TIMESTEP, NODE_SENSOR
 from ..sim.readouts import is_flipped, orientation
 from ..spec.drive import Waveparams
 from ..validate import choice, finite_number, nonnegative, positive
-from . import as_action, refuse_unknown_kwargs
+from . import as_action, instability_info, refuse_unknown_kwargs, run_to_end
 
 #: Default coil limit per axis (T): +-2 mT. The paper's crawlers crawl at 1.5-2 mT and tumble end over end
 #: from about 2.5-3 mT: with hops of up to 2 mm allowed (``max_clearance=2e-3``), episodes of random actions at
@@ -515,12 +515,7 @@ class MagSoftCrawlEnv(gym.Env):
         return out
 
     def step(self, action):
-        steps = self._stepping(action)
-        while True:
-            try:
-                next(steps)
-            except StopIteration as done:
-                return done.value
+        return run_to_end(self._stepping(action))
 
     def _stepping(self, action, block: int | None = None):
         """:meth:`step` as a generator: it yields between the physics' native blocks (at most ``block``
@@ -533,11 +528,7 @@ class MagSoftCrawlEnv(gym.Env):
             duration, power = yield from self._advance(action, block)
         except SimulationError as err:
             self._broken = True
-            info = self._info(0.0)
-            info.update(truncation_reason=str(err), instability=err.quantity)
-            if isinstance(err, UnphysicalError):  # penetration, tunnelling or launch: the reason and its figures
-                info.update(err.figures)
-                info["unphysical"] = err.reason
+            info = instability_info(self._info(0.0), err)
             return self._last_obs.copy(), 0.0, False, True, info
         com = self.com_position()
         self._com_vel = (com - self._com) / duration

@@ -12,12 +12,12 @@ from ..cases.gaits import numerics
 from ..cases.robots import resolve_robot
 from ..sim import SimulationError, Simulator
 from ..sim.gait import gait_rod_options
-from ..sim.health import UnphysicalError, check_steps
+from ..sim.health import check_steps
 from ..sim.model import MAX_TIMESTEP
 from ..sim.readouts import PitchTracker, is_flipped, pitch_orientation
 from ..sim.waveforms import Conical
 from ..validate import choice, finite_number, nonnegative, positive
-from . import as_action, refuse_unknown_kwargs
+from . import as_action, instability_info, refuse_unknown_kwargs, run_to_end
 
 #: Default coil limit per axis (T). A field of 3 mT turning in a vertical plane at 1 Hz tumbles the paper-5c strip
 #: end over end at about 40 mm/s along the plane's horizontal direction (the strip turns into that plane within the
@@ -376,12 +376,7 @@ class MagSoftSteerEnv(gym.Env):
         return self.n_substeps, (amp / self.field_limit) ** 2
 
     def step(self, action):
-        steps = self._stepping(action)
-        while True:
-            try:
-                next(steps)
-            except StopIteration as done:
-                return done.value
+        return run_to_end(self._stepping(action))
 
     def _stepping(self, action, block: int | None = None):
         """:meth:`step` as a generator that yields between the physics' native blocks (the batched envs
@@ -394,11 +389,7 @@ class MagSoftSteerEnv(gym.Env):
             yield from self.sim.stepping(n, block=block)
         except SimulationError as err:
             self._broken = True
-            info = self._info(0.0)
-            info.update(truncation_reason=str(err), instability=err.quantity)
-            if isinstance(err, UnphysicalError):
-                info.update(err.figures)
-                info["unphysical"] = err.reason
+            info = instability_info(self._info(0.0), err)
             return self._last_obs.copy(), 0.0, False, True, info
         com = self.com_position()
         self._com_vel = (com - self._com) / (self.n_substeps * self.sim_dt)
