@@ -93,6 +93,20 @@ def field_text(b, *, digits: int = 2) -> str:
     return f"B = ({_signed(bx, f)}, {_signed(bz, f)}) mT"
 
 
+def trace_append(times: list, path: list, t: float, p) -> tuple[list, list]:
+    """A path trace with the sample ``(t, p)`` added (the last point replaced at an equal time); beyond
+    ``_MAX_TRACE`` points the first and the newest 100 are kept and the rest thinned by two."""
+    if times and t == times[-1]:
+        path[-1] = p
+        return times, path
+    times.append(t)
+    path.append(p)
+    if len(path) > _MAX_TRACE:  # keep the first and the newest points, thin the rest
+        times = times[:1] + times[1:-100:2] + times[-100:]
+        path = path[:1] + path[1:-100:2] + path[-100:]
+    return times, path
+
+
 class _Canvas:
     """PIL drawing in frame pixels on a supersampled copy of a frame (see :data:`_SUPERSAMPLE`)."""
 
@@ -432,14 +446,7 @@ class RodRenderer:
             self._tip0 = sim.tip_position()
             if self._floor:
                 self._end0 = float(sim.centerline()[0][0])
-        if self._t and t == self._t[-1]:
-            self._path[-1] = p
-            return
-        self._t.append(t)
-        self._path.append(p)
-        if len(self._path) > _MAX_TRACE:  # keep the first and the newest points, thin the rest
-            self._t = self._t[:1] + self._t[1:-100:2] + self._t[-100:]
-            self._path = self._path[:1] + self._path[1:-100:2] + self._path[-100:]
+        self._t, self._path = trace_append(self._t, self._path, t, p)
 
     @property
     def displacement(self) -> float:

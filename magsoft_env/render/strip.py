@@ -22,7 +22,6 @@ from .frames import (
     _ARROW_MAX,
     _ARROW_MIN,
     _FIELD_STEPS,
-    _MAX_TRACE,
     _ZERO_FIELD,
     TimePanel,
     _Canvas,
@@ -31,6 +30,7 @@ from .frames import (
     _rgba32,
     _signed,
     dial_scale,
+    trace_append,
 )
 
 #: The views of the strip.
@@ -236,14 +236,7 @@ class StripRenderer:
         if self._start is None:
             self._start = p
             self._look = np.array(p)
-        if self._t and t == self._t[-1]:
-            self._path[-1] = p
-            return
-        self._t.append(t)
-        self._path.append(p)
-        if len(self._path) > _MAX_TRACE:  # keep the first and the newest points, thin the rest
-            self._t = self._t[:1] + self._t[1:-100:2] + self._t[-100:]
-            self._path = self._path[:1] + self._path[1:-100:2] + self._path[-100:]
+        self._t, self._path = trace_append(self._t, self._path, t, p)
 
     @property
     def displacement(self) -> float:
