@@ -93,6 +93,21 @@ def field_text(b, *, digits: int = 2) -> str:
     return f"B = ({_signed(bx, f)}, {_signed(bz, f)}) mT"
 
 
+def check_frame_args(width, height, minor, major, span, field_scale) -> None:
+    """ValueError for a frame size outside [16, 8192] pixels, a grid spacing, view width or field scale that is not
+    a positive finite number (``span`` and ``field_scale`` may be None)."""
+    for name, v in (("width", width), ("height", height)):
+        if int(v) != v or not 16 <= v <= 8192:
+            raise ValueError(f"{name} must be an integer in [16, 8192] pixels, got {v!r}.")
+    for name, v in (("minor", minor), ("major", major)):
+        if not (v > 0 and math.isfinite(v)):
+            raise ValueError(f"{name} must be a grid spacing > 0 (m), got {v!r}.")
+    if span is not None and not (span > 0 and math.isfinite(span)):
+        raise ValueError(f"span must be a view width > 0 (m) or None, got {span!r}.")
+    if field_scale is not None and not (field_scale > 0 and math.isfinite(field_scale)):
+        raise ValueError(f"field_scale must be a field > 0 (T) or None, got {field_scale!r}.")
+
+
 def trace_append(times: list, path: list, t: float, p) -> tuple[list, list]:
     """A path trace with the sample ``(t, p)`` added (the last point replaced at an equal time); beyond
     ``_MAX_TRACE`` points the first and the newest 100 are kept and the rest thinned by two."""
@@ -306,16 +321,7 @@ class RodRenderer:
         if view not in (None, "side"):
             raise ValueError(f"view={view!r} draws the 3D strip (RodOptions(rod='cable')); the planar rod's frames "
                              "are the side view (view='side' or None).")
-        for name, v in (("width", width), ("height", height)):
-            if int(v) != v or not 16 <= v <= 8192:
-                raise ValueError(f"{name} must be an integer in [16, 8192] pixels, got {v!r}.")
-        for name, v in (("minor", minor), ("major", major)):
-            if not (v > 0 and math.isfinite(v)):
-                raise ValueError(f"{name} must be a grid spacing > 0 (m), got {v!r}.")
-        if span is not None and not (span > 0 and math.isfinite(span)):
-            raise ValueError(f"span must be a view width > 0 (m) or None, got {span!r}.")
-        if field_scale is not None and not (field_scale > 0 and math.isfinite(field_scale)):
-            raise ValueError(f"field_scale must be a field > 0 (T) or None, got {field_scale!r}.")
+        check_frame_args(width, height, minor, major, span, field_scale)
         if zoom_span is not None and not (zoom_span > 0 and math.isfinite(zoom_span)):
             raise ValueError(f"zoom_span must be a window width > 0 (m) or None, got {zoom_span!r}.")
         if zoom is not None and not isinstance(zoom, (bool, np.bool_)):

@@ -29,6 +29,7 @@ from .frames import (
     _rgb,
     _rgba32,
     _signed,
+    check_frame_args,
     dial_scale,
     trace_append,
 )
@@ -166,16 +167,7 @@ class StripRenderer:
             raise ValueError(f"StripRenderer draws the strip on the floor (scene='floor'), got scene={opts.scene!r}.")
         if view not in STRIP_VIEWS:
             raise ValueError(f"view must be one of {list(STRIP_VIEWS)} for the 3D strip, got {view!r}.")
-        for name, v in (("width", width), ("height", height)):
-            if int(v) != v or not 16 <= v <= 8192:
-                raise ValueError(f"{name} must be an integer in [16, 8192] pixels, got {v!r}.")
-        for name, v in (("minor", minor), ("major", major)):
-            if not (v > 0 and math.isfinite(v)):
-                raise ValueError(f"{name} must be a grid spacing > 0 (m), got {v!r}.")
-        if span is not None and not (span > 0 and math.isfinite(span)):
-            raise ValueError(f"span must be a view width > 0 (m) or None, got {span!r}.")
-        if field_scale is not None and not (field_scale > 0 and math.isfinite(field_scale)):
-            raise ValueError(f"field_scale must be a field > 0 (T) or None, got {field_scale!r}.")
+        check_frame_args(width, height, minor, major, span, field_scale)
         if not math.isfinite(azimuth):
             raise ValueError(f"azimuth must be a finite angle (deg), got {azimuth!r}.")
         if not -75.0 <= elevation <= -20.0:
