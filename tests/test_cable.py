@@ -47,7 +47,7 @@ def test_rod_options_choose_and_check_the_rod():
     with pytest.raises(ValueError, match="planar hinge chain"):
         build_model(BEAM, RodOptions(rod="cable"))
     with pytest.raises(ValueError, match="imperfection"):
-        mujoco_equilibrium(BEAM, (0.0, 1e-3), imperfection=1e-6)
+        mujoco_equilibrium(BEAM, (0.0, 1e-3), imperfection=float("nan"))
 
 
 # ------------------------------------------------------------------------------------------ build

@@ -54,7 +54,14 @@ def test_the_simulator_reaches_the_rod_only_through_the_backend_interface(scene,
     opts = RodOptions(scene=scene, segments=12, timestep=2e-4)
     plain = _drive(Simulator(BEAM, opts))
     assert isinstance(Simulator(BEAM, opts).backend, RodBackend)
-    monkeypatch.setattr(simulator_module, "rod_backend", lambda beam, o: _OnlyTheInterface(PlanarRod(beam, o)))
+    def only_the_interface(name):
+        def make(beam, o):
+            return _OnlyTheInterface(PlanarRod(beam, o))
+
+        make.check_beam, make.check_field = PlanarRod.check_beam, PlanarRod.check_field
+        return make
+
+    monkeypatch.setattr(simulator_module, "rod_class", only_the_interface)
     wrapped_sim = Simulator(BEAM, opts)
     assert isinstance(wrapped_sim.backend, _OnlyTheInterface)
     wrapped = _drive(wrapped_sim)
@@ -66,23 +73,31 @@ def test_the_simulator_reaches_the_rod_only_through_the_backend_interface(scene,
             np.testing.assert_array_equal(a, b)
 
 
-def test_a_step_happens_in_one_place():
-    # MuJoCo is stepped in exactly one method of the simulator (the engine), by mj_step or by a rollout
-    src = Path(inspect.getsourcefile(simulator_module)).read_text()
-    tree = ast.parse(src)
+def _calls(module, names):
+    """``{Class.method: [called names]}`` of the calls of ``names`` in ``module``'s classes."""
+    tree = ast.parse(Path(inspect.getsourcefile(module)).read_text())
     calls = {}
-    for cls in (n for n in tree.body if isinstance(n, ast.ClassDef) and n.name == "Simulator"):
+    for cls in (n for n in tree.body if isinstance(n, ast.ClassDef)):
         for fn in (n for n in cls.body if isinstance(n, ast.FunctionDef)):
             for node in ast.walk(fn):
-                if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) \
-                        and node.func.attr in ("mj_step", "mj_step1", "mj_step2", "rollout"):
-                    calls.setdefault(fn.name, []).append(node.func.attr)
-    assert calls == {"_blocks": ["mj_step"], "_roll": ["rollout"]}
-    # and _roll is called from the engine only
-    users = [fn.name for cls in tree.body if isinstance(cls, ast.ClassDef)
-             for fn in cls.body if isinstance(fn, ast.FunctionDef)
-             for node in ast.walk(fn) if isinstance(node, ast.Attribute) and node.attr == "_roll"]
-    assert users == ["_blocks"]
+                if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr in names:
+                    calls.setdefault(f"{cls.name}.{fn.name}", []).append(node.func.attr)
+    return calls
+
+
+def test_a_step_happens_in_one_place():
+    # the simulator cuts a call into blocks in one method and hands each to the backend; MuJoCo is stepped only
+    # by the two ways of running a block (sim/stepping.py), by mj_step or by a rollout
+    import magsoft_env.sim.cable as cable_module
+    import magsoft_env.sim.planar as planar_module
+    import magsoft_env.sim.stepping as stepping_module
+
+    steps = ("mj_step", "mj_step1", "mj_step2", "rollout")
+    assert _calls(simulator_module, steps) == {}
+    assert _calls(simulator_module, ("advance",)) == {"Simulator._blocks": ["advance"]}
+    assert _calls(stepping_module, steps) == {"NativeSteps.advance": ["mj_step"], "NativeSteps._roll": ["rollout"],
+                                              "PythonSteps.advance": ["mj_step"]}
+    assert _calls(planar_module, steps) == {} and _calls(cable_module, steps) == {}
 
 
 def test_attributes_are_created_in_init_only():

@@ -1,31 +1,125 @@
-"""What a rod backend provides to the simulator: the interface the planar chain implements and a 3D rod will.
+"""What a rod backend provides: the interface every rod implements, the pose every consumer reads, the registry.
 
-The :class:`~magsoft_env.sim.Simulator` steps any object with these members; it never reaches into a
-backend's MuJoCo addresses. :class:`~magsoft_env.sim.planar.PlanarRod` is the planar hinge chain; a 3D rod (a
-MuJoCo 1D flexcomp strip) is a second class with the same members, chosen by :func:`rod_backend`.
+Everything that depends on which rod runs lives in the rod's backend: how a block of steps runs (natively in
+MuJoCo or with couples written from Python), which fields it takes, how it settles, its pose, its histories and
+readouts, the options a gait gives it and the view that draws it. The :class:`~magsoft_env.sim.Simulator`, the
+gaits, the statics, the environments, the renderers and the command line know a rod only through this
+interface; a new rod is one new module and one line in :data:`ROD_BACKENDS` (or a :func:`register_rod` call).
+
+Registered rods:
+
+- ``"planar"``: :class:`~magsoft_env.sim.planar.PlanarRod`, the hinge chain in the x-z plane (native couples);
+- ``"cable"``: :class:`~magsoft_env.sim.cable.CableRod`, the 3D MuJoCo flexcomp strip (bending both ways,
+  twist, width-wise contact).
 """
 
 from __future__ import annotations
 
+import importlib
+import math
+from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 import mujoco
 import numpy as np
 
-from ..spec import Beam
-from .health import SensorHistory
-from .model import RodModel, RodOptions
+from ..spec import Beam, Field
+
+#: name -> ``"module:Class"`` of every rod backend (``RodOptions.rod`` takes these names).
+ROD_BACKENDS: dict[str, str] = {
+    "planar": "magsoft_env.sim.planar:PlanarRod",
+    "cable": "magsoft_env.sim.cable:CableRod",
+}
+
+
+@dataclass(frozen=True)
+class Pose:
+    """Where a rod is, in one shape for every rod (frozen; SI units). A planar rod has ``y = 0`` and every
+    width axis along +y.
+
+    Attributes
+    ----------
+    time : float
+        Simulation time (s).
+    com : (3,) ndarray
+        Centre of mass (m).
+    centreline : (n, 3) ndarray
+        Centreline points (m), base end (s = 0) to tip (s = L).
+    tangents : (npieces, 3) ndarray
+        Unit tangent of every rigid piece (planar chain: link; strip: edge), base first.
+    widths : (npieces, 3) ndarray
+        Unit width axis of every piece (the material direction across the beam's width).
+    lengths : (npieces,) ndarray
+        Reference length of every piece (m): the weights of the body's mean direction.
+    tip_angle : float
+        The tip's tangent angle from +x toward +z (rad), continuous beyond +-pi where the rod counts whole
+        turns (the planar chain: the sum of its joint angles); else in (-pi, pi].
+    """
+
+    time: float
+    com: np.ndarray
+    centreline: np.ndarray
+    tangents: np.ndarray
+    widths: np.ndarray
+    lengths: np.ndarray
+    tip_angle: float = math.nan
+
+    @property
+    def heading(self) -> float:
+        """Direction of the end-to-end chord in the floor plane (rad, from +x toward +y)."""
+        c = self.centreline
+        return math.atan2(float(c[-1, 1] - c[0, 1]), float(c[-1, 0] - c[0, 0]))
+
+    @property
+    def roll(self) -> float:
+        """Largest roll of any piece about its own axis: its width axis's angle from the floor (rad)."""
+        return float(np.max(np.abs(np.arcsin(np.clip(self.widths[:, 2], -1.0, 1.0)))))
+
+    def pitch_angles(self, heading: float = 0.0) -> np.ndarray:
+        """Tangent angle of every piece from the horizontal direction ``heading`` (rad from +x toward +y) toward +z
+        (rad), in the vertical plane through it: the planar chain's piece angles for ``heading = 0``."""
+        t = self.tangents
+        return np.arctan2(t[:, 2], t[:, 0] * math.cos(heading) + t[:, 1] * math.sin(heading))
 
 
 @runtime_checkable
 class RodBackend(Protocol):
-    """A rod in a scene, as the stepping engine and the health monitor see it.
+    """A rod in a scene, as the stepping engine, the health monitor and every consumer see it.
 
-    Attributes
-    ----------
+    Class attributes and class methods (what a caller may ask before building anything)
+    ------------------------------------------------------------------------------------
+    name : str
+        The registry name (``RodOptions.rod``).
+    label : str
+        What messages call it (``"the MuJoCo hinge-chain rod"``).
+    field_axes : tuple of int
+        The components of ``(B_x, B_y, B_z)`` it takes: ``(0, 2)`` for a rod in the x-z plane, ``(0, 1, 2)``
+        for a 3D rod. Its moments and energies are in these components.
+    scenes : tuple of str
+        The scenes it builds (``RodOptions.scene``).
+    view : str
+        How a frame shows it: ``"side"`` (:class:`~magsoft_env.render.RodRenderer`) or ``"perspective"``
+        (:class:`~magsoft_env.render.strip.StripRenderer`).
+    static_timestep, static_tol : float
+        Defaults of :func:`~magsoft_env.sim.mujoco_equilibrium`: the settling step (s) and residual tolerance.
+    check_options(options)
+        ValueError for options it cannot build (before any work).
+    check_beam(beam, what)
+        ValueError for a beam it cannot simulate (a planar rod: a magnetization across the width).
+    check_field(field: Field)
+        ValueError for a field it cannot take (a planar rod: ``B_y != 0``).
+    check_fields(samples (n, 3), source)
+        The same for the samples of a waveform ``source``.
+    gait_options(robot, **common) -> dict
+        The rod's own :class:`~magsoft_env.sim.RodOptions` keywords for a robot on the floor (its colliders, its
+        numerics where the robot's own do not suit it), merged into the common ones.
+
+    Instance attributes
+    -------------------
     model : mujoco.MjModel
-    rod : RodModel
-        The compiled model and its addresses.
+    rod
+        The compiled model and its addresses (the planar chain's :class:`~magsoft_env.sim.model.RodModel`, the
+        strip's :class:`~magsoft_env.sim.cable_build.CableModel`).
     beam : Beam
     options : RodOptions
     npieces : int
@@ -33,28 +127,30 @@ class RodBackend(Protocol):
     hinge_dof : ndarray of int
         The dofs that carry the rod's elastic energy (damped while settling, checked by the static residual).
     stiffness : ndarray
-        Their stiffnesses (N m / rad).
+        The stiffness against each (N m / rad, or N / m for a slide): ``max |Q| / k`` is the static residual.
     two_stage : bool
         The integrator splits a step in two stages (the energy balance's staggered positions apply).
     has_contact, has_feature : bool
         The scene has a floor; and a feature (channel, obstacle) besides it.
     contact_adr, feature_adr : int
-        ``sensordata`` addresses of the deepest floor / feature contact (m, < 0 when penetrating).
+        Indices into :meth:`contact_data` of the deepest floor / feature contact (m, < 0 when penetrating).
     weight : float
         Total weight (N).
-    control_spec : int
-        ``mujoco.mjtState`` spec of :meth:`controls` rows.
-    per_step : bool
-        The couples depend on the state in a way MuJoCo cannot apply by itself (the 3D rod's material frames):
-        the engine calls :meth:`write_field` before every step instead of running native blocks, books the
-        field's work with :attr:`moment` (the net moment :meth:`write_field` computed) and calls
-        :meth:`record_step` after every step.
+    block_limit : int
+        The longest block of steps :meth:`advance` may run (its histories keep that many steps).
     """
 
+    name: str
+    label: str
+    field_axes: tuple
+    scenes: tuple
+    view: str
+    static_timestep: float
+    static_tol: float
     model: mujoco.MjModel
-    rod: RodModel
+    rod: object
     beam: Beam
-    options: RodOptions
+    options: object
     npieces: int
     hinge_dof: np.ndarray
     stiffness: np.ndarray
@@ -64,35 +160,54 @@ class RodBackend(Protocol):
     contact_adr: int
     feature_adr: int
     weight: float
-    control_spec: int
-    per_step: bool
+    block_limit: int
 
-    def contact_histories(self, data: mujoco.MjData) -> tuple[SensorHistory | None, SensorHistory | None]:
-        """Readers of the floor and feature contact sensors' history buffers."""
+    # ---------------------------------------------------------------- inputs and stepping
+    def check_field(self, field: Field) -> None:
+        """ValueError for a field this rod cannot take."""
 
-    def contact_data(self, data: mujoco.MjData) -> np.ndarray:
-        """The array that :attr:`contact_adr` and :attr:`feature_adr` index (MuJoCo's ``sensordata``, or the
-        rod's own record of the last step)."""
-
-    def record_step(self, data: mujoco.MjData) -> None:
-        """After each step of a :attr:`per_step` rod: record what its health checks read (its deepest contact)."""
+    def check_fields(self, samples: np.ndarray, source) -> None:
+        """ValueError for per-step fields ``(n, 3)`` (T) of ``source`` that this rod cannot take."""
 
     def write_field(self, data: mujoco.MjData, field3: np.ndarray) -> None:
         """Write the inputs of a held field ``(B_x, B_y, B_z)`` (T) into ``data``."""
 
-    def controls(self, fields: np.ndarray) -> np.ndarray:
-        """Per-step input rows of the fields, for ``mujoco.rollout`` with :attr:`control_spec`."""
+    def advance(self, data: mujoco.MjData, field3: np.ndarray, fields: np.ndarray | None, k: int, health) -> None:
+        """Run ``k`` steps (at most :attr:`block_limit`) under the held ``field3`` or per-step ``fields`` ``(k, 3)``
+        (T), booking the field's work with ``health`` (:class:`~magsoft_env.sim.health.HealthMonitor`)."""
 
     def apply_external(self, data: mujoco.MjData, wrench: np.ndarray | None) -> None:
         """Write a constant world-frame wrench per piece ``(npieces, 6)`` (None: none); clear other applied forces."""
 
+    def settle_damping(self, retardation: float) -> tuple[np.ndarray, np.ndarray]:
+        """``(dofs, damping)``: the dof damping that settles the rod (for a retardation time ``retardation``, s,
+        where the rod uses one)."""
+
+    def settle_speed(self, data: mujoco.MjData) -> float:
+        """The largest rate (rad/s, or m/s over L) of the rod's elastic dofs: settled when small."""
+
+    def reset_noise(self, rng: np.random.Generator, scale: float) -> np.ndarray:
+        """``qpos`` of the rest state perturbed by ``U(-scale, scale)`` rad in each bending angle."""
+
+    # ---------------------------------------------------------------- histories
+    def contact_histories(self, data: mujoco.MjData):
+        """Readers (``nsample``, ``values``, ``last(k)``) of the deepest floor and feature contact of every step
+        of the last block (None where a scene has none)."""
+
+    def contact_data(self, data: mujoco.MjData) -> np.ndarray:
+        """The array :attr:`contact_adr` and :attr:`feature_adr` index (the last step's contacts)."""
+
+    def centreline_history(self, data: mujoco.MjData):
+        """Reader of the centreline at the start of every step of the last block: ``last(k)`` ``(n, k, 3)``."""
+
+    # ---------------------------------------------------------------- energies and checks
     def net_moment(self, data: mujoco.MjData) -> np.ndarray:
-        """Net magnetic moment (world; A m^2) of the orientations in ``data``."""
+        """Net magnetic moment (world, :attr:`field_axes` components; A m^2) of the state in ``data``."""
 
     def net_moments(self, qpos: np.ndarray) -> np.ndarray:
-        """Net magnetic moments of recorded positions ``(k, nq)``."""
+        """Net magnetic moments of recorded positions ``(k, nq)``, shape ``(k, len(field_axes))``."""
 
-    def energy(self, data: mujoco.MjData, field, *, kinetic: float, staggered: bool) -> float:
+    def energy(self, data: mujoco.MjData, field3, *, kinetic: float, staggered: bool) -> float:
         """Kinetic (given) + elastic + gravitational + magnetic energy (J)."""
 
     def energy_scale(self, bmax: float) -> float:
@@ -104,42 +219,72 @@ class RodBackend(Protocol):
     def lowest_point(self, data: mujoco.MjData, below: float) -> float:
         """Lowest centreline height (m), exact where it may lie below ``below``."""
 
+    def integrity(self, data: mujoco.MjData) -> tuple[str, float, str] | None:
+        """``(quantity, value, hint)`` when the rod's own state broke a bound of its model, else None."""
+
+    # ---------------------------------------------------------------- readouts (of a synchronized mjData)
+    def pose(self, data: mujoco.MjData) -> Pose:
+        """The :class:`Pose`."""
+
+    def orientation_tracker(self):
+        """A new tracker of the body's orientation end over end, continuous in time (``update(pose) -> rad``,
+        ``heading``): :class:`~magsoft_env.sim.readouts.ChainOrientation` or
+        :class:`~magsoft_env.sim.readouts.PitchTracker`."""
+
     def centerline(self, data: mujoco.MjData) -> tuple[np.ndarray, ...]:
-        """Centreline points (m)."""
+        """Centreline points (m) in the rod's own components (the planar chain: ``(x, z)``)."""
 
     def tip_position(self, data: mujoco.MjData) -> tuple[float, ...]:
-        """Tip point (m)."""
+        """Tip point (m), the rod's own components."""
 
     def center_of_mass(self, data: mujoco.MjData) -> np.ndarray:
-        """Centre of mass (m)."""
+        """Centre of mass (m), the rod's own components."""
 
     def arc_length(self) -> np.ndarray:
         """Reference arc length (m) of the centreline points."""
 
     def angles(self, data: mujoco.MjData) -> np.ndarray:
-        """Tangent angles of the pieces (rad)."""
+        """Tangent angles of the pieces from +x toward +z (rad; a 3D rod: of their x-z projections)."""
 
     def tip_angle(self, data: mujoco.MjData) -> float:
         """Tangent angle of the tip (rad)."""
 
+    def tip_twist(self, data: mujoco.MjData) -> float:
+        """Integrated twist ``int k3 ds`` (rad): 0 for a rod that cannot twist."""
+
+    def angular_velocities(self, data: mujoco.MjData) -> np.ndarray:
+        """Angular velocity of every piece about -y (rad/s; the rate of :meth:`angles`), ``(npieces,)``."""
+
     def magnetic_couples(self, data: mujoco.MjData, field3: np.ndarray) -> np.ndarray:
         """Couples ``(R m) x B`` on the pieces, world frame (N m)."""
 
-    def integrity(self, data: mujoco.MjData) -> tuple[str, float, str] | None:
-        """``(quantity, value, hint)`` when the rod's own state broke a bound of its model, else None."""
+
+def register_rod(name: str, entry: str) -> None:
+    """Register a rod backend: ``RodOptions(rod=name)`` builds ``entry`` (``"module:Class"``) from then on."""
+    if not isinstance(name, str) or not name.isidentifier():
+        raise ValueError(f"a rod's name must be an identifier, got {name!r}.")
+    if not isinstance(entry, str) or entry.count(":") != 1:
+        raise ValueError(f"entry must be 'module:Class', got {entry!r}.")
+    ROD_BACKENDS[name] = entry
 
 
-def rod_backend(beam: Beam, options: RodOptions) -> RodBackend:
-    """The backend that simulates ``beam`` with ``options``: the planar hinge chain
-    (:class:`~magsoft_env.sim.planar.PlanarRod`) or, for ``RodOptions(rod="cable")``, the 3D flexcomp strip
-    (:class:`~magsoft_env.sim.cable.CableRod`)."""
-    from .planar import PlanarRod
-
-    if options.rod == "cable":
-        from .cable import CableRod
-
-        return CableRod(beam, options)
-    return PlanarRod(beam, options)
+def rod_names() -> tuple[str, ...]:
+    """The registered rods' names."""
+    return tuple(ROD_BACKENDS)
 
 
-__all__ = ["RodBackend", "rod_backend"]
+def rod_class(name: str) -> type:
+    """The backend class registered as ``name`` (ValueError naming the registered ones otherwise)."""
+    entry = ROD_BACKENDS.get(name) if isinstance(name, str) else None
+    if entry is None:
+        raise ValueError(f"rod must be one of {list(ROD_BACKENDS)}, got {name!r}.")
+    module, cls = entry.split(":")
+    return getattr(importlib.import_module(module), cls)
+
+
+def rod_backend(beam: Beam, options) -> RodBackend:
+    """The backend of ``options.rod`` simulating ``beam`` with ``options``."""
+    return rod_class(options.rod)(beam, options)
+
+
+__all__ = ["ROD_BACKENDS", "Pose", "RodBackend", "register_rod", "rod_backend", "rod_class", "rod_names"]

@@ -17,74 +17,57 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..cases.gaits import GAIT_CONTACT_GEOM, GAIT_ROD_OPTIONS, gait_preset, numerics
+from ..cases.gaits import GAIT_ROD_OPTIONS, gait_preset, numerics
 from ..cases.robots import Robot
 from ..units import MM
 from ..validate import nonnegative, positive
+from .backend import rod_class
+from .cable import CABLE_GAIT_MIN_SEGMENTS, CABLE_GAIT_STEP_SEGMENTS, cable_gait_numerics
 from .health import UnphysicalError, check_steps
 from .model import RodOptions, material_contact_timeconst
-from .readouts import PitchTracker, is_flipped, orientation, pitch_orientation
+from .readouts import is_flipped
 from .simulator import SimulationError, Simulator
 from .waveforms import as_waveform
-
-#: The strip's floor numerics when a gait runs at its robot's own (``rod="cable"``, no ``segments``, ``timestep`` or
-#: ``fidelity`` given): at least this many segments ...
-CABLE_GAIT_MIN_SEGMENTS = 40
-#: ... and a timestep of at most this over the segments (s; 0.1 ms at 40, 0.05 ms at 80). Measured (docs/sim.md,
-#: "Measured: the paper's gaits on the strip"): there the strip crawls within 4 % of the planar chain at the same
-#: numerics for paper-5a, 5b and 5c (at 20 segments 10-14 % slower for 5c; at 80 segments and 0.1 ms 6-8 % off).
-CABLE_GAIT_STEP_SEGMENTS = 4e-3
-
-
-def cable_gait_numerics(segments: int, timestep: float) -> tuple[int, float]:
-    """The strip's floor numerics from a robot's own ``(segments, timestep)`` (s): at least
-    :data:`CABLE_GAIT_MIN_SEGMENTS` segments, a timestep of at most :data:`CABLE_GAIT_STEP_SEGMENTS` / segments.
-
-    >>> cable_gait_numerics(20, 2e-4), cable_gait_numerics(80, 1e-4), cable_gait_numerics(80, 2.5e-5)
-    ((40, 0.0001), (80, 5e-05), (80, 2.5e-05))
-    """
-    n = max(int(segments), CABLE_GAIT_MIN_SEGMENTS)
-    return n, min(float(timestep), CABLE_GAIT_STEP_SEGMENTS / n)
 
 
 def gait_rod_options(robot: Robot, *, scene: str = "floor", segments: int | None = None,
                      timestep: float | None = None, render: bool = False, feature_x: float | None = None,
-                     friction: float | None = None, fidelity: str | None = None, rod: str = "planar") -> RodOptions:
-    """The :class:`~magsoft_env.sim.RodOptions` of a robot on the floor: its friction and hinge damping
-    (retardation time), capsule colliders, the beam's own contact time constant and the pinned
-    :data:`~magsoft_env.cases.gaits.GAIT_ROD_OPTIONS`.
+                     friction: float | None = None, fidelity: str | None = None, rod: str = "planar",
+                     **rod_options) -> RodOptions:
+    """The :class:`~magsoft_env.sim.RodOptions` of a robot on the floor: its friction and damping
+    (retardation time), the beam's own contact time constant, the pinned
+    :data:`~magsoft_env.cases.gaits.GAIT_ROD_OPTIONS` and the rod's own keywords (the rod backend's
+    ``gait_options``: the chain's capsule colliders; the strip's numerics where the robot's own do not suit it).
 
     ``segments``, ``timestep`` ``None``: the robot's own numerics (``Robot.segments``, ``Robot.timestep``), or
     the named level ``fidelity`` (:func:`~magsoft_env.cases.gaits.numerics`); ``friction`` ``None``: the robot's
     own. The gaits and the floor environments build their rods here, so both describe the same physics.
 
-    ``rod="cable"``: the 3D flexcomp strip on the floor (:mod:`~magsoft_env.sim.cable`) with the same friction,
-    cone, damping, contact time constant and solver settings (its contact is its edges' boxes on a box floor,
-    width-wise; twist free); floor scene only. With neither ``segments``, ``timestep`` nor ``fidelity`` its
-    numerics are :func:`cable_gait_numerics` of the robot's own.
+    ``rod``: the rod (``RodOptions.rod``): ``"planar"``, the hinge chain; ``"cable"``, the 3D flexcomp strip on the
+    floor (:mod:`~magsoft_env.sim.cable`) with the same friction, cone, damping, contact time constant and solver
+    settings (its contact is its edges' boxes on a box floor, width-wise; twist free); with neither ``segments``,
+    ``timestep`` nor ``fidelity`` its numerics are :func:`~magsoft_env.sim.cable.cable_gait_numerics` of the
+    robot's own. ``rod_options``: any other :class:`~magsoft_env.sim.RodOptions` keyword (contact and solver
+    settings: ``contact_geom``, ``cone``, ``noslip_iterations``, ``solver_iterations``, ``solver_tolerance``,
+    ``contact_impedance``, ...), which win over the gait's own: trade accuracy for speed knowingly.
     """
     if not isinstance(robot, Robot):
         raise ValueError(f"robot must be a magsoft_env.Robot (see load_robot), got {type(robot).__name__}.")
-    if rod not in ("planar", "cable"):
-        raise ValueError(f"rod must be 'planar' or 'cable', got {rod!r}.")
-    if rod == "planar":
-        robot.beam.require_planar(f"robot {robot.name!r} on the MuJoCo hinge-chain rod (gaits, floor environments)")
+    cls = rod_class(rod)
+    fixed = {"rod", "scene", "segments", "timestep", "friction", "render", "feature_x", "retardation_time"}
+    known = set(RodOptions.__dataclass_fields__)
+    for name in rod_options:
+        if name in fixed or name not in known:
+            raise ValueError(f"rod option {name!r} is not a RodOptions keyword a gait takes: give any of "
+                             f"{sorted(known - fixed)}.")
     own = segments is None and timestep is None and fidelity is None
     segments, timestep = numerics(robot, fidelity=fidelity, segments=segments, timestep=timestep, scene=scene)
-    if rod == "cable" and own:
-        segments, timestep = cable_gait_numerics(segments, timestep)
     friction = robot.friction if friction is None else friction
-    if rod == "cable":
-        if scene != "floor" or feature_x is not None or render:
-            raise ValueError("the 3D rod's gaits run on the floor scene only (no feature, no rendering yet), got "
-                             f"scene={scene!r}, feature_x={feature_x!r}, render={render!r}.")
-        return RodOptions(rod="cable", scene=scene, segments=segments, timestep=timestep, friction=friction,
-                          retardation_time=robot.retardation_time,
-                          contact_timeconst=material_contact_timeconst(robot.beam), **GAIT_ROD_OPTIONS)
-    return RodOptions(scene=scene, segments=segments, timestep=timestep, friction=friction,
-                      render=render, feature_x=feature_x, contact_geom=GAIT_CONTACT_GEOM,
-                      retardation_time=robot.retardation_time,
-                      contact_timeconst=material_contact_timeconst(robot.beam), **GAIT_ROD_OPTIONS)
+    keys = {**GAIT_ROD_OPTIONS, "contact_timeconst": material_contact_timeconst(robot.beam),
+            **cls.gait_options(robot, scene=scene, segments=segments, timestep=timestep, own_numerics=own),
+            **rod_options}
+    return RodOptions(rod=rod, scene=scene, friction=friction, render=render, feature_x=feature_x,
+                      retardation_time=robot.retardation_time, **keys)
 
 
 @dataclass(frozen=True)
@@ -257,7 +240,7 @@ def direction_of(speed: float, *, threshold: float = 1e-5) -> str:
 def run_gait(
     preset, seconds: float = 4.0, *, segments: int | None = None, timestep: float | None = None,
     warmup_cycles: float = 1.0, sample_dt: float = 0.01, fidelity: str | None = None, progress: bool = False,
-    rod: str = "planar",
+    rod: str = "planar", rod_options: dict | None = None,
 ) -> GaitResult:
     """Run a gait on the floor and measure the centre-of-mass speed.
 
@@ -289,12 +272,17 @@ def run_gait(
     progress : bool
         Show a progress bar (tqdm, on stderr) over the simulated time: paper-5b at its own numerics takes about
         10-15 s of wall time per simulated second.
-    rod : {"planar", "cable"}
-        The planar hinge chain (default) or the 3D flexcomp strip on the floor (:func:`gait_rod_options`; it takes
-        drives with a y component, ``Waveparams(amplitude_y=...)``); the result then also reports the sideways
-        travel, the heading and the roll. The strip at the robot's own numerics runs :func:`cable_gait_numerics`
-        of them (paper-5a 80 segments at 0.05 ms, 5b 80 at 0.025 ms, 5c 40 at 0.1 ms), where it crawls within 4 %
-        of the chain at the same numerics.
+    rod : str
+        The rod (``RodOptions.rod``): the planar hinge chain (``"planar"``, default) or the 3D flexcomp strip on the
+        floor (``"cable"``, :func:`gait_rod_options`; it takes drives with a y component,
+        ``Waveparams(amplitude_y=...)``). The strip at the robot's own numerics runs
+        :func:`~magsoft_env.sim.cable.cable_gait_numerics` of them (paper-5a 80 segments at 0.05 ms, 5b 80 at
+        0.025 ms, 5c 40 at 0.1 ms), where it crawls within 4 % of the chain at the same numerics. Every result
+        reports the sideways travel, the heading and the roll (0 for the chain).
+    rod_options : dict or None
+        More :class:`~magsoft_env.sim.RodOptions` keywords for the rod (contact and solver settings, e.g.
+        ``{"solver_iterations": 20, "noslip_iterations": 0}``), winning over the gait's own
+        (:func:`gait_rod_options`): a slow robot can trade accuracy for speed, knowingly.
 
     Returns
     -------
@@ -305,16 +293,12 @@ def run_gait(
         displacement is that of a tumble, not a crawl.
     """
     preset = gait_preset(preset)  # a name or a path loads; a robot without a drive is refused
-    own = segments is None and timestep is None and fidelity is None
-    segments, timestep = numerics(preset, fidelity=fidelity, segments=segments, timestep=timestep)
-    if rod == "cable" and own:
-        segments, timestep = cable_gait_numerics(segments, timestep)
     seconds = positive("seconds", seconds, unit="s")
     warmup_cycles = nonnegative("warmup_cycles", warmup_cycles)
     sample_dt = positive("sample_dt", sample_dt, unit="s")
     t0 = _time.perf_counter()
-    options = gait_rod_options(preset, segments=segments, timestep=timestep, rod=rod)
-    three = rod == "cable"
+    options = gait_rod_options(preset, segments=segments, timestep=timestep, fidelity=fidelity, rod=rod,
+                               **(rod_options or {}))
     nsteps = int(round(check_steps(f"seconds / timestep = {seconds:g} s / {options.timestep:g} s",
                                    seconds / options.timestep, "Use fewer seconds or a larger timestep.")))
     sim = Simulator(preset.beam, options)
@@ -323,14 +307,16 @@ def run_gait(
     s_pts = sim.arc_length()
     left, right = s_pts < 0.5 * preset.beam.length, s_pts > 0.5 * preset.beam.length
     z_rest = 0.5 * preset.beam.thickness
-    ts, xs = [0.0], [sim.center_of_mass()[0]]
-    y0 = float(sim.center_of_mass()[1]) if three else 0.0
-    roll = _roll(sim) if three else 0.0
-    z = sim.centerline()[-1]
-    pitch = PitchTracker() if three else None  # the strip: end over end only, not turns on the floor
-    turn = pitch_orientation(sim, pitch) if three else orientation(sim)
-    heading0 = pitch.heading if three else 0.0
-    zmax, rot = float(np.max(z)), _link_rotation(sim, pitch)
+    # the body's orientation end over end (the rod's tracker: turning on the floor is not a tumble)
+    tracker = sim.orientation_tracker()
+    pose = sim.pose()
+    ts, xs = [0.0], [float(pose.com[0])]
+    y0 = float(pose.com[1])
+    roll = pose.roll
+    z = pose.centreline[:, 2]
+    turn = tracker.track(pose)
+    heading0 = tracker.heading
+    zmax, rot = float(np.max(z)), _link_rotation(pose, tracker.heading)
     max_turn, flip_time = abs(turn), math.nan
     lift_l, lift_r = float(np.max(z[left])) - z_rest, float(np.max(z[right])) - z_rest
     ok, msg, done, unphysical = True, "ok", 0, ""
@@ -352,26 +338,22 @@ def run_gait(
         done += k
         if bar is not None:
             bar.update(k)
+        pose = sim.pose()
         ts.append(sim.time)
-        xs.append(float(sim.center_of_mass()[0]))
-        z = sim.centerline()[-1]
-        if three:
-            roll = max(roll, _roll(sim))
+        xs.append(float(pose.com[0]))
+        z = pose.centreline[:, 2]
+        roll = max(roll, pose.roll)
         zmax = max(zmax, float(np.max(z)))
         lift_l, lift_r = max(lift_l, float(np.max(z[left])) - z_rest), max(lift_r, float(np.max(z[right])) - z_rest)
-        turn = pitch_orientation(sim, pitch) if three else orientation(sim)
-        rot = max(rot, _link_rotation(sim, pitch))
+        turn = tracker.track(pose)
+        rot = max(rot, _link_rotation(pose, tracker.heading))
         max_turn = max(max_turn, abs(turn))
         if math.isnan(flip_time) and is_flipped(turn):
             flip_time = sim.time
     if bar is not None:
         bar.close()
     t, x = np.asarray(ts), np.asarray(xs)
-    dy = heading = 0.0
-    if three:
-        dy = float(sim.center_of_mass()[1]) - y0
-        cx, cy, _ = sim.centerline()
-        heading = math.atan2(cy[-1] - cy[0], cx[-1] - cx[0])
+    pose = sim.pose()
     i0, i1, whole = speed_window(t, preset.wave.frequency, warmup_cycles)
     speed = (x[i1] - x[i0]) / (t[i1] - t[i0]) if t[i1] > t[i0] else 0.0
     direction, locomotion = direction_of(speed), "crawl"
@@ -389,30 +371,15 @@ def run_gait(
         max_penetration=sim.max_penetration, max_penetration_h=sim.max_penetration / preset.beam.thickness,
         energy_drift=sim.energy_drift, unphysical=unphysical, window=float(t[i1] - t[i0]), whole_periods=whole,
         segments=options.segments, timestep=options.timestep, locomotion=locomotion, max_orientation=max_turn,
-        final_orientation=turn, flip_time=flip_time, rod=rod, displacement_y=dy, final_heading=heading, max_roll=roll,
-        turned=(pitch.heading - heading0) if three else 0.0,
+        final_orientation=turn, flip_time=flip_time, rod=rod, displacement_y=float(pose.com[1]) - y0,
+        final_heading=pose.heading, max_roll=roll, turned=tracker.heading - heading0,
     )
 
 
-def _link_rotation(sim, pitch) -> float:
-    """Largest |tangent angle| of any piece (rad): from +x toward +z (planar); for the 3D strip from the
-    reference heading of ``pitch`` (:class:`~magsoft_env.sim.readouts.PitchTracker`) toward +z, so that turning
-    on the floor does not count."""
-    if pitch is None:
-        return float(np.max(np.abs(sim.angles())))
-    from .cable import material_frames
-
-    t = material_frames(sim.backend.rod, sim.data)[0]
-    along = t[:, 0] * math.cos(pitch.heading) + t[:, 1] * math.sin(pitch.heading)
-    return float(np.max(np.abs(np.arctan2(t[:, 2], along))))
-
-
-def _roll(sim) -> float:
-    """Largest roll of the 3D strip's edges about their axes: the width axis's angle from the floor (rad)."""
-    from .cable import material_frames
-
-    _, d1, _ = material_frames(sim.backend.rod, sim.data)
-    return float(np.max(np.abs(np.arcsin(np.clip(d1[:, 2], -1.0, 1.0)))))
+def _link_rotation(pose, heading: float) -> float:
+    """Largest |tangent angle| of any piece (rad) from the horizontal direction ``heading`` (the orientation
+    tracker's: +x for the planar chain) toward +z, so that turning on the floor does not count."""
+    return float(np.max(np.abs(pose.pitch_angles(heading))))
 
 
 def speed_window(t, frequency: float, warmup_cycles: float = 1.0) -> tuple[int, int, bool]:

@@ -11,6 +11,8 @@ import math
 import mujoco
 import numpy as np
 
+from .histories import SensorHistory
+
 #: MuJoCo warnings that stop a simulation, with what they mean.
 WARNINGS = {
     mujoco.mjtWarning.mjWARN_BADQACC: "non-finite or huge qacc (acceleration)",
@@ -115,44 +117,6 @@ def runaway(kinetic_energy, energy_scale):
     return ~(np.asarray(kinetic_energy) <= RUNAWAY_FACTOR * np.asarray(energy_scale))
 
 
-class SensorHistory:
-    """The last samples of a scalar MuJoCo sensor from its history buffer (``nsample > 0``), oldest first.
-
-    MuJoCo appends every step's value (the sensor of the state the step started from, as
-    ``sensordata`` after the step) to a ring buffer in ``mjData.history``: per sensor a user slot, the
-    index of the newest sample, ``nsample`` timestamps, then the values. This reads the values of
-    the last ``k`` steps, so that a block of steps run inside MuJoCo (``mj_step(m, d, k)``,
-    ``mujoco.batch``) is checked step by step afterwards.
-
-    Parameters
-    ----------
-    model : mujoco.MjModel
-    sensor : int
-        Sensor id (a dimension-1 sensor with ``nsample > 0``).
-    history : ndarray, shape (nhistory,) or (nsim, nhistory)
-        ``mjData.history``, or a ``mujoco.batch`` binding of it (one row per simulation).
-    """
-
-    def __init__(self, model, sensor: int, history: np.ndarray):
-        adr, ns = int(model.sensor_historyadr[sensor]), int(model.sensor_history[sensor, 0])
-        if adr < 0 or ns < 1 or int(model.sensor_dim[sensor]) != 1:
-            raise ValueError(f"sensor {sensor} must be a scalar sensor with a history buffer (nsample > 0).")
-        self.nsample = ns
-        self._history = history
-        self._cursor = adr + 1
-        #: the buffer's values in ring order (a view): the last nsample steps, in no particular order
-        self.values = history[..., adr + 2 + ns: adr + 2 + 2 * ns]
-        self._offsets = np.arange(1 - ns, 1)
-
-    def last(self, k: int) -> np.ndarray:
-        """The values of the last ``k`` (<= nsample) steps, oldest first: shape ``(k,)``, or ``(nsim, k)``."""
-        if not 1 <= k <= self.nsample:
-            raise ValueError(f"k must lie in [1, {self.nsample}], got {k!r}.")
-        cursor = self._history[..., self._cursor].astype(int)
-        idx = (np.asarray(cursor)[..., None] + self._offsets[self.nsample - k:]) % self.nsample
-        return np.take_along_axis(self.values, idx, axis=-1)
-
-
 def runaway_hint(energy_scale: float, where: str = "") -> str:
     """The message tail of a runaway-energy failure."""
     return f"It exceeds {RUNAWAY_FACTOR:g} x the energy scale {energy_scale:.3g} J{where}. {STABILITY_HINT}"
@@ -160,7 +124,7 @@ def runaway_hint(energy_scale: float, where: str = "") -> str:
 
 
 def _mt(field) -> str:
-    """A field (T) as ``(B_x, B_z) mT`` or ``(B_x, B_y, B_z) mT``."""
+    """A field (T) as ``(B_x, B_z) mT`` or ``(B_x, B_y, B_z) mT`` (the components a rod takes)."""
     return "(" + ", ".join(f"{float(b) * 1e3:.4g}" for b in field) + ") mT"
 
 
@@ -181,7 +145,9 @@ class HealthMonitor:
     Parameters
     ----------
     rod
-        The rod backend (:class:`~magsoft_env.sim.planar.PlanarRod`): energies, net moment, lowest point.
+        The rod backend (:class:`~magsoft_env.sim.backend.RodBackend`): energies, net moment, lowest point, its
+        contact history, its own bounds. Fields are ``(B_x, B_y, B_z)`` (T); the rod's energies and moments are in
+        its :attr:`~magsoft_env.sim.backend.RodBackend.field_axes`.
     data : mujoco.MjData
     penetration_limit : float
         Deepest contact allowed (m).
@@ -209,8 +175,10 @@ class HealthMonitor:
         self.energy_valid = False
         self.work = self.e0 = 0.0
         self.state_key = b""
-        #: the field the last step applied (T): (B_x, B_z) for the planar rod, (B_x, B_y, B_z) for the 3D rod
-        self.b_applied = np.zeros(3 if rod.per_step else 2)
+        #: the components of (B_x, B_y, B_z) the rod takes: its moments and energies are in these
+        self.axes = list(rod.field_axes)
+        #: the field the last step applied (T), (B_x, B_y, B_z)
+        self.b_applied = np.zeros(3)
         self.warn0 = np.zeros(len(WARNING_IDS), dtype=int)
         self.min_dist = self.min_feature = 0.0  # most negative contact distances seen (m)
         self.pen_at = self.feature_at = (0, 0.0)  # step and time of each
@@ -219,11 +187,10 @@ class HealthMonitor:
         self.floor_limit = self.feature_limit = -self.penetration_limit
         self.max_ke_ratio = 0.0
         self.drift = math.nan
-        self.per_step = bool(rod.per_step)
 
     # ------------------------------------------------------------------ records
-    def reset(self, field2: np.ndarray) -> None:
-        """Start the records again from the present (synchronized, freshly reset) state under ``field2``."""
+    def reset(self, field3: np.ndarray) -> None:
+        """Start the records again from the present (synchronized, freshly reset) state under ``field3``."""
         self.warning_text.clear()
         self.warning_times.clear()
         self.warn0 = self.warning_counts()
@@ -239,7 +206,7 @@ class HealthMonitor:
         self.feature_limit = self.floor_limit = -self.penetration_limit - self.overlap0
         self.max_ke_ratio = 0.0
         self.drift = 0.0 if self.energy_on else math.nan
-        self.b_applied = np.array(field2, dtype=float)
+        self.b_applied = np.array(field3, dtype=float)
         self.rebaseline(stale=False)
 
     @property
@@ -282,10 +249,10 @@ class HealthMonitor:
             self.e0 = self.rod.energy(self.data, self.b_applied, kinetic=self.kinetic(), staggered=False)
         self.state_key = self.key()
 
-    def begin_call(self, nstep: int, field2: np.ndarray | None, *, external: bool, stale: bool) -> bool:
+    def begin_call(self, nstep: int, field3: np.ndarray | None, *, external: bool, stale: bool) -> bool:
         """Before a call: restart the energy balance after an outside write to the state (or a call it could
         not follow, or an external wrench whose work it does not count), and book the work of a held field
-        set since the last step (``field2``; None when the call's fields vary). Returns whether the
+        set since the last step (``field3``; None when the call's fields vary). Returns whether the
         positions were synchronized here."""
         self.call_ref = (nstep, float(self.data.time))
         if not self.contact:
@@ -297,19 +264,19 @@ class HealthMonitor:
         elif not self.energy_valid or self.key() != self.state_key:
             self.rebaseline(stale=stale)
             synced = stale
-        if self.energy_valid and field2 is not None:
-            db = field2 - self.b_applied
+        if self.energy_valid and field3 is not None:
+            db = field3 - self.b_applied
             if np.any(db):
                 # a held field jumps at the state now: the work -M . dB with M of this state
                 if stale and not synced:
                     mujoco.mj_kinematics(self.model, self.data)
                 mom = self.rod.net_moment(self.data)
-                self.work -= float(mom @ db)
-            self.b_applied = field2.copy()
+                self.work -= float(mom @ db[self.axes])
+            self.b_applied = field3.copy()
         return synced
 
     def book_work(self, qpos0: np.ndarray, states: np.ndarray, fields: np.ndarray) -> None:
-        """The work ``-sum M_j . dB_j`` of a block of per-step fields ``(k, 2)``: ``M_j`` the net moment at step
+        """The work ``-sum M_j . dB_j`` of a block of per-step fields ``(k, 3)``: ``M_j`` the net moment at step
         j's start (``qpos0``, then the recorded full-physics ``states``), ``dB_j`` the change from the field
         before it."""
         if self.energy_valid:
@@ -318,9 +285,10 @@ class HealthMonitor:
             q[0] = qpos0
             q[1:] = states[:-1, 1:1 + nq]  # full physics: time, then qpos
             mom = self.rod.net_moments(q)
-            db = np.empty_like(fields)
-            db[0] = fields[0] - self.b_applied
-            np.subtract(fields[1:], fields[:-1], out=db[1:])
+            f = fields[:, self.axes]
+            db = np.empty_like(f)
+            db[0] = f[0] - self.b_applied[self.axes]
+            np.subtract(f[1:], f[:-1], out=db[1:])
             self.work -= float(np.einsum("ij,ij->", mom, db))
         self.b_applied = fields[-1].copy()
 
@@ -330,7 +298,7 @@ class HealthMonitor:
         if self.energy_valid:
             db = field - self.b_applied
             if np.any(db):
-                self.work -= float(moment @ db)
+                self.work -= float(moment @ db[self.axes])
         self.b_applied[:] = field
 
     # ------------------------------------------------------------------ per-step contact bounds
@@ -390,7 +358,7 @@ class HealthMonitor:
         return first
 
     # ------------------------------------------------------------------ checks
-    def check(self, nstep: int, field2: np.ndarray, *, energy: bool) -> None:
+    def check(self, nstep: int, field3: np.ndarray, *, energy: bool) -> None:
         """Raise :class:`SimulationError` on a MuJoCo warning, a broken contact bound or a non-finite state;
         with ``energy``, also on runaway kinetic energy and, in contact scenes, tunnelling or a launch."""
         d = self.data
@@ -399,68 +367,68 @@ class HealthMonitor:
         # warning or a non-finite state (a per-step loop stops at the bound)
         if what is not None and not (self.pen_hit and self.pen_step() < self.warned_step(nstep)):
             text = f" ({self.warning_text[0].strip()})" if self.warning_text else ""
-            self.fail(nstep, field2, f"MuJoCo warning: {what}{text}", math.nan, STABILITY_HINT,
+            self.fail(nstep, field3, f"MuJoCo warning: {what}{text}", math.nan, STABILITY_HINT,
                       step=self.warned_step(nstep))
         if self.pen_hit:
             where, self.pen_hit = self.pen_hit, ""  # reported once; a deeper contact reports again
-            self._fail_penetration(nstep, field2, where)
+            self._fail_penetration(nstep, field3, where)
         for name in ("qpos", "qvel"):
             if not math.isfinite(getattr(d, name).sum()):  # a NaN or an infinity makes the sum non-finite
-                self.fail(nstep, field2, f"non-finite {name}", math.nan, STABILITY_HINT)
-        if self.per_step:  # a rod with bounds of its own (the 3D rod's edge stretch)
-            bad = self.rod.integrity(d)
-            if bad is not None:
-                self.fail(nstep, field2, bad[0], bad[1], bad[2])
+                self.fail(nstep, field3, f"non-finite {name}", math.nan, STABILITY_HINT)
+        bad = self.rod.integrity(d)  # a rod with bounds of its own (the 3D strip's edge stretch)
+        if bad is not None:
+            self.fail(nstep, field3, bad[0], bad[1], bad[2])
         if not energy:
             return
         # the mass matrix of the step's start (mj_step leaves it in qM) is enough for a
         # factor-100 runaway test and saves recomputing the position stage every check
         ke = self.kinetic()
         if runaway(ke, self.energy_scale):
-            self.fail(nstep, field2, "runaway kinetic energy (J)", ke, runaway_hint(self.energy_scale))
+            self.fail(nstep, field3, "runaway kinetic energy (J)", ke, runaway_hint(self.energy_scale))
         self.max_ke_ratio = max(self.max_ke_ratio, ke / self.energy_scale)
         if self.contact:
             if self._sd.item(self._adr) == 0.0:
                 # no floor contact found: the only case a beam can pass below the floor
                 # unseen by the penetration check (the plane collides with anything below it)
-                self._check_tunnelling(nstep, field2)
+                self._check_tunnelling(nstep, field3)
             if self.energy_valid:
-                self._check_energy(nstep, field2, ke)
+                self._check_energy(nstep, field3, ke)
 
     def _where(self, nstep: int, step: int) -> tuple[int, float]:
         if step == nstep:
             return nstep, float(self.data.time)
         return step, self.call_ref[1] + (step - self.call_ref[0]) * self.model.opt.timestep
 
-    def _setting(self, field2) -> str:
+    def _setting(self, field3) -> str:
         o = self.rod.options
         tc = f"contact time constant {self.tc * 1e3:.3g} ms, " if self.contact else ""
-        return f"integrator={o.integrator!r}, timestep={o.timestep:g} s, {tc}segments={o.segments}, field={_mt(field2)}"
+        return (f"integrator={o.integrator!r}, timestep={o.timestep:g} s, {tc}segments={o.segments}, "
+                f"field={_mt(np.asarray(field3)[self.axes])}")
 
-    def fail(self, nstep: int, field2, quantity: str, value: float, hint: str, *, step: int | None = None) -> None:
+    def fail(self, nstep: int, field3, quantity: str, value: float, hint: str, *, step: int | None = None) -> None:
         step, t = self._where(nstep, nstep if step is None else step)
         o = self.rod.options
         raise SimulationError(
             f"simulation unstable at step {step} (t = {t:.6g} s): {quantity}"
             f"{'' if math.isnan(value) else f' = {value:.4g}'}. {hint} "
             f"(integrator={o.integrator!r}, timestep={o.timestep:g} s, segments={o.segments}, "
-            f"field={_mt(field2)}).",
+            f"field={_mt(np.asarray(field3)[self.axes])}).",
             step=step, time=t, quantity=quantity, value=value,
         )
 
-    def _unphysical(self, nstep: int, field2, cause: str, reason: str, hint: str, figures: dict, value: float, *,
+    def _unphysical(self, nstep: int, field3, cause: str, reason: str, hint: str, figures: dict, value: float, *,
                     at: tuple | None = None) -> None:
         step, t = (nstep, float(self.data.time)) if at is None else at
         h = self.rod.beam.thickness
         base = {"step": int(nstep), "time_s": float(self.data.time), "max_penetration_m": self.max_penetration,
                 "max_penetration_h": self.max_penetration / h, "energy_drift": float(self.drift)}
         raise UnphysicalError(
-            f"unphysical motion at step {step} (t = {t:.6g} s): {reason}. {hint} ({self._setting(field2)}).",
+            f"unphysical motion at step {step} (t = {t:.6g} s): {reason}. {hint} ({self._setting(field3)}).",
             cause=cause, reason=reason, figures={**base, **figures, "step": step, "time_s": t}, step=step,
             time=t, quantity=cause, value=value,
         )
 
-    def _fail_penetration(self, nstep: int, field2, where: str) -> None:
+    def _fail_penetration(self, nstep: int, field3, where: str) -> None:
         h = self.rod.beam.thickness
         if where == "floor":
             depth, (step, t), what = -self.min_dist, self.pen_at, "contact penetration into the floor"
@@ -473,27 +441,27 @@ class HealthMonitor:
                   f"= {lim * 1e3:.3g} mm) at step {step} (t = {t:.6g} s)")
         dt = self.model.opt.timestep
         self._unphysical(
-            nstep, field2, "penetration", reason,
+            nstep, field3, "penetration", reason,
             "The contact is not resolved: use a smaller timestep or a gentler field "
             "(Simulator(penetration_limit=...) moves the bound)",
             {"penetration_m": depth, "penetration_h": depth / h}, depth,
             at=None if step + 1 == nstep else (step + 1, t + dt),
         )
 
-    def _check_tunnelling(self, nstep: int, field2) -> None:
+    def _check_tunnelling(self, nstep: int, field3) -> None:
         # the centreline (stale: the step's start, as the contact sensor) against the floor z = 0
         zmin = self.rod.lowest_point(self.data, -self.penetration_limit)
         if zmin < -self.penetration_limit:
             h = self.rod.beam.thickness
             reason = (f"tunnelling: the centreline is {-zmin * 1e3:.3g} mm = {-zmin / h:.3g} h below the floor "
                       f"(limit {self.penetration_limit / h:.3g} h)")
-            self._unphysical(nstep, field2, "tunnelling", reason, "The contact is not resolved: use a smaller timestep",
+            self._unphysical(nstep, field3, "tunnelling", reason, "The contact is not resolved: use a smaller timestep",
                              {"floor_depth_m": -zmin, "floor_depth_h": -zmin / h}, -zmin)
 
-    def _check_energy(self, nstep: int, field2, kinetic: float) -> None:
+    def _check_energy(self, nstep: int, field3, kinetic: float) -> None:
         # E - E_0 - W <= 0 for a passive rod in a field that did work W on it (damping and
         # contact only dissipate); anything above is energy the numerics made
-        excess = self.rod.energy(self.data, field2, kinetic=kinetic, staggered=True) - self.e0 - self.work
+        excess = self.rod.energy(self.data, field3, kinetic=kinetic, staggered=True) - self.e0 - self.work
         drift = excess / self.energy_scale
         if drift > self.drift:
             self.drift = drift
@@ -503,7 +471,7 @@ class HealthMonitor:
             reason = (f"launch: the rod gained {excess:.3g} J more than the field supplied ({drift:.3g} of the "
                       f"energy scale {self.energy_scale:.3g} J, limit {ENERGY_DRIFT_LIMIT:g}; enough to lift it "
                       f"{lift:.3g} beam lengths)")
-            self._unphysical(nstep, field2, "launch", reason, STABILITY_HINT, {"energy_created_J": excess}, excess)
+            self._unphysical(nstep, field3, "launch", reason, STABILITY_HINT, {"energy_created_J": excess}, excess)
 
 
 __all__ = ["ENERGY_DRIFT_LIMIT", "FIELD_FLOOR", "MAX_STEPS", "PENETRATION_LIMIT", "RUNAWAY_FACTOR", "STABILITY_HINT",

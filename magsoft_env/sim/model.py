@@ -67,7 +67,8 @@ FEATURE_SENSOR = "rod_scene_depth"
 #: its crawl limits (clearance, height, rotation) at every step (``envs.crawl``). The tip point is a
 #: site of the same name on the last piece.
 NODE_SENSOR = "rod_node"
-#: The rods (``RodOptions.rod``): the planar hinge chain, the 3D flexcomp strip (:mod:`~magsoft_env.sim.cable`).
+#: The rods built in (``RodOptions.rod``): the planar hinge chain, the 3D flexcomp strip
+#: (:mod:`~magsoft_env.sim.cable`); :func:`~magsoft_env.sim.backend.rod_names` lists every registered one.
 RODS = ("planar", "cable")
 #: How the magnetic couples reach MuJoCo (``RodOptions.magnetics``).
 MAGNETICS = ("native", "python")
@@ -258,18 +259,10 @@ class RodOptions:
         choice("RodOptions.contact_geom", self.contact_geom, CONTACT_GEOMS)
         choice("RodOptions.cone", self.cone, CONES)
         choice("RodOptions.magnetics", self.magnetics, MAGNETICS)
-        choice("RodOptions.rod", self.rod, RODS)
-        if self.rod == "cable":
-            from .cable import CABLE_INTEGRATORS, CABLE_SCENES
+        from .backend import rod_class, rod_names
 
-            if self.scene not in CABLE_SCENES:
-                raise ValueError(f"RodOptions(rod='cable') builds the scenes {CABLE_SCENES}, got {self.scene!r}.")
-            if self.integrator not in CABLE_INTEGRATORS:
-                raise ValueError(f"RodOptions(rod='cable') runs with the integrators {CABLE_INTEGRATORS} (MuJoCo's "
-                                 f"rod elasticity has no implicit variant), got {self.integrator!r}.")
-            if self.clamp_angle != 0.0:
-                raise ValueError(f"RodOptions(rod='cable') is clamped along +x (clamp_angle = 0), got "
-                                 f"{self.clamp_angle!r}.")
+        choice("RodOptions.rod", self.rod, rod_names())
+        rod_class(self.rod).check_options(self)  # what this rod cannot build (scenes, integrators, clamp)
         # bounded: with tolerance 0 MuJoCo runs every iteration of every step
         for name, lo in (("noslip_iterations", 0), ("solver_iterations", 1)):
             object.__setattr__(self, name, integer(f"RodOptions.{name}", getattr(self, name), lo,
@@ -531,9 +524,11 @@ def build_spec(beam: Beam, options: RodOptions) -> tuple[mujoco.MjSpec, RodDiscr
     """The scene as an editable ``mujoco.MjSpec`` (see :func:`build_model`)."""
     if not isinstance(options, RodOptions):
         raise ValueError(f"options must be a RodOptions, got {type(options).__name__}.")
-    if options.rod != "planar":
-        raise ValueError("build_spec / build_model build the planar hinge chain (RodOptions.rod='planar'); the 3D "
-                         "rod is magsoft_env.sim.cable.build_cable.")
+    from .backend import rod_class
+
+    if not getattr(rod_class(options.rod), "builds_chain", False):
+        raise ValueError(f"build_spec / build_model build the planar hinge chain, not RodOptions.rod={options.rod!r} "
+                         "(the 3D rod is magsoft_env.sim.cable.build_cable).")
     disc = discretize(beam, options.segments, grading=options.grading)
     o = options
     spec = mujoco.MjSpec()

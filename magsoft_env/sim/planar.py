@@ -1,10 +1,10 @@
 """The planar rod backend: the hinge chain in the x-z plane, its field inputs and its physical readouts.
 
-A rod backend is what :class:`~magsoft_env.sim.Simulator` steps. It builds the MuJoCo model of a beam in a
-scene, turns an applied field into the model's inputs (once, or one row per step for ``mujoco.rollout``), and
-reads physical quantities off a ``mjData`` (centreline, centre of mass, angles, energies, the net magnetic
-moment the energy balance needs). The stepping engine and the health checks know a backend only through
-this interface, so a second rod (a 3D flexcomp strip) is a second class with the same methods.
+A rod backend (:class:`~magsoft_env.sim.backend.RodBackend`) is what :class:`~magsoft_env.sim.Simulator` steps.
+This one builds the MuJoCo hinge chain of a beam in a scene (:func:`~magsoft_env.sim.model.build_model`), turns an
+applied field into the model's inputs (once, or one row per step for ``mujoco.rollout``), runs blocks of steps
+inside MuJoCo (:class:`~magsoft_env.sim.stepping.NativeSteps`), and reads physical quantities off a ``mjData``
+(pose, centreline, centre of mass, angles, energies, the net magnetic moment the energy balance needs).
 """
 
 from __future__ import annotations
@@ -14,19 +14,28 @@ import math
 import mujoco
 import numpy as np
 
-from ..spec import Beam
+from ..spec import Beam, Field
+from ..spec.field import planar_field
 from . import magnetics
-from .health import SensorHistory
+from .backend import Pose
+from .discretize import PLANAR_ROD
+from .health import MAX_STEPS
+from .histories import PointsHistory, SensorHistory
 from .model import (
+    CONTACT_HISTORY,
     CONTACT_SENSOR,
     FEATURE_SENSOR,
     NATIVE_CONTROL_SPEC,
+    NODE_SENSOR,
+    SCENES,
     RodModel,
     RodOptions,
     build_model,
     field_control,
     native_controls,
 )
+from .readouts import ChainOrientation
+from .stepping import NativeSteps
 
 
 class PlanarRod:
@@ -44,10 +53,57 @@ class PlanarRod:
         every block of steps runs inside MuJoCo.
     """
 
+    #: The registry name (``RodOptions.rod``).
+    name = "planar"
+    #: What messages call this rod.
+    label = PLANAR_ROD
+    #: It takes fields in its plane: (B_x, B_z).
+    field_axes = (0, 2)
+    scenes = SCENES
+    #: A frame shows it from the side (:class:`~magsoft_env.render.RodRenderer`).
+    view = "side"
+    #: :func:`~magsoft_env.sim.mujoco_equilibrium`'s defaults: a 10 ms settling step (the ``discrete`` integrator
+    #: is stable there) and a residual of 1e-8 rad.
+    static_timestep = 1e-2
+    static_tol = 1e-8
     #: ``mujoco.rollout`` control spec of :meth:`controls` rows.
     control_spec = NATIVE_CONTROL_SPEC
-    #: The couples are MuJoCo's own forces: the engine runs native blocks.
-    per_step = False
+    #: Its model is :func:`~magsoft_env.sim.model.build_model`'s hinge chain.
+    builds_chain = True
+
+    # ------------------------------------------------------------------ what it takes (before building)
+    @classmethod
+    def check_options(cls, options: RodOptions) -> None:
+        """Every :class:`~magsoft_env.sim.model.RodOptions` is the hinge chain's: nothing to refuse."""
+
+    @classmethod
+    def check_beam(cls, beam: Beam, what: str | None = None) -> None:
+        """A ValueError for a magnetization or field component out of the x-z plane."""
+        beam.require_planar(what or PLANAR_ROD)
+
+    @staticmethod
+    def check_field(field: Field) -> None:
+        """A planar rod takes fields in its plane (B_y = 0)."""
+        planar_field(field, PLANAR_ROD)
+
+    @staticmethod
+    def check_fields(samples: np.ndarray, source) -> None:
+        """A ValueError for per-step fields ``(n, 3)`` with a y component."""
+        by = np.abs(samples[:, 1])
+        if np.any(by > 0.0) or not np.all(np.isfinite(by)):
+            raise ValueError(
+                f"the {PLANAR_ROD} takes fields in the x-z plane, but the waveform {type(source).__name__} has a y "
+                f"component (|B_y| up to {float(np.nanmax(by)) * 1e3:.4g} mT). Use the 3D rod, "
+                "RodOptions(rod='cable'), or a waveform in the x-z plane (e.g. Rotating about axis=(0, 1, 0)).")
+
+    @classmethod
+    def gait_options(cls, robot, *, scene: str, segments: int, timestep: float, own_numerics: bool) -> dict:
+        """The chain's own keywords of a robot's :class:`~magsoft_env.sim.RodOptions` on the floor: capsule
+        colliders, the robot's numerics."""
+        from ..cases.gaits import GAIT_CONTACT_GEOM
+
+        cls.check_beam(robot.beam, f"robot {robot.name!r} on the {PLANAR_ROD} (gaits, floor environments)")
+        return {"segments": segments, "timestep": timestep, "contact_geom": GAIT_CONTACT_GEOM}
 
     def __init__(self, beam: Beam, options: RodOptions):
         if options.magnetics != "native":
@@ -77,6 +133,9 @@ class PlanarRod:
         if self.b1 - self.b0 != len(self.bodies):
             raise RuntimeError("rod bodies must have consecutive ids")  # guaranteed by build_model
         self.has_contact = options.has_contact
+        #: the longest native block: the contact history (every step of a block is checked from it)
+        self.block_limit = CONTACT_HISTORY if self.has_contact else MAX_STEPS
+        self._steps = NativeSteps(self.model, NATIVE_CONTROL_SPEC, self.controls)
         self.has_feature = rod.feature_sensor >= 0
         self.contact_adr = max(rod.contact_sensor, 0)
         self.feature_adr = max(rod.feature_sensor, 0)
@@ -113,8 +172,10 @@ class PlanarRod:
         """The array :attr:`contact_adr` / :attr:`feature_adr` index: MuJoCo's ``sensordata``."""
         return data.sensordata
 
-    def record_step(self, data: mujoco.MjData) -> None:
-        """Nothing: MuJoCo's contact sensors record every step (the engine calls this only for per-step rods)."""
+    def centreline_history(self, data: mujoco.MjData) -> PointsHistory:
+        """Reader of the centreline at every step of the last block: the contact scenes' ``framepos`` sensors
+        (:data:`~magsoft_env.sim.model.NODE_SENSOR`) and their history buffers."""
+        return PointsHistory(self.model, data, NODE_SENSOR)
 
     def _hinge_blocks(self):
         # the hinges' qpos / dof addresses as slices where they form one block (they do: the base joints
@@ -149,11 +210,6 @@ class PlanarRod:
         return np.ascontiguousarray(A[ids].T), phi0[ids]
 
     # ------------------------------------------------------------------ field inputs
-    def check_field(self, field3: np.ndarray) -> None:
-        """A planar rod takes fields in its plane (B_y = 0)."""
-        if field3[1] != 0.0:
-            raise ValueError(f"the planar rod takes fields (B_x, B_z) in its plane, got B_y = {field3[1]:g} T.")
-
     def write_field(self, data: mujoco.MjData, field3: np.ndarray) -> None:
         """Write the inputs of a held field ``(B_x, B_y, B_z)`` (T): every pole actuator's control ``|B|``
         and the field frame's orientation (bit-identical to :meth:`controls` rows)."""
@@ -161,11 +217,31 @@ class PlanarRod:
         data.ctrl.fill(mag)
         mq = data.mocap_quat[self.rod.field_mocap]
         mq[0], mq[1], mq[2], mq[3] = w, 0.0, y, 0.0
+        self._steps.written(field3)
 
     def controls(self, fields: np.ndarray) -> np.ndarray:
-        """Per-step inputs of the fields ``(k, 2)`` (B_x, B_z; T), rows for ``mujoco.rollout`` with
-        :attr:`control_spec`."""
-        return native_controls(self.rod, fields)
+        """Per-step inputs of the fields ``(k, 3)`` (B_x, B_y, B_z; T; B_y unused), rows for ``mujoco.rollout``
+        with :attr:`control_spec`."""
+        return native_controls(self.rod, fields[:, [0, 2]])
+
+    def advance(self, data: mujoco.MjData, field3: np.ndarray, fields: np.ndarray | None, k: int, health) -> None:
+        """``k`` steps inside MuJoCo: ``mj_step(m, d, k)`` under a held field, one ``mujoco.rollout`` under
+        per-step ``fields`` ``(k, 3)`` (T) (:class:`~magsoft_env.sim.stepping.NativeSteps`)."""
+        self._steps.advance(data, field3, fields, k, health)
+
+    def settle_damping(self, retardation: float) -> tuple[np.ndarray, np.ndarray]:
+        """``(hinge dofs, retardation * k_j)``: Kelvin-Voigt hinges with the retardation time ``retardation`` (s)."""
+        return self.hinge_dof, retardation * self.stiffness
+
+    def settle_speed(self, data: mujoco.MjData) -> float:
+        """The largest hinge angular speed (rad/s)."""
+        return float(np.max(np.abs(data.qvel[self.hinge_dof])))
+
+    def reset_noise(self, rng: np.random.Generator, scale: float) -> np.ndarray:
+        """``qpos0`` with every hinge angle perturbed by ``U(-scale, scale)`` (rad)."""
+        q = self.model.qpos0.copy()
+        q[self.hinge_qpos] += rng.uniform(-scale, scale, len(self.hinge_qpos))
+        return q
 
     def apply_external(self, data: mujoco.MjData, wrench: np.ndarray | None) -> None:
         """Write a constant world-frame wrench per piece ``(N + 1, 6)`` (force at the piece's centre of mass,
@@ -189,7 +265,7 @@ class PlanarRod:
         return out
 
     def energy(self, data: mujoco.MjData, field, *, kinetic: float, staggered: bool) -> float:
-        """Kinetic (given) + elastic + gravitational + magnetic energy (J) under ``field`` (B_x, B_z).
+        """Kinetic (given) + elastic + gravitational + magnetic energy (J) under ``field`` (B_x, B_y, B_z).
 
         ``staggered``: the positions in ``xmat`` / ``xipos`` are those of the step's start (after
         ``mj_step``), paired with the new velocity, the pair symplectic Euler keeps; the hinge angles are
@@ -199,7 +275,7 @@ class PlanarRod:
         mom = self.net_moment(data)
         return (kinetic + 0.5 * float(self._hinge_k @ (q * q))
                 + float(self._mass_g_ids @ data.xipos[self.b0:self.b1, 2])
-                - float(mom[0] * field[0] + mom[1] * field[1]))
+                - float(mom[0] * field[0] + mom[1] * field[2]))
 
     def energy_scale(self, bmax: float) -> float:
         """Energy scale (J) of the rod in fields up to ``bmax`` (T): twice the largest magnetic energy and
@@ -262,6 +338,30 @@ class PlanarRod:
     def magnetic_couples(self, data: mujoco.MjData, field3: np.ndarray) -> np.ndarray:
         """Couples ``(R m) x B`` on the pieces, world frame, shape ``(N + 1, 3)`` (N m)."""
         return magnetics.couples(magnetics.world_moments(data.xmat[self.bodies], self.m_body), field3)
+
+    def pose(self, data: mujoco.MjData) -> Pose:
+        """The :class:`~magsoft_env.sim.backend.Pose`: the chain's points and link frames (y = 0, widths +y)."""
+        p = data.xpos[self.bodies]
+        R = data.xmat[self.bodies]
+        tip = p[-1] + self.tip_len * R[-1, [0, 3, 6]]
+        m, c = self.disc.mass, data.xipos[self.bodies]
+        com = np.array([m @ c[:, 0], m @ c[:, 1], m @ c[:, 2]]) / m.sum()  # center_of_mass's sums, bit for bit
+        return Pose(time=float(data.time), com=com, centreline=np.concatenate([p, tip[None]]),
+                    tangents=R[:, [0, 3, 6]], widths=R[:, [1, 4, 7]], lengths=np.diff(self.arc_length()),
+                    tip_angle=self.tip_angle(data))
+
+    def orientation_tracker(self) -> ChainOrientation:
+        """The chain's orientation needs no history: its tip angle counts whole turns."""
+        return ChainOrientation()
+
+    def tip_twist(self, data: mujoco.MjData) -> float:
+        """A hinge chain in a plane cannot twist: 0."""
+        return 0.0
+
+    def angular_velocities(self, data: mujoco.MjData) -> np.ndarray:
+        """Angular velocity of every piece about -y (rad/s), the rate of :meth:`angles`, shape ``(N + 1,)``."""
+        mujoco.mj_comVel(self.model, data)
+        return -data.cvel[self.bodies, 1].copy()
 
     def integrity(self, data: mujoco.MjData) -> None:
         """Rigid pieces on joints: nothing of the rod's own can break (None)."""

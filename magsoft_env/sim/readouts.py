@@ -78,6 +78,19 @@ def _mean_angle(a: np.ndarray, w: np.ndarray, total: float, anchor: float | None
     return first + float(w[1:] @ rel) / total
 
 
+class ChainOrientation:
+    """The orientation end over end of a rod in the x-z plane (rad), from its pose: the length-weighted mean
+    tangent angle of its pieces, anchored to the tip's continuous angle (:func:`orientation`); its heading on the
+    floor is +x, always. The tracker of the planar chain (``RodBackend.orientation_tracker``)."""
+
+    heading = 0.0
+
+    def track(self, pose) -> float:
+        """The orientation (rad) of a :class:`~magsoft_env.sim.backend.Pose`."""
+        t, w = pose.tangents, pose.lengths
+        return _mean_angle(np.arctan2(t[:, 2], t[:, 0]), w, float(w.sum()), pose.tip_angle)
+
+
 def orientation(sim) -> float:
     """The body's orientation (rad) in a :class:`~magsoft_env.sim.Simulator`'s current state: the
     length-weighted mean tangent angle of its pieces (:meth:`Simulator.angles`, weights from
@@ -126,13 +139,15 @@ class PitchTracker:
         self.value = a
         return a
 
+    def track(self, pose) -> float:
+        """:meth:`update` with a :class:`~magsoft_env.sim.backend.Pose`'s tangents and piece lengths."""
+        return self.update(pose.tangents, pose.lengths)
 
-def pitch_orientation(sim, tracker: PitchTracker) -> float:
-    """:class:`PitchTracker` of a :class:`~magsoft_env.sim.Simulator` running the 3D strip, updated now."""
-    from .cable import material_frames
 
-    cm = sim.backend.rod
-    return tracker.update(material_frames(cm, sim.data)[0], cm.layout.edge_length)
+def pitch_orientation(sim, tracker) -> float:
+    """A tracker (:class:`PitchTracker`, :class:`ChainOrientation`) of a :class:`~magsoft_env.sim.Simulator`,
+    updated with its pose now."""
+    return tracker.track(sim.pose())
 
 
 def is_flipped(orientation_rad: float) -> bool:
@@ -140,4 +155,5 @@ def is_flipped(orientation_rad: float) -> bool:
     return bool(abs(float(orientation_rad)) > FLIP_ANGLE)
 
 
-__all__ = ["FLIP_ANGLE", "PitchTracker", "body_orientation", "is_flipped", "orientation", "pitch_orientation"]
+__all__ = ["FLIP_ANGLE", "ChainOrientation", "PitchTracker", "body_orientation", "is_flipped", "orientation",
+           "pitch_orientation"]

@@ -1,10 +1,11 @@
 """The rod simulator: one stepping engine for every field mode, over a rod backend, with one health monitor.
 
-A :class:`Simulator` holds a rod backend (:class:`~magsoft_env.sim.planar.PlanarRod`: the MuJoCo model, the
-field's inputs, the physical readouts), a :class:`~magsoft_env.sim.health.HealthMonitor` (every check and its
-records) and the field (held, or a waveform sampled per step). :meth:`Simulator.stepping` is the one place a
-step happens: blocks of steps run inside MuJoCo, ``mj_step(m, d, k)`` while the field is held and
-``mujoco.rollout`` with per-step inputs while it changes, each block checked step by step afterwards.
+A :class:`Simulator` holds a rod backend (:class:`~magsoft_env.sim.backend.RodBackend`: the MuJoCo model, how a
+block of steps runs, the field's inputs, the physical readouts), a :class:`~magsoft_env.sim.health.HealthMonitor`
+(every check and its records) and one field ``(B_x, B_y, B_z)`` (held, or a waveform sampled per step).
+:meth:`Simulator.stepping` is the one place a call is cut into blocks; the backend runs each block (the planar
+chain inside MuJoCo, ``mj_step(m, d, k)`` or ``mujoco.rollout``; the 3D strip with couples written from Python
+each step), and each block is checked step by step afterwards. Nothing here depends on which rod runs.
 """
 
 from __future__ import annotations
@@ -16,20 +17,18 @@ import mujoco
 import numpy as np
 
 from ..spec import Beam, Field, as_field
-from ..spec.field import MAX_FIELD, planar_field
+from ..spec.field import MAX_FIELD
 from ..validate import finite_number, positive
-from .backend import RodBackend, rod_backend
-from .discretize import PLANAR_ROD as ROD
+from .backend import Pose, RodBackend, rod_class
 from .health import (
     FIELD_FLOOR,
-    MAX_STEPS,
     PENETRATION_LIMIT,
     HealthMonitor,
     SimulationError,
     UnphysicalError,
     check_steps,
 )
-from .model import CONTACT_HISTORY, RodModel, RodOptions, contact_timeconst
+from .model import RodOptions, contact_timeconst
 from .waveforms import Waveform, as_waveform, lift3
 
 #: Scalar types :meth:`Simulator.set_field` accepts without building a Field.
@@ -84,13 +83,14 @@ class Trajectory:
     time : (n,) ndarray
         Times (s).
     field : (n, 2) or (n, 3) ndarray
-        Applied field B_x, B_z (T); the 3D rod: B_x, B_y, B_z.
+        Applied field in the components the rod takes (T): ``(B_x, B_z)`` for a rod in the x-z plane,
+        ``(B_x, B_y, B_z)`` for the 3D rod (the backend's ``field_axes``).
     x, z : (n, N + 2) ndarray
-        Centerline points (m), base to tip (see :meth:`Simulator.centerline`).
+        Centerline points (m), base to tip (the :class:`~magsoft_env.sim.backend.Pose`'s centreline).
     tip_angle : (n,) ndarray
         Tangent angle of the tip (rad); the 3D rod: of its projection on the x-z plane.
-    y : (n, N + 2) ndarray or None
-        The 3D rod: the centerline points' y (m); None for the planar rod.
+    y : (n, N + 2) ndarray
+        The centerline points' y (m): 0 for a rod in the x-z plane.
     """
 
     time: np.ndarray
@@ -108,7 +108,7 @@ class Trajectory:
             "x_m": np.asarray(self.x, dtype=float).tolist(),
             "z_m": np.asarray(self.z, dtype=float).tolist(),
             "tip_angle_rad": np.asarray(self.tip_angle, dtype=float).tolist(),
-            **({} if self.y is None else {"y_m": np.asarray(self.y, dtype=float).tolist()}),
+            "y_m": np.asarray(self.y, dtype=float).tolist(),
         }
 
 
@@ -136,11 +136,11 @@ class Simulator:
     :data:`~magsoft_env.sim.model.CONTACT_HISTORY` - 1 steps more). The records :attr:`max_penetration`,
     :attr:`energy_drift` and :attr:`max_kinetic_ratio` say of every run whether it stayed resolved.
 
-    With ``RodOptions(rod="cable")`` the rod is the 3D flexcomp strip (:class:`~magsoft_env.sim.cable.CableRod`,
-    clamped or on the floor): fields have three components ``(B_x, B_y, B_z)``, the engine writes its couples
-    before every step (the backend's ``per_step``) instead of running native blocks, books the field's work with
-    all three components, reads the deepest floor contact after every step, and checks the strip's own bound
-    (edge stretch) with the others (docs/sim.md, "The 3D rod in the Simulator").
+    The rod is the backend that ``RodOptions.rod`` names (:mod:`~magsoft_env.sim.backend`): ``"planar"``, the
+    hinge chain above; ``"cable"``, the 3D flexcomp strip (:class:`~magsoft_env.sim.cable.CableRod`, clamped or
+    on the floor), whose couples are written before every step and whose own bound (edge stretch) is checked
+    with the others (docs/sim.md, "The 3D rod in the Simulator"). The simulator holds one field
+    ``(B_x, B_y, B_z)``; a pair means ``(B_x, B_z)``, and a rod in the x-z plane refuses a y component.
 
     Parameters
     ----------
@@ -162,9 +162,9 @@ class Simulator:
     rod : RodModel
         The compiled model and its addresses (:func:`~magsoft_env.sim.model.build_model`).
     backend : RodBackend
-        The rod backend (:class:`~magsoft_env.sim.planar.PlanarRod`): field inputs and physical readouts.
+        The rod backend (:class:`~magsoft_env.sim.backend.RodBackend`): stepping, field inputs, readouts.
     model, data : mujoco.MjModel, mujoco.MjData
-    external_wrench : ndarray, shape (N + 1, 6)
+    external_wrench : ndarray, shape (npieces, 6)
         Extra constant wrench per piece, world frame: force (N) at the piece's centre of mass, then couple
         (N m); applied every step while non-zero (its work is not in the energy balance, which is then off).
         Must be finite when a step starts.
@@ -193,15 +193,13 @@ class Simulator:
         if not (isinstance(penetration_limit, (int, float, np.floating)) and penetration_limit == math.inf):
             positive("penetration_limit", penetration_limit, unit="beam thicknesses")
         options = RodOptions() if options is None else options
-        if options.rod == "planar":
-            beam.require_planar(ROD)
-            planar_field(as_field(field, "field"), ROD)  # checked before the model is built
-        else:
-            as_field(field, "field")
-        self.backend: RodBackend = rod_backend(beam, options)
-        #: the backend's couples are written before every step (the 3D rod), instead of native blocks
-        self._per_step = bool(self.backend.per_step)
-        self.rod: RodModel = self.backend.rod
+        cls = rod_class(options.rod)
+        cls.check_beam(beam)
+        cls.check_field(as_field(field, "field"))  # checked before the model is built
+        self.backend: RodBackend = cls(beam, options)
+        #: the components of (B_x, B_y, B_z) the rod takes
+        self._axes = list(self.backend.field_axes)
+        self.rod = self.backend.rod
         self.model = self.backend.model
         self.data = mujoco.MjData(self.model)
         self.check_every = int(check_every)
@@ -212,19 +210,13 @@ class Simulator:
             self.backend, self.data, penetration_limit=self.penetration_limit,
             contact_timeconst=contact_timeconst(beam, options) if options.has_contact else math.nan)
         self.on_warning = self._health.on_warning
-        # the longest native block: the contact history (every step of a block is checked from it)
-        hist = self._health.hist
-        self._block = min(hist.nsample, CONTACT_HISTORY) if hist is not None else MAX_STEPS
+        # the longest block: the rod's histories (every step of a block is checked from them)
+        self._block = int(self.backend.block_limit)
         self.external_wrench = np.zeros((self.backend.npieces, 6))
         self._B3 = np.zeros(3)  # the applied field now (T)
-        self._inputs = np.zeros(2)  # the field (B_x, B_z) whose inputs are in data now (T)
         self._waveform: Waveform | None = None
         self._wf_t0 = 0.0
         self._stale = False  # positions in data (xpos, xmat, ...) are those of the last step's start
-        self._rollout = None  # mujoco.rollout.Rollout, made on the first block with per-step inputs
-        self._state0 = np.empty((1, mujoco.mj_stateSize(self.model, int(mujoco.mjtState.mjSTATE_FULLPHYSICS))))
-        self._warm0 = np.empty((1, self.model.nv))
-        self._buffers: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self.nstep = 0
         self.set_field(field)
         self.reset()
@@ -250,21 +242,57 @@ class Simulator:
 
     @property
     def field(self) -> Field:
-        """The applied field now (T)."""
-        if self._per_step:
-            return Field(float(self._B3[0]), float(self._B3[1]), float(self._B3[2]))
-        return Field(float(self._B3[0]), float(self._B3[2]))
+        """The applied field now (T), in the components the rod takes (``(B_x, B_z)`` in the x-z plane)."""
+        return Field(*(float(b) for b in self._B3[self._axes]))
 
-    def reset(self) -> None:
-        """Straight beam at rest (floor scenes: lying on the floor), time zero; the records
-        (:attr:`max_penetration`, :attr:`energy_drift`, :attr:`max_kinetic_ratio`) start again."""
+    @property
+    def field_vector(self) -> np.ndarray:
+        """The applied field now ``(B_x, B_y, B_z)`` (T), shape ``(3,)`` (a copy)."""
+        return self._B3.copy()
+
+    def reset(self, *, qpos=None, qvel=None) -> None:
+        """Straight beam at rest (floor scenes: lying on the floor), time zero, or the state ``qpos``, ``qvel``
+        (``(nq,)``, ``(nv,)``; either may be None: the rest value) at time zero; the records
+        (:attr:`max_penetration`, :attr:`energy_drift`, :attr:`max_kinetic_ratio`) start again from it."""
+        qpos, qvel = self._state_args(qpos, qvel)
         mujoco.mj_resetData(self.model, self.data)
         self._write_inputs()  # mj_resetData zeroed the field's inputs
         self.nstep = 0
         self._wf_t0 = 0.0
+        if qpos is not None:
+            self.data.qpos[:] = qpos
+        if qvel is not None:
+            self.data.qvel[:] = qvel
         mujoco.mj_forward(self.model, self.data)
         self._stale = False
-        self._health.reset(self._hfield())
+        self._health.reset(self._B3.copy())
+
+    def set_state(self, qpos=None, qvel=None) -> None:
+        """Write joint positions ``qpos`` ``(nq,)`` and velocities ``qvel`` ``(nv,)`` (either None: unchanged) and
+        recompute the derived quantities, as Gymnasium's MuJoCo environments do; the time and the records go on
+        (the energy balance restarts from this state at the next step)."""
+        qpos, qvel = self._state_args(qpos, qvel)
+        if qpos is not None:
+            self.data.qpos[:] = qpos
+        if qvel is not None:
+            self.data.qvel[:] = qvel
+        mujoco.mj_forward(self.model, self.data)
+        self._stale = False
+
+    def _state_args(self, qpos, qvel):
+        out = []
+        for name, v, n in (("qpos", qpos, self.model.nq), ("qvel", qvel, self.model.nv)):
+            if v is None:
+                out.append(None)
+                continue
+            try:
+                a = np.asarray(v, dtype=float)
+            except (TypeError, ValueError):
+                raise ValueError(f"{name} must be a float array of shape ({n},), got {v!r}.") from None
+            if a.shape != (n,) or not np.all(np.isfinite(a)):
+                raise ValueError(f"{name} must be a finite array of shape ({n},), got shape {a.shape}.")
+            out.append(a)
+        return out
 
     # ------------------------------------------------------------------ physical records
     @property
@@ -315,72 +343,41 @@ class Simulator:
 
     # ------------------------------------------------------------------ field
     def set_field(self, field) -> None:
-        """Hold a constant applied field ``(B_x, B_z)`` (T) from now on (planar: a Field with B_y != 0 is a
-        ValueError; the 3D rod takes ``(B_x, B_y, B_z)`` too)."""
-        if self._per_step:
-            self._waveform = None
-            self._B3[:] = as_field(field).vector()
-            self._write_inputs()
-            self._health.energy_scale = self.backend.energy_scale(max(float(np.linalg.norm(self._B3)), FIELD_FLOOR))
-            return
+        """Hold a constant applied field (T) from now on: a :class:`~magsoft_env.spec.Field`, ``(B_x, B_y, B_z)``
+        or a pair ``(B_x, B_z)``; a rod in the x-z plane refuses a y component (ValueError)."""
         bx = bz = None
         if type(field) is tuple and len(field) == 2:  # fast path for the per-step caller (envs)
             bx, bz = field
             if not (type(bx) in _FLOATS and type(bz) in _FLOATS and abs(bx) <= MAX_FIELD and abs(bz) <= MAX_FIELD):
                 bx = bz = None  # (NaN fails the comparison) full validation below
         if bx is None:
-            f = planar_field(as_field(field), ROD)
-            bx, bz = f.Bx, f.Bz
+            f = as_field(field)
+            self.backend.check_field(f)
+            self._B3[:] = f.vector()
+        else:
+            self._B3[0], self._B3[1], self._B3[2] = bx, 0.0, bz
         self._waveform = None
-        self._B3[0], self._B3[2] = bx, bz
         self._write_inputs()
-        self._health.energy_scale = self.backend.energy_scale(max(math.hypot(bx, bz), FIELD_FLOOR))
+        self._health.energy_scale = self.backend.energy_scale(max(math.hypot(*self._B3), FIELD_FLOOR))
 
     def set_waveform(self, waveform, *, start_time: float | None = None) -> None:
-        """Let the field follow ``waveform(t - start_time)`` (T); ``start_time`` defaults to now. The planar rod
-        refuses a three-axis waveform with a y component (ValueError); one without (a field rotating about y)
-        it takes."""
+        """Let the field follow ``waveform(t - start_time)`` (T); ``start_time`` defaults to now. A rod in the x-z
+        plane refuses a three-axis waveform with a y component (ValueError); one without (a field rotating about
+        y) it takes."""
         wf = as_waveform(waveform, "waveform")
-        probe = wf.sample(np.linspace(0.0, 1.0, 257))
-        if not self._per_step:
-            probe = self._planar_samples(probe, wf)
+        probe = lift3(wf.sample(np.linspace(0.0, 1.0, 257)))
+        self.backend.check_fields(probe, wf)
         self._waveform = wf
         self._wf_t0 = self.time if start_time is None else finite_number("start_time", start_time, unit="s")
-        if self._per_step:
-            self._B3[:] = lift3(self._waveform.sample(np.array([self.time - self._wf_t0])))[0]
-            self._write_inputs()
-            peak = np.linalg.norm(lift3(probe), axis=1).max()
-            self._health.energy_scale = self.backend.energy_scale(max(float(peak), FIELD_FLOOR))
-            return
-        self._B3[[0, 2]] = self._planar_samples(self._waveform.sample(np.array([self.time - self._wf_t0])), wf)[0]
+        self._B3[:] = lift3(self._waveform.sample(np.array([self.time - self._wf_t0])))[0]
         self._write_inputs()
-        peak = np.abs(probe).max(axis=0)
-        self._health.energy_scale = self.backend.energy_scale(max(float(np.hypot(*peak)), FIELD_FLOOR))
-
-    @staticmethod
-    def _planar_samples(samples: np.ndarray, waveform) -> np.ndarray:
-        """Samples as planar rows ``(B_x, B_z)``; a ValueError for a y component (the planar rod has none)."""
-        s = np.asarray(samples, dtype=float)
-        if s.ndim != 2 or s.shape[1] not in (2, 3):
-            raise ValueError(f"a waveform's samples must have shape (n, 2) or (n, 3), got {s.shape}.")
-        if s.shape[1] == 2:
-            return s
-        by = np.abs(s[:, 1])
-        if np.any(by > 0.0) or not np.all(np.isfinite(by)):
-            raise ValueError(
-                f"the {ROD} takes fields in the x-z plane, but the waveform {type(waveform).__name__} has a y "
-                f"component (|B_y| up to {float(np.nanmax(by)) * 1e3:.4g} mT). Use the 3D rod, "
-                "RodOptions(rod='cable'), or a waveform in the x-z plane (e.g. Rotating about axis=(0, 1, 0)).")
-        return s[:, [0, 2]]
-
-    def _hfield(self) -> np.ndarray:
-        """The applied field as the health monitor books it: ``(B_x, B_z)`` for the planar rod, ``(B_x, B_y,
-        B_z)`` for the 3D rod."""
-        return self._B3.copy() if self._per_step else self._B3[[0, 2]]
+        # a bound of the peak field: the hypotenuse of each component's peak
+        px, py, pz = np.abs(probe).max(axis=0)
+        self._health.energy_scale = self.backend.energy_scale(max(float(np.hypot(px, np.hypot(py, pz))),
+                                                                  FIELD_FLOOR))
 
     def _write_inputs(self) -> None:
         self.backend.write_field(self.data, self._B3)
-        self._inputs[0], self._inputs[1] = self._B3[0], self._B3[2]
 
     def magnetic_couples(self) -> np.ndarray:
         """Magnetic couples on the pieces now, world frame, shape ``(N + 1, 3)`` (N m)."""
@@ -434,10 +431,10 @@ class Simulator:
                              f"{sorted(set(np.argwhere(~np.isfinite(self.external_wrench))[:, 0].tolist()))}.")
         fields = None
         if self._waveform is not None:  # all fields of this call in one vectorized sample
-            fields = self._waveform.sample(d.time - self._wf_t0 + self.timestep * np.arange(n))
-            fields = lift3(fields) if self._per_step else self._planar_samples(fields, self._waveform)
+            fields = lift3(self._waveform.sample(d.time - self._wf_t0 + self.timestep * np.arange(n)))
+            self.backend.check_fields(fields, self._waveform)
         health = self._health
-        if health.begin_call(self.nstep, None if fields is not None else self._hfield(), external=external,
+        if health.begin_call(self.nstep, None if fields is not None else self._B3.copy(), external=external,
                              stale=self._stale):
             self._stale = False
         self.backend.apply_external(d, self.external_wrench if external else None)
@@ -456,53 +453,24 @@ class Simulator:
             if fields is not None and n > 0:  # the field of the last step run (or of the step that failed)
                 n0 = health.call_ref[0]
                 last = min(max(min(self.nstep, health.failed_step(self.nstep)) - 1 - n0, 0), n - 1)
-                if self._per_step:
-                    self._B3[:] = fields[last]
-                else:
-                    self._B3[0], self._B3[2] = fields[last]
+                self._B3[:] = fields[last]
                 self._write_inputs()
             if health.contact:
                 health.state_key = health.key()
-        health.check(self.nstep, self._hfield(), energy=False)
+        health.check(self.nstep, self._B3, energy=False)
 
     def _blocks(self, n: int, fields, block: int):
-        """The engine: ``n`` steps in native blocks that end at every energy check and after at most ``block``
-        steps, each checked step by step afterwards; yields between blocks, stops at a broken bound or a
-        MuJoCo warning (the end-of-call check reports it). ``fields``: ``(n, 2)`` per-step fields, or None for
-        the held field. A block whose fields all equal the one whose inputs are set (and, with the energy
-        balance on, the one the last step applied) runs as ``mj_step(m, d, k)``; any other as
-        ``mujoco.rollout`` with per-step inputs, its field work booked from the recorded states."""
-        m, d, health = self.model, self.data, self._health
+        """The engine: ``n`` steps in blocks that end at every energy check and after at most ``block`` steps,
+        each run by the backend (:meth:`~magsoft_env.sim.backend.RodBackend.advance`) and checked step by step
+        afterwards; yields between blocks, stops at a broken bound or a MuJoCo warning (the end-of-call check
+        reports it). ``fields``: ``(n, 3)`` per-step fields, or None for the held field."""
+        d, health, backend = self.data, self._health, self.backend
         ce = self.check_every
-        controls = None
         done = 0
         while done < n:
             k = min(n - done, ce - self.nstep % ce, block)
             n0, t0 = self.nstep, float(d.time)
-            seg = None if fields is None else fields[done:done + k]
-            if self._per_step or seg is None or not (np.any(seg != self._inputs)
-                                                     or health.energy_valid and np.any(seg[0] != health.b_applied)):
-                # one native block; a per-step backend (the 3D rod) one step at a time, its couples of the
-                # step's start state written before each
-                # (a per-step backend: its couples of each step's start state written before the step, the
-                # field's work booked with their net moment, its contact recorded after it)
-                ps = self._per_step
-                backend = self.backend
-                for i in range(k if ps else 1):
-                    if ps:
-                        b = self._B3 if seg is None else seg[i]
-                        backend.write_field(d, b)
-                        health.book_step(backend.moment, b)
-                    mujoco.mj_step(m, d, 1 if ps else k)
-                    if ps:
-                        backend.record_step(d)
-            else:
-                if controls is None:
-                    controls = self.backend.controls(fields)
-                q0 = d.qpos.copy() if health.energy_valid else None
-                states = self._roll(controls[done:done + k])
-                health.book_work(q0, states, seg)
-                self._inputs[:] = seg[-1]
+            backend.advance(d, self._B3, None if fields is None else fields[done:done + k], k, health)
             self.nstep += k
             self._stale = True
             done += k
@@ -512,34 +480,11 @@ class Simulator:
             if health.scan_block(k, stop, n0, t0) or warned:
                 return
             if self.nstep % ce == 0:
-                if fields is not None and self._per_step:
+                if fields is not None:
                     self._B3[:] = fields[done - 1]
-                elif fields is not None:
-                    self._B3[0], self._B3[2] = fields[done - 1]
-                health.check(self.nstep, self._hfield(), energy=True)
+                health.check(self.nstep, self._B3, energy=True)
             if done < n:
                 yield
-
-    def _roll(self, controls: np.ndarray) -> np.ndarray:
-        """``len(controls)`` steps with per-step inputs in one ``mujoco.rollout`` call on this simulator's own
-        data, which ends where as many ``mj_step`` calls with the inputs set before each leave it (state, warm
-        start, contact history: tested bit for bit); returns the recorded full-physics states after each step,
-        shape ``(k, nstate)``."""
-        m, d = self.model, self.data
-        k = controls.shape[0]
-        if self._rollout is None:
-            from mujoco import rollout as mjrollout
-
-            self._rollout = mjrollout.Rollout(nthread=0)
-        if k not in self._buffers:
-            self._buffers[k] = (np.empty((1, k, self._state0.shape[1])), np.empty((1, k, m.nsensordata)))
-        states, sens = self._buffers[k]
-        mujoco.mj_getState(m, d, self._state0[0], int(mujoco.mjtState.mjSTATE_FULLPHYSICS))
-        self._warm0[0] = d.qacc_warmstart
-        self._rollout.rollout([m], [d], self._state0, np.ascontiguousarray(controls[None]),
-                              control_spec=self.backend.control_spec, skip_checks=True, nstep=k,
-                              initial_warmstart=self._warm0, state=states, sensordata=sens)
-        return states[0]
 
     def _sync(self) -> None:
         # after mj_step the position-dependent quantities (xpos, xmat, qM, contacts) belong to
@@ -559,16 +504,14 @@ class Simulator:
                                        duration / self.timestep, "Use a shorter duration or a larger timestep.")))
         self.set_waveform(waveform)
         ts, fs, xs, ys, zs, tips = [], [], [], [], [], []
-        three = self._per_step
 
         def record():
-            pts = self.centerline()
+            c = self.pose().centreline
             ts.append(self.time)
-            fs.append(self._B3.copy() if three else self._B3[[0, 2]].copy())
-            xs.append(pts[0])
-            zs.append(pts[-1])
-            if three:
-                ys.append(pts[1])
+            fs.append(self._B3[self._axes])
+            xs.append(c[:, 0])
+            ys.append(c[:, 1])
+            zs.append(c[:, 2])
             tips.append(self.tip_angle())
 
         record()
@@ -578,8 +521,7 @@ class Simulator:
             self.step(k)
             done += k
             record()
-        return Trajectory(np.array(ts), np.array(fs), np.array(xs), np.array(zs), np.array(tips),
-                          np.array(ys) if three else None)
+        return Trajectory(np.array(ts), np.array(fs), np.array(xs), np.array(zs), np.array(tips), np.array(ys))
 
     # ------------------------------------------------------------------ statics
     def static_residual(self) -> float:
@@ -588,10 +530,10 @@ class Simulator:
         m, d = self.model, self.data
         qvel = d.qvel.copy()
         d.qvel[:] = 0.0
-        # the magnetic couples are actuator forces, part of qfrc_smooth (3D rod: applied forces, written here)
+        # the magnetic couples are MuJoCo's forces, part of qfrc_smooth (native: actuators; a rod whose couples are
+        # written from Python writes them for this state here)
         self.backend.apply_external(d, self.external_wrench if np.any(self.external_wrench) else None)
-        if self._per_step:
-            self.backend.write_field(d, self._B3)
+        self.backend.write_field(d, self._B3)
         mujoco.mj_forward(m, d)
         dofs = self.backend.hinge_dof
         q = d.qfrc_smooth[dofs] + d.qfrc_constraint[dofs]
@@ -606,10 +548,11 @@ class Simulator:
     ) -> SettleResult:
         """Settle to static equilibrium by damped dynamics at the current (constant) field.
 
-        Hinge damping is raised to ``settle_damping * k_j`` (a Kelvin-Voigt time in s) while
-        settling and restored after. Converged when, at a check, the static residual
-        (:meth:`static_residual`, rad) is below ``tol`` and the largest hinge speed is below
-        ``speed_tol`` (rad/s; default ``tol / settle_damping``).
+        The rod's elastic dofs are damped while settling (the backend's ``settle_damping``: the planar chain's
+        hinges get ``settle_damping * k_j``, a Kelvin-Voigt time in s; the 3D strip a mass-proportional damping
+        at its first bending rate) and restored after. Converged when, at a check, the static residual
+        (:meth:`static_residual`, rad) is below ``tol`` and the largest rate of the elastic dofs (the backend's
+        ``settle_speed``) is below ``speed_tol`` (rad/s; default ``tol / settle_damping``).
 
         Parameters
         ----------
@@ -627,15 +570,9 @@ class Simulator:
         nmax = math.ceil(check_steps(f"max_time / timestep = {max_time:g} s / {self.timestep:g} s",
                                      max_time / self.timestep, "Use a shorter max_time or a larger timestep."))
         m = self.model
-        dofs = self.backend.hinge_dof
+        dofs, damping = self.backend.settle_damping(settle_damping)
         damp0 = m.dof_damping[dofs].copy()
-        if self._per_step:
-            # the 3D rod: mass-proportional damping, every mode decaying at the first weak-bending rate
-            from .cable import settling_damping
-
-            m.dof_damping[:] = settling_damping(self.backend.rod)
-        else:
-            m.dof_damping[dofs] = settle_damping * self.backend.stiffness
+        m.dof_damping[dofs] = damping
         self._waveform = None  # hold the present field
         steps, chunk = 0, 20
         res, speed = math.inf, math.inf
@@ -643,7 +580,7 @@ class Simulator:
             while steps < nmax:
                 self.step(chunk)
                 steps += chunk
-                speed = float(np.max(np.abs(self.data.qvel[dofs])))
+                speed = self.backend.settle_speed(self.data)
                 if speed < speed_tol:
                     res = self.static_residual()
                     if res < tol:
@@ -657,21 +594,38 @@ class Simulator:
         )
 
     # ------------------------------------------------------------------ readouts
-    def centerline(self) -> tuple[np.ndarray, np.ndarray]:
-        """Centerline points (m): the base end (s = 0), every hinge, the tip; shape ``(N + 2,)``.
+    def pose(self) -> Pose:
+        """Where the rod is, in one shape for every rod (:class:`~magsoft_env.sim.backend.Pose`): centre of mass
+        ``(3,)``, centreline ``(n, 3)``, the pieces' tangents and width axes (heading, pitch, roll)."""
+        self._sync()
+        return self.backend.pose(self.data)
 
-        Hinge ``j`` sits at ``s = (j + 1/2) L / N``.
-        """
+    def orientation_tracker(self):
+        """A new tracker of the body's orientation end over end, continuous over the poses it is given
+        (``tracker.track(sim.pose())``, rad; ``tracker.heading``, rad): the rod's own
+        (:mod:`~magsoft_env.sim.readouts`)."""
+        return self.backend.orientation_tracker()
+
+    def centreline_history(self):
+        """Reader of the centreline at the start of every step of the last block (contact scenes): ``last(k)``
+        ``(n, k, 3)`` (m), ``nsample`` (the longest block it covers)."""
+        return self.backend.centreline_history(self.data)
+
+    def centerline(self) -> tuple[np.ndarray, ...]:
+        """Centerline points (m) in the rod's own components: ``(x, z)`` for a rod in the x-z plane (the base
+        end, every hinge, the tip; shape ``(N + 2,)`` each; hinge ``j`` at ``s = (j + 1/2) L / N``), ``(x, y, z)``
+        for the 3D strip. :meth:`pose` gives ``(n, 3)`` for every rod."""
         self._sync()
         return self.backend.centerline(self.data)
 
-    def tip_position(self) -> tuple[float, float]:
-        """Tip point (x, z) (m): the last :meth:`centerline` point, without building the rest."""
+    def tip_position(self) -> tuple[float, ...]:
+        """Tip point (m) in the rod's own components (``(x, z)`` in the x-z plane): the last :meth:`centerline`
+        point, without building the rest."""
         self._sync()
         return self.backend.tip_position(self.data)
 
     def center_of_mass(self) -> np.ndarray:
-        """Centre of mass (x, z) of the rod (m), shape ``(2,)``, of the current state."""
+        """Centre of mass (m) in the rod's own components (``(x, z)`` in the x-z plane), of the current state."""
         self._sync()
         return self.backend.center_of_mass(self.data)
 
@@ -680,13 +634,23 @@ class Simulator:
         return self.backend.arc_length()
 
     def angles(self) -> np.ndarray:
-        """Tangent angle of every piece from +x toward +z (rad), shape ``(N + 1,)``."""
+        """Tangent angle of every piece from +x toward +z (rad), shape ``(N + 1,)`` (3D: of its x-z projection)."""
         self._sync()
         return self.backend.angles(self.data)
 
+    def angular_velocities(self) -> np.ndarray:
+        """Angular velocity of every piece about -y (rad/s), the rate of :meth:`angles`, shape ``(N + 1,)``."""
+        self._sync()
+        return self.backend.angular_velocities(self.data)
+
     def tip_angle(self) -> float:
-        """Tangent angle of the tip piece (rad), continuous beyond +-pi (sum of joint angles)."""
+        """Tangent angle of the tip piece (rad), continuous beyond +-pi (sum of joint angles) for the chain."""
         return self.backend.tip_angle(self.data)
+
+    def tip_twist(self) -> float:
+        """Integrated twist ``int k3 ds`` (rad); 0 for a rod that cannot twist."""
+        self._sync()
+        return self.backend.tip_twist(self.data)
 
     def contacts(self) -> list[dict]:
         """Active contacts: geom names, position (m), penetration depth (m, >= 0 when touching)."""

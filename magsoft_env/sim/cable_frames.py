@@ -1,0 +1,165 @@
+"""The 3D strip's geometry from a MuJoCo state: vertices, material frames, magnetic moments and couples, twist,
+edge strain and elastic energy (:mod:`~magsoft_env.sim.cable_build` has the model and the conventions).
+
+Material frame from the MuJoCo state: MuJoCo keeps, per edge, a time-parallel reference frame ``(t_old, u_old)``
+in ``mjData.plastic`` (the tangent and director when it last computed the rod's forces). The reference
+director at the current state is ``u_old`` parallel-transported from ``t_old`` to the current tangent ``t``
+(the rotation about ``t_old x t``); the material frame turns it by the edge's twist angle ``theta`` (its hinge
+``qpos``) about ``t``: ``d1 = cos(theta) u + sin(theta) t x u``, ``d2 = t x d1``. At rest ``u = +y``: ``d1`` is the
+width axis and ``d2 = +z`` the thickness axis of a strip lying flat. The sign of ``theta`` was checked against
+MuJoCo's own elastic forces (a bend in a skewed plane pulls the weak axis toward the bending binormal through
+``qfrc_passive``, tests/test_cable.py). Before the first step (``plastic`` all zero) the reference is the
+rest director ``+y`` transported from the rest tangent ``+x``.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from .cable_build import CableModel
+
+_I1, _I2 = np.array([1, 2, 0]), np.array([2, 0, 1])
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise cross product of ``(n, 3)`` arrays (``np.cross`` costs 2-3x more at these sizes)."""
+    return np.take(a, _I1, 1) * np.take(b, _I2, 1) - np.take(a, _I2, 1) * np.take(b, _I1, 1)
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.einsum("ij,ij->i", a, b)
+
+
+def _transport(u: np.ndarray, t0: np.ndarray, t1: np.ndarray) -> np.ndarray:
+    """Parallel transport of the directors ``u`` (rows, normal to ``t0``) from the unit tangents ``t0`` to ``t1``
+    (the rotation about ``t0 x t1``)."""
+    return u - (_dot(t1, u) / (1.0 + _dot(t0, t1)))[:, None] * (t0 + t1)
+
+
+def vertices(cm: CableModel, data: mujoco.MjData) -> np.ndarray:
+    """Vertex positions (m), shape ``(N + 2, 3)``, from ``data.qpos`` (every vertex body hangs from the world
+    on three slides along x, y, z, so no kinematics pass is needed)."""
+    x = cm.vertex_ref.copy()
+    free = cm.vertex_qpos >= 0
+    x[free] += data.qpos[cm.vertex_qpos[free]]
+    return x
+
+
+def material_frames(cm: CableModel, data: mujoco.MjData, x: np.ndarray | None = None):
+    """The edges' material frames ``(t, d1, d2)``, each ``(N + 1, 3)``, at the vertex positions ``x``
+    (default: :func:`vertices`) and the twist angles in ``data.qpos`` (see the module docstring)."""
+    x = vertices(cm, data) if x is None else x
+    e = np.diff(x, axis=0)
+    t = e / np.sqrt(_dot(e, e))[:, None]
+    ne = len(t)
+    a = cm.model.flex_plasticadr[cm.flex]
+    p = data.plastic[a:a + 6 * ne].reshape(ne, 6)
+    if not p.any():
+        t_old = np.tile([1.0, 0.0, 0.0], (ne, 1))
+        u_old = np.tile([0.0, 1.0, 0.0], (ne, 1))
+    else:
+        t_old, u_old = p[:, :3], p[:, 3:]
+    u = _transport(u_old, t_old, t)
+    u /= np.sqrt(_dot(u, u))[:, None]
+    theta = np.where(cm.twist_qpos >= 0, data.qpos[np.maximum(cm.twist_qpos, 0)], 0.0)
+    v = _cross(t, u)
+    c, s = np.cos(theta)[:, None], np.sin(theta)[:, None]
+    # d1 = cos u + sin v, d2 = t x d1 = cos v - sin u
+    return t, c * u + s * v, c * v - s * u
+
+
+def world_moments(cm: CableModel, data: mujoco.MjData, x: np.ndarray | None = None) -> np.ndarray:
+    """World magnetic moment ``R_i m_i`` of every edge (A m^2), shape ``(N + 1, 3)``."""
+    t, d1, d2 = material_frames(cm, data, x)
+    m = cm.layout.moment
+    return m[:, :1] * t + m[:, 1:2] * d1 + m[:, 2:3] * d2
+
+
+def magnetic_energy(cm: CableModel, data: mujoco.MjData, field3) -> float:
+    """``-sum (R_i m_i) . B`` (J)."""
+    return -float(np.sum(world_moments(cm, data) @ np.asarray(field3, dtype=float)))
+
+
+def apply_field(cm: CableModel, data: mujoco.MjData, field3, extra: np.ndarray | None = None,
+                net_moment: np.ndarray | None = None) -> np.ndarray:
+    """Write the magnetic couples of the field ``(B_x, B_y, B_z)`` (T) into ``data``: the force pair of each
+    edge into ``xfrc_applied`` (rows of the vertex bodies, overwritten), the along-edge part into
+    ``qfrc_applied`` (the twist dofs, overwritten; other dofs zeroed). Returns the couples ``(N + 1, 3)`` (N m).
+    A clamped edge's couple goes to the clamp (nothing applied). ``extra``: a world wrench per edge ``(N + 1, 6)``
+    added (force at the edge's middle, half to each vertex; couple as the magnetic ones). ``net_moment``: a
+    ``(3,)`` array that receives the net magnetic moment ``sum R_i m_i`` of the state (A m^2)."""
+    B = np.asarray(field3, dtype=float)
+    x = vertices(cm, data)
+    t, d1, d2 = material_frames(cm, data, x)
+    m = cm.layout.moment
+    mw = m[:, :1] * t + m[:, 1:2] * d1 + m[:, 2:3] * d2
+    if net_moment is not None:
+        net_moment[:] = mw.sum(axis=0)
+    # m x B for every row: m @ [B]x
+    C = mw @ np.array([[0.0, -B[2], B[1]], [B[2], 0.0, -B[0]], [-B[1], B[0], 0.0]])
+    if extra is not None:
+        C = C + extra[:, 3:]
+    # the pair's lever is the edge's current length: its couple is C whatever the edge's strain
+    e = np.diff(x, axis=0)
+    F = _cross(C, t) / np.sqrt(_dot(e, e))[:, None]
+    fv = np.zeros((len(x), 3))
+    fv[1:] += F
+    fv[:-1] -= F
+    if extra is not None:
+        fv[1:] += 0.5 * extra[:, :3]
+        fv[:-1] += 0.5 * extra[:, :3]
+    body = cm.vertex_body
+    data.xfrc_applied[body[body > 0], :3] = fv[body > 0]
+    data.xfrc_applied[body[body > 0], 3:] = 0.0
+    data.qfrc_applied[:] = 0.0
+    free = cm.twist_dof >= 0
+    data.qfrc_applied[cm.twist_dof[free]] = _dot(C, t)[free]
+    return C
+
+
+# ---------------------------------------------------------------------------------------------- readouts
+def tip_twist(cm: CableModel, data: mujoco.MjData) -> float:
+    """Integrated twist ``int k3 ds`` (rad): the angle of each edge's ``d1`` about its tangent relative to the
+    previous edge's ``d1`` parallel-transported along the centreline, summed (the first edge's frame is the
+    clamp's; for a free rod the integral from the first edge)."""
+    t, d1, _ = material_frames(cm, data)
+    tr = _transport(d1[:-1], t[:-1], t[1:])
+    tr /= np.linalg.norm(tr, axis=1)[:, None]
+    sin = np.einsum("ij,ij->i", np.cross(tr, d1[1:]), t[1:])
+    cos = np.einsum("ij,ij->i", tr, d1[1:])
+    return float(np.sum(np.arctan2(sin, cos)))
+
+
+def edge_strain(cm: CableModel, data: mujoco.MjData) -> float:
+    """Largest relative change of an edge's length (dimensionless)."""
+    x = vertices(cm, data)
+    return float(np.max(np.abs(np.linalg.norm(np.diff(x, axis=0), axis=1) / cm.layout.edge_length - 1.0)))
+
+
+# ---------------------------------------------------------------------------------------------- energy
+def elastic_energy(cm: CableModel, data: mujoco.MjData) -> float:
+    """Bending and twisting energy (J) of the strip, in the form MuJoCo's rod forces derive from: per interior
+    vertex, ``k_1 (kb . d1)^2 + k_2 (kb . d2)^2 + k_t tau^2`` with ``kb = 2 t0 x t1 / (1 + t0 . t1)`` the discrete
+    curvature binormal, ``d1``, ``d2`` the mean of the two edges' directors, ``tau`` the twist angle between the
+    edges (as :func:`tip_twist` sums it) and the records' stiffnesses ``k = K / 2``. MuJoCo does not report it;
+    tests/test_cable.py compares its gradient with MuJoCo's elastic forces."""
+    t, d1, d2 = material_frames(cm, data)
+    kb = 2.0 * np.cross(t[:-1], t[1:]) / (1.0 + np.einsum("ij,ij->i", t[:-1], t[1:]))[:, None]
+    a1 = 0.5 * (d1[:-1] + d1[1:])
+    a2 = 0.5 * (d2[:-1] + d2[1:])
+    k = 0.5 * cm.layout.stiffness
+    tr = _transport(d1[:-1], t[:-1], t[1:])
+    tr /= np.linalg.norm(tr, axis=1)[:, None]
+    tau = np.arctan2(np.einsum("ij,ij->i", np.cross(tr, d1[1:]), t[1:]), np.einsum("ij,ij->i", tr, d1[1:]))
+    return float(k[:, 0] @ np.einsum("ij,ij->i", kb, a1) ** 2 + k[:, 1] @ np.einsum("ij,ij->i", kb, a2) ** 2
+                 + k[:, 2] @ tau**2)
+
+
+#: Largest relative edge stretch the simulator lets pass (the edge constraint holds 1e-3 in the statics of
+#: docs/sim.md; 5 % means the constraint lost hold of the strip).
+EDGE_STRAIN_LIMIT = 0.05
+
+
+__all__ = ["EDGE_STRAIN_LIMIT", "apply_field", "edge_strain", "elastic_energy", "magnetic_energy", "material_frames",
+           "tip_twist", "vertices", "world_moments"]
