@@ -1,7 +1,7 @@
 """Layering of the package, checked statically from the sources (every import statement, lazy ones too).
 
 Each module belongs to one unit: the facade (``magsoft_env/__init__.py``), the root leaf utilities
-(``units``, ``io``, ``threads``, ``gl``, ``validate``, ``assets``), or a layer package.
+(``units``, ``io``, ``threads``, ``gl``, ``validate``, ``assets``, ``rods``), or a layer package.
 ``ALLOWED`` lists the units each may import; a new upward import, an import of the facade from
 inside a layer, a private name (``_x``) imported from another unit, a heavy third-party package in
 a layer that must not load it, or a module in no known unit fails the test.
@@ -17,7 +17,7 @@ import pytest
 import magsoft_env
 
 PACKAGE = Path(magsoft_env.__file__).parent
-LEAVES = {"units", "io", "threads", "gl", "validate", "assets"}
+LEAVES = {"units", "io", "threads", "gl", "validate", "assets", "rods"}
 
 # unit -> units it may import (itself always)
 ALLOWED = {

@@ -9,7 +9,34 @@ import math
 import sys
 from pathlib import Path
 
+from ..rods import DEFAULT_ROD, rod_names
 from .solve import add_planar_only_flags, dumps_json, out_file, refuse_3d, write_json
+
+
+def add_rod_option_flag(p) -> None:
+    """``--rod-option KEY=VALUE`` (repeatable): a :class:`~magsoft_env.sim.RodOptions` keyword for the rod."""
+    p.add_argument("--rod-option", action="append", default=[], metavar="KEY=VALUE",
+                   help="a RodOptions setting for the rod, winning over the robot's (contact and solver settings, "
+                        "e.g. solver_iterations=20, noslip_iterations=0, cone=pyramidal, contact_geom=sphere): trade "
+                        "accuracy for speed knowingly; repeatable")
+
+
+def rod_options(args) -> dict:
+    """The ``--rod-option KEY=VALUE`` flags as keywords: values read as Python literals (numbers, tuples, True), or
+    as text."""
+    import ast
+
+    out = {}
+    for item in args.rod_option:
+        key, sep, text = item.partition("=")
+        if not sep or not key.strip().isidentifier():
+            raise ValueError(f"--rod-option must be KEY=VALUE (a RodOptions keyword), got {item!r}.")
+        try:
+            value = ast.literal_eval(text.strip())
+        except (ValueError, SyntaxError):
+            value = text.strip()
+        out[key.strip()] = value
+    return out
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -53,11 +80,12 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="paper-5a, paper-5b: the other face on the floor (beta -> -beta; the paper gives no face)")
     p.add_argument("--friction", type=float, default=None,
                    help="floor friction coefficient (default: the preset's, 0.5; docs/envs.md, 'Tacky friction')")
-    p.add_argument("--rod", choices=["planar", "cable"], default="planar",
+    p.add_argument("--rod", choices=rod_names(), default=DEFAULT_ROD,
                    help="planar: the hinge chain in the x-z plane (default); cable: the 3D flexcomp strip on the floor "
                         "(its edges' boxes on the floor, twist free; without --segments/--timestep-ms/--fidelity at "
                         "least 40 segments and a step of at most 4 ms / segments; 5-8x the chain's wall time at the "
                         "same numerics; docs/sim.md)")
+    add_rod_option_flag(p)
     add_y_drive_flags(p)
     add_rotate_flags(p)
     p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
@@ -86,10 +114,8 @@ def add_y_drive_flags(p) -> None:
 
 
 def check_y_drive(args) -> None:
-    """The y drive's flags: finite, at most 1000 mT, and only with ``--rod cable``."""
-    if (args.amplitude_y_mT or args.phase_y_deg) and args.rod != "cable":
-        raise ValueError("--amplitude-y-mT and --phase-y-deg drive the 3D rod: add --rod cable (the planar rod has no "
-                         "y axis).")
+    """The y drive's flags: finite, at most 1000 mT (a rod that takes no y component refuses the drive when it
+    starts, naming the rod that does)."""
     if not (math.isfinite(args.amplitude_y_mT) and abs(args.amplitude_y_mT) <= 1000):
         raise ValueError(f"--amplitude-y-mT must be finite and at most 1000 mT in size, got {args.amplitude_y_mT}.")
     if not math.isfinite(args.phase_y_deg):
@@ -121,9 +147,6 @@ def add_rotate_flags(p) -> None:
 def rotate_drive_args(args) -> None:
     """Check ``--rotate-about``, ``--field-mT`` and ``--frequency-hz`` (ValueError naming the flag)."""
     if args.rotate_about is not None:
-        if args.rotate_about != "y" and args.rod != "cable":
-            raise ValueError(f"--rotate-about {args.rotate_about} turns the field out of the x-z plane: add --rod "
-                             "cable (the planar rod takes --rotate-about y only).")
         if not (math.isfinite(args.rotation_mT) and 0 < args.rotation_mT <= 100):
             raise ValueError(f"--rotation-mT must lie in (0, 100] mT, got {args.rotation_mT}.")
         if (args.amplitude_y_mT or getattr(args, "waveform", None) not in (None, "sine")
@@ -198,7 +221,7 @@ def run(args) -> int:
         preset = dataclasses.replace(preset, beam=_turned_over(args.preset))
     res = run_gait(preset, args.seconds, segments=args.segments, fidelity=args.fidelity,
                    timestep=None if args.timestep_ms is None else args.timestep_ms * 1e-3,
-                   progress=sys.stderr.isatty(), rod=args.rod)  # a bar on a terminal only: logs and pipes stay clean
+                   progress=sys.stderr.isatty(), rod=args.rod, rod_options=rod_options(args))  # a bar on a terminal only: logs and pipes stay clean
     out = res.to_dict()
     out["paper_speed_mm_s"] = None if preset.paper_speed is None else preset.paper_speed * 1e3
     out["paper_direction"] = preset.paper_direction
@@ -238,8 +261,8 @@ def run(args) -> int:
         print(f"paper: {_paper_values(preset)}; max height {out['max_height_mm']:.2f} mm, "
               f"max link rotation {out['max_link_rotation_deg']:.0f} deg, body orientation up to "
               f"{out['max_orientation_deg']:.0f} deg ({out['locomotion']}); {out['wall_time_s']:.1f} s wall")
-        if res.rod == "cable":
-            print(f"3D strip: sideways travel {out['displacement_y_mm']:+.3f} mm, heading "
+        if res.out_of_plane:
+            print(f"out of the x-z plane: sideways travel {out['displacement_y_mm']:+.3f} mm, heading "
                   f"{out['final_heading_deg']:+.2f} deg at the end (turned {out['turned_deg']:+.0f} deg on the floor), "
                   f"roll up to {out['max_roll_deg']:.1f} deg")
         given = (f"fidelity {args.fidelity}" if args.fidelity else "the robot's own"

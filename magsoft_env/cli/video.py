@@ -10,9 +10,20 @@ from __future__ import annotations
 import argparse
 import difflib
 import math
+import sys
 from pathlib import Path
 
-from .gait import add_rotate_flags, add_y_drive_flags, check_y_drive, rotate_drive_args, rotated_drive, with_y_drive
+from ..rods import DEFAULT_ROD, rod_names
+from .gait import (
+    add_rod_option_flag,
+    add_rotate_flags,
+    add_y_drive_flags,
+    check_y_drive,
+    rod_options,
+    rotate_drive_args,
+    rotated_drive,
+    with_y_drive,
+)
 from .solve import dumps_json, out_file
 
 
@@ -27,8 +38,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
             "FILE) renders a gait on the floor; --env ID renders a Gymnasium environment driven by a "
             "Stable-Baselines3 model (--policy model.zip) or, without one, by the robot's open-loop gait "
             "(--robot FILE: that robot in the environment). --panel adds plots of x(t) and B(t) beside the frames. "
-            "--rod cable renders the gait of the 3D strip on the floor (--view perspective or top), with a "
-            "three-axis drive from --amplitude-y-mT and --phase-y-deg, or a field turning about an axis "
+            "--rod cable renders the gait of the 3D strip on the floor (in perspective; --view top from above; "
+            "--view perspective shows the planar rod in 3D too), with a three-axis drive from --amplitude-y-mT and --phase-y-deg, or a field turning about an axis "
             "(--rotate-about z: the strip turns in place), as in magsoft gait."
         ),
     )
@@ -52,13 +63,16 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                         "of a gait, so that a 1-2 mm crawl shows)")
     p.add_argument("--timestep-ms", type=float, default=None,
                    help="simulation step for --preset, ms (default: the robot's own, as magsoft gait)")
-    p.add_argument("--rod", choices=["planar", "cable"], default="planar",
-                   help="gaits: planar = the hinge chain in its side view (default); cable = the 3D flexcomp strip on "
-                        "the floor, seen in perspective or from above (--view), its field (B_x, B_y, B_z) as an arrow "
-                        "over the robot (docs/rendering.md, 'The 3D strip')")
-    p.add_argument("--view", choices=["perspective", "top"], default=None,
-                   help="--rod cable: perspective (default; a camera above and behind the robot, looking down at 40 "
-                        "deg) or top (orthographic, straight down, x right, y up)")
+    p.add_argument("--rod", choices=rod_names(), default=None,
+                   help="the rod: planar = the hinge chain, in its side view (the default); cable = the 3D flexcomp "
+                        "strip on the floor, seen in perspective or from above (--view), its field (B_x, B_y, B_z) as "
+                        "an arrow over the robot (docs/rendering.md, 'The 3D strip'). With --env: the environment's "
+                        "rod")
+    p.add_argument("--view", choices=["side", "perspective", "top"], default=None,
+                   help="the camera: side (the planar rod's default: orthographic, x right, z up), perspective (the "
+                        "3D strip's default; a camera above and behind the robot, looking down at 40 deg) or top "
+                        "(orthographic, straight down, x right, y up); any rod in perspective or top")
+    add_rod_option_flag(p)
     add_y_drive_flags(p)
     add_rotate_flags(p)
     p.add_argument("--out", type=Path, required=True, help="output file, .mp4 or .gif")
@@ -114,13 +128,8 @@ def run(args) -> int:
         raise ValueError(f"--timestep-ms must lie in (0, 10] ms, got {args.timestep_ms}.")
     if args.policy is not None and args.env is None:
         raise ValueError("--policy needs --env (the environment the policy was trained on).")
-    if args.rod != "planar" and not gait:
-        raise ValueError("--rod chooses the rod of a gait (--preset or --robot); an --env renders its own rod.")
-    if args.view is not None and args.rod != "cable":
-        raise ValueError(f"--view {args.view} is a camera of the 3D strip: add --rod cable (the planar rod's frames "
-                         "are its side view).")
-    if args.rod == "cable" and args.scene != "floor":
-        raise ValueError(f"--rod cable runs on the floor scene only, got --scene {args.scene}.")
+    if args.view is not None and not gait:
+        raise ValueError("--view chooses the camera of a gait (--preset or --robot); an --env renders its own view.")
     check_y_drive(args)
     rotate_drive_args(args)
     if not gait and (args.rotate_about is not None or args.frequency_hz is not None or args.amplitude_y_mT):
@@ -164,9 +173,9 @@ def run(args) -> int:
     if gait:
         _, summary = render_gait(preset, args.seconds, args.out, fps=args.fps, width=args.width, height=args.height,
                                  timestep=None if args.timestep_ms is None else args.timestep_ms * 1e-3,
-                                 scene=args.scene, panel=args.panel,
-                                 zoom=None if args.rod == "cable" else False if args.no_zoom else None,
-                                 rod=args.rod, view=args.view)
+                                 scene=args.scene, panel=args.panel, zoom=False if args.no_zoom else None,
+                                 rod=args.rod or DEFAULT_ROD, view=args.view, progress=sys.stderr.isatty(),
+                                 rod_options=rod_options(args))
     else:
         policy, env_kwargs = None, {}
         if args.policy is not None:
@@ -177,6 +186,8 @@ def run(args) -> int:
             env_kwargs = dict(policy.env_kwargs or {})  # the run's environment arguments (field limit, ...)
         if robot is not None:
             env_kwargs["robot"] = robot
+        if args.rod is not None:
+            env_kwargs["rod"] = args.rod
         _, summary = render_policy(args.env, policy, args.seconds, args.out, env_kwargs=env_kwargs, width=args.width,
                                    height=args.height, panel=args.panel)
     summary["gl_backend"] = backend

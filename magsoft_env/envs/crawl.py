@@ -638,9 +638,9 @@ class MagSoftCrawlEnv(gym.Env):
             gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' to the constructor.")
             return None
         if self._renderer is None:
-            from ..render import RodRenderer
+            from ..render.views import make_renderer
 
-            self._renderer = RodRenderer(self.sim, width=self.width, height=self.height)
+            self._renderer = make_renderer(self.sim, width=self.width, height=self.height)
         return self._renderer.render(field=self.sim.field)
 
     def close(self):

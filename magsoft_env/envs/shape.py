@@ -317,9 +317,9 @@ class MagSoftShapeEnv(gym.Env):
             gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' to the constructor.")
             return None
         if self._renderer is None:
-            from ..render import RodRenderer
+            from ..render.views import make_renderer
 
-            self._renderer = RodRenderer(self.sim, width=self.width, height=self.height, follow=False)
+            self._renderer = make_renderer(self.sim, width=self.width, height=self.height, follow=False)
         overlay = None
         if np.any(self._field):
             from ..theory import solve_equilibrium

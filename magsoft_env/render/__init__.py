@@ -5,7 +5,8 @@ know they will render call :func:`~magsoft_env.gl.select_gl_backend` before mujo
 :class:`RodRenderer` binds one late otherwise. Figures (matplotlib) are :mod:`.figures`;
 a design written to files is :func:`magsoft_env.render.design.write_design`. One palette
 (:data:`.figures.PALETTE`) colours the figures and the frames. Importing this package does not
-import mujoco: :class:`RodRenderer`, :class:`TimePanel` and :func:`write_video` load lazily.
+import mujoco: :class:`RodRenderer`, :class:`StripRenderer`, :func:`make_renderer` (the renderer of a rod in a
+view), :class:`TimePanel` and :func:`write_video` load lazily.
 What a frame shows: docs/rendering.md.
 """
 
@@ -16,7 +17,7 @@ import importlib
 from ..gl import GL_BACKENDS, RenderBackendError, preselect_gl_backend, select_gl_backend
 
 _LAZY = {"RodRenderer": "magsoft_env.render.frames", "TimePanel": "magsoft_env.render.frames",
-         "StripRenderer": "magsoft_env.render.strip",
+         "StripRenderer": "magsoft_env.render.strip", "make_renderer": "magsoft_env.render.views",
          "write_video": "magsoft_env.render.video", "render_gait": "magsoft_env.render.video",
          "render_policy": "magsoft_env.render.video", "PALETTE": "magsoft_env.render.figures"}
 
@@ -29,4 +30,4 @@ def __getattr__(name):
 
 
 __all__ = ["GL_BACKENDS", "PALETTE", "RenderBackendError", "RodRenderer", "StripRenderer", "TimePanel",
-           "preselect_gl_backend", "render_gait", "render_policy", "select_gl_backend", "write_video"]
+           "make_renderer", "preselect_gl_backend", "render_gait", "render_policy", "select_gl_backend", "write_video"]

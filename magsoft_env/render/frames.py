@@ -300,27 +300,17 @@ class RodRenderer:
         For a size outside [16, 8192] pixels, a grid spacing, span or field scale that is not > 0.
     """
 
-    def __new__(cls, sim, **kwargs):
-        # the 3D strip's frames are drawn by their own class (perspective or top view)
-        if cls is RodRenderer and getattr(getattr(sim, "options", None), "rod", None) == "cable":
-            from .strip import StripRenderer
-
-            if kwargs.get("view") is None:
-                kwargs.pop("view", None)
-            for name in ("zoom", "zoom_span"):
-                if kwargs.get(name):
-                    raise ValueError(f"{name} is the side view's zoom inset; the 3D strip's frames have none.")
-                kwargs.pop(name, None)
-            return StripRenderer(sim, **kwargs)
-        return super().__new__(cls)
-
     def __init__(self, sim, *, width: int = 960, height: int = 540, follow: bool = True, span: float | None = None,
                  minor: float = 1 * MM, major: float = 5 * MM, field_scale: float | None = None, trace: bool = True,
                  panel: bool = False, panel_seconds: float | None = None, zoom: bool | None = None,
                  zoom_span: float | None = None, view: str | None = None):
         if view not in (None, "side"):
-            raise ValueError(f"view={view!r} draws the 3D strip (RodOptions(rod='cable')); the planar rod's frames "
-                             "are the side view (view='side' or None).")
+            raise ValueError(f"view={view!r} is a 3D view (StripRenderer, or make_renderer(sim, view={view!r})); "
+                             "RodRenderer draws the side view (view='side' or None).")
+        views = getattr(getattr(sim, "backend", None), "views", ("side",))
+        if "side" not in views:
+            raise ValueError(f"RodRenderer draws the side view of a rod in the x-z plane; this rod is drawn in "
+                             f"{list(views)} (magsoft_env.render.make_renderer(sim) picks its view).")
         check_frame_args(width, height, minor, major, span, field_scale)
         if zoom_span is not None and not (zoom_span > 0 and math.isfinite(zoom_span)):
             raise ValueError(f"zoom_span must be a window width > 0 (m) or None, got {zoom_span!r}.")
@@ -888,9 +878,9 @@ class TimePanel:
         if components not in (2, 3):
             raise ValueError(f"components must be 2 (B_x, B_z) or 3 (B_x, B_y, B_z), got {components!r}.")
         self.components = int(components)
-        three = self.components == 3
+        with_y = self.components == 3  # a y displacement and a B_y line
         if x_label is None:
-            x_label = "centre of mass (mm)" if three else "\u0394x centre of mass (mm)"
+            x_label = "centre of mass (mm)" if with_y else "\u0394x centre of mass (mm)"
         dpi = 120.0 * max(self.height / 540.0, 0.2)
         with matplotlib.rc_context(_rc()):
             self.fig = Figure(figsize=(self.width / dpi, self.height / dpi), dpi=dpi, layout="constrained")
@@ -898,14 +888,14 @@ class TimePanel:
             self.ax_x, self.ax_b = self.fig.subplots(2, 1, sharex=True)
             (self._lx,) = self.ax_x.plot([], [], color=PALETTE["trace"], lw=1.8, label="$\\Delta x$", animated=True)
             self._lines_x = [self._lx]
-            if three:
+            if with_y:
                 (ly,) = self.ax_x.plot([], [], color=PALETTE["theory"], lw=1.6, ls="--", label="$\\Delta y$",
                                        animated=True)
                 self._lines_x.append(ly)
                 self.ax_x.legend(loc="upper right", ncols=2)
             (self._lbx,) = self.ax_b.plot([], [], color=PALETTE["field"], lw=1.6, label="$B_x$", animated=True)
             self._lines_b = [self._lbx]
-            if three:
+            if with_y:
                 (lby,) = self.ax_b.plot([], [], color=PALETTE["field_y"], lw=1.6, ls="-.", label="$B_y$",
                                         animated=True)
                 self._lines_b.append(lby)

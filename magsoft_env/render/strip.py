@@ -1,7 +1,7 @@
-"""Frames of the 3D strip (the flexcomp rod, ``RodOptions(rod="cable")``) on the floor: perspective or top view.
+"""3D frames of a rod on the floor (the flexcomp strip's own view; any rod's): perspective or top view.
 
-The strip is drawn as one box per edge from its material frames (:func:`~magsoft_env.sim.cable.material_frames`),
-so its width, thickness, bending and twist show; the floor carries a mm grid, the strip's drop shadow, the
+The rod is drawn from its pose (:meth:`Simulator.pose <magsoft_env.sim.Simulator.pose>`: centreline, the pieces'
+tangents and width axes) as one box per piece, so its width, thickness, bending and twist show; the floor carries a mm grid, the strip's drop shadow, the
 centre of mass's path, the start, the heading, an optional goal and a scale bar; the field is an arrow in the
 scene above the robot and a dial with its three components. The 2-D overlay (text, dial) is drawn as the
 side view's is (:class:`~magsoft_env.render.frames._Canvas`). What a frame shows: docs/rendering.md, "The 3D
@@ -77,7 +77,8 @@ def field_text3(b, *, digits: int = 2) -> str:
 
 
 class StripRenderer:
-    """Offscreen frames of the 3D strip on the floor, for videos and environments.
+    """Offscreen 3D frames of a rod on the floor, for videos and environments: the 3D strip's view, and a view of
+    any rod (the planar chain too) from its pose.
 
     A perspective camera above and behind the robot looks down at it (``view="perspective"``, the default), or
     an orthographic camera looks straight down (``view="top"``, x to the right, y up: lengths read true). The
@@ -109,7 +110,7 @@ class StripRenderer:
     Parameters
     ----------
     sim : Simulator
-        With ``RodOptions(rod="cable", scene="floor")``.
+        A rod in a floor scene (``RodOptions(scene="floor")``), any rod.
     width, height : int
         Frame size (pixels), default 960 x 540.
     view : {"perspective", "top"}
@@ -151,18 +152,20 @@ class StripRenderer:
     RenderBackendError
         When no OpenGL context starts (the message names the packages to install).
     ValueError
-        For a simulator that is not the strip on the floor, an unknown view, a size outside [16, 8192] pixels, a
+        For a simulator that is not on the floor, an unknown view, a size outside [16, 8192] pixels, a
         spacing, span or field scale that is not > 0, an elevation outside [-75, -20] deg.
     """
 
     def __init__(self, sim, *, width: int = 960, height: int = 540, view: str = "perspective", follow: bool = True,
                  span: float | None = None, minor: float = 1 * MM, major: float = 5 * MM,
                  field_scale: float | None = None, trace: bool = True, panel: bool = False,
-                 panel_seconds: float | None = None, azimuth: float = 60.0, elevation: float = -40.0):
+                 panel_seconds: float | None = None, azimuth: float = 60.0, elevation: float = -40.0,
+                 zoom: bool | None = None):
         opts = getattr(sim, "options", None)
-        if getattr(opts, "rod", None) != "cable":
-            raise ValueError("StripRenderer draws the 3D strip (RodOptions(rod='cable')); the planar rod's frames "
-                             "are RodRenderer's side view.")
+        if opts is None or not hasattr(sim, "pose"):
+            raise ValueError(f"StripRenderer draws a magsoft_env.sim.Simulator, got {type(sim).__name__}.")
+        if zoom:
+            raise ValueError("zoom is the side view's inset of the rod's end; the 3D frames have none.")
         if opts.scene != "floor":
             raise ValueError(f"StripRenderer draws the strip on the floor (scene='floor'), got scene={opts.scene!r}.")
         if view not in STRIP_VIEWS:
@@ -212,11 +215,11 @@ class StripRenderer:
         self._look: np.ndarray | None = None
 
     def _strip(self):
-        """Vertices (N + 2, 3) and material frames (t, d1, d2) of the edges, of the current state."""
-        from ..sim.cable import material_frames
-
-        x = np.column_stack(self.sim.centerline())  # brings the derived quantities up to date
-        return x, material_frames(self.sim.backend.rod, self.sim.data, x)
+        """Centreline points (n, 3), the pieces' frames (tangent, width axis, thickness axis) and the centre of mass,
+        of the current state (the rod's pose)."""
+        p = self.sim.pose()
+        t, d1 = p.tangents, p.widths
+        return p.centreline, (t, d1, np.cross(t, d1)), p.com
 
     def _record(self, com: np.ndarray) -> None:
         t = float(self.sim.time)
@@ -233,18 +236,17 @@ class StripRenderer:
     @property
     def displacement(self) -> float:
         """x displacement (m) of the centre of mass since the path started (0 before any frame)."""
-        return 0.0 if self._start is None else float(self.sim.center_of_mass()[0] - self._start[0])
+        return 0.0 if self._start is None else float(self.sim.pose().com[0] - self._start[0])
 
     @property
     def displacement_y(self) -> float:
         """y displacement (m) of the centre of mass since the path started (0 before any frame)."""
-        return 0.0 if self._start is None else float(self.sim.center_of_mass()[1] - self._start[1])
+        return 0.0 if self._start is None else float(self.sim.pose().com[1] - self._start[1])
 
     @property
     def heading(self) -> float:
-        """The strip's tip-minus-base direction in the floor plane (rad, from +x toward +y)."""
-        x, y, _ = self.sim.centerline()
-        return math.atan2(float(y[-1] - y[0]), float(x[-1] - x[0]))
+        """The rod's tip-minus-base direction in the floor plane (rad, from +x toward +y)."""
+        return self.sim.pose().heading
 
     # ------------------------------------------------------------------ camera
     def _aim(self, com: np.ndarray) -> np.ndarray:
@@ -561,7 +563,7 @@ class StripRenderer:
                 top = min(float(g[1]), float(r[1])) if np.all(np.isfinite(r)) else float(g[1])
                 cv.text((g[0], top - 6 * u), "goal", col, px=13, bold=True, anchor="md", box=True)
             else:  # an arrow at the frame's edge, toward the goal
-                com = self.sim.center_of_mass()
+                com = self.sim.pose().com
                 c = self.project(np.array([com[0], com[1], 0.0]))
                 if not np.all(np.isfinite(g)):  # behind the camera: the direction on the floor, as the dial turns it
                     right, up = self._dial_axes()
@@ -718,8 +720,7 @@ class StripRenderer:
             b, bmag = np.zeros(3), 0.0
         if not self._field_scale_fixed and bmag > self.field_scale:
             self.field_scale = max(self.field_scale, dial_scale(bmag))
-        x, frames = self._strip()
-        com = np.asarray(sim.center_of_mass(), dtype=float)
+        x, frames, com = self._strip()
         self._record(com)
         aim = self._aim(com)
         self._place_camera(aim)

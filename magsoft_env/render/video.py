@@ -49,15 +49,17 @@ def _check_size(width, height) -> tuple[int, int]:
 def render_gait(
     preset, seconds: float, path=None, *, fps: float = 25.0, width: int = 960, height: int = 540,
     timestep: float | None = None, segments: int | None = None, scene: str = "floor", panel: bool = False,
-    overlay=None, zoom: bool | None = None, rod: str = "planar", view: str | None = None,
+    overlay=None, zoom: bool | None = None, rod: str = "planar", view: str | None = None, progress: bool = False,
+    rod_options: dict | None = None,
 ) -> tuple[list[np.ndarray], dict]:
     """Frames of an open-loop gait (a :class:`~magsoft_env.cases.robots.Robot` with a drive), optionally written.
 
-    Each frame is a :class:`~magsoft_env.render.frames.RodRenderer` side view: the robot on the
-    floor, grid and scale bar, the field dial (full scale: the drive's peak |B| rounded up to 1-2-5
-    mT), the centre-of-mass path and the start line, ``Δx`` since the start and (floor scene) a zoom
-    inset of the rod's end over a 0.1 mm ruler. With ``rod="cable"`` the 3D strip on the floor in
-    perspective or from above (:class:`~magsoft_env.render.strip.StripRenderer`).
+    Each frame shows the robot in its rod's view (:func:`~magsoft_env.render.views.make_renderer`): the planar
+    chain's side view by default (:class:`~magsoft_env.render.frames.RodRenderer`: the robot on the floor, grid and
+    scale bar, the field dial (full scale: the drive's peak |B| rounded up to 1-2-5 mT), the centre-of-mass path
+    and the start line, ``Δx`` since the start and (floor scene) a zoom inset of the rod's end over a 0.1 mm
+    ruler); the 3D strip's perspective, or any rod in perspective or from above
+    (:class:`~magsoft_env.render.strip.StripRenderer`).
 
     Parameters
     ----------
@@ -70,26 +72,31 @@ def render_gait(
     fps : float
         Frames per simulated second (the video plays in real time).
     width, height : int
-        Frame size (pixels) of the side view; ``panel`` adds its width to the right.
+        Frame size (pixels) of the view; ``panel`` adds its width to the right.
     timestep : float or None
         Simulation step (s); None: the robot's own (as :func:`~magsoft_env.sim.gait.run_gait`).
     segments : int or None
         Rod segments; None: the robot's own.
     scene : str
-        ``floor``, ``channel`` or ``obstacle``.
+        ``floor``, ``channel`` or ``obstacle`` (the scenes the rod builds).
     panel : bool
         Add a :class:`~magsoft_env.render.frames.TimePanel` (Δx(t), B(t) over ``[0, seconds]``).
     overlay : callable, optional
-        ``overlay(sim) -> (x, z)`` arrays (m), drawn dashed on each frame (e.g. an analytical shape).
+        ``overlay(sim) -> (x, z)`` arrays (m), drawn dashed on each frame of the side view (e.g. an analytical
+        shape).
     zoom : bool or None
-        The zoom inset of the rod's end with its 0.1 mm ruler (:class:`~magsoft_env.render.frames.RodRenderer`),
-        so that a 1-2 mm crawl shows; None: on for the ``floor`` scene (the planar rod only).
-    rod : {"planar", "cable"}
-        The planar hinge chain in its side view (default), or the 3D strip on the floor
-        (:func:`~magsoft_env.sim.gait.gait_rod_options` with ``rod="cable"``; a three-axis drive, e.g. with
-        ``amplitude_y``, is played as given) in a :class:`~magsoft_env.render.strip.StripRenderer` frame.
-    view : {None, "perspective", "top"}
-        The 3D strip's camera (None: perspective); the planar rod takes None only.
+        The side view's zoom inset of the rod's end with its 0.1 mm ruler, so that a 1-2 mm crawl shows; None: on
+        for the ``floor`` scene.
+    rod : str
+        The rod (``RodOptions.rod``): ``"planar"`` (the hinge chain, default) or ``"cable"`` (the 3D strip on the
+        floor, :func:`~magsoft_env.sim.gait.gait_rod_options`; a three-axis drive, e.g. with ``amplitude_y``, is
+        played as given).
+    view : {None, "side", "perspective", "top"}
+        The camera (None: the rod's own: side for the planar chain, perspective for the strip).
+    progress : bool
+        A progress bar (tqdm, on stderr) over the simulated time.
+    rod_options : dict or None
+        More :class:`~magsoft_env.sim.RodOptions` keywords (:func:`~magsoft_env.sim.gait.gait_rod_options`).
 
     Returns
     -------
@@ -97,10 +104,10 @@ def render_gait(
         ``round(seconds * fps) + 1`` frames (the first shows t = 0), each ``(height, width, 3)``
         (wider with ``panel``).
     summary : dict
-        ``displacement_mm``, ``speed_mm_s`` (centre of mass), ``frames``, ``fps``, ``width``,
-        ``height`` (of the frames written), ``path``, ``message`` (``"ok"`` or the instability that
-        stopped the run early), ``rod``; the 3D strip adds ``displacement_y_mm`` (centre of mass, along +y),
-        ``heading_deg`` (tip minus base in the floor plane, from +x toward +y, at the end) and ``view``.
+        ``displacement_mm``, ``speed_mm_s`` (centre of mass), ``displacement_y_mm`` (along +y), ``heading_deg``
+        (tip minus base in the floor plane, from +x toward +y, at the end), ``frames``, ``fps``, ``width``,
+        ``height`` (of the frames written), ``path``, ``message`` (``"ok"`` or the instability that stopped the run
+        early), ``rod``, ``view``.
     """
     if path is not None:
         path = _check_path(path)
@@ -111,68 +118,63 @@ def render_gait(
     width, height = _check_size(width, height)
     if overlay is not None and not callable(overlay):
         raise ValueError(f"overlay must be a function sim -> (x, z) or None, got {type(overlay).__name__}.")
-    if rod not in ("planar", "cable"):
-        raise ValueError(f"rod must be 'planar' or 'cable', got {rod!r}.")
-    three = rod == "cable"
-    if three:
-        from .strip import STRIP_VIEWS
-
-        if view is not None and view not in STRIP_VIEWS:
-            raise ValueError(f"view must be one of {list(STRIP_VIEWS)} or None for the 3D strip, got {view!r}.")
-        if scene != "floor":
-            raise ValueError(f"the 3D strip's gaits run on the floor scene only, got scene={scene!r}.")
-        if zoom:
-            raise ValueError("zoom is the side view's inset of the planar rod's end; the 3D strip's frames have none.")
-        if overlay is not None:
-            raise ValueError("overlay draws an (x, z) curve in the planar rod's side view; the 3D strip has none.")
-    elif view is not None:
-        raise ValueError(f"view={view!r} is a camera of the 3D strip: give rod='cable' (the planar rod's frames are "
-                         "its side view).")
     select_gl_backend()
     from ..sim import SimulationError, Simulator, as_waveform
     from ..sim.gait import gait_rod_options
-    from .frames import RodRenderer, dial_scale
+    from .frames import dial_scale
+    from .views import make_renderer
 
     sim = Simulator(preset.beam, gait_rod_options(preset, scene=scene, segments=segments, timestep=timestep,
-                                                 render=not three, rod=rod))
+                                                 render=True, rod=rod, **(rod_options or {})))
     wave = as_waveform(preset.wave)
     sim.set_waveform(wave)
     peak = float(np.max(np.linalg.norm(wave.sample(np.linspace(0.0, seconds, 1001)), axis=1)))
-    if three:
-        renderer = RodRenderer(sim, width=width, height=height, field_scale=dial_scale(peak), panel=panel,
-                               panel_seconds=seconds, view=view or "perspective")
-    else:
-        renderer = RodRenderer(sim, width=width, height=height, field_scale=dial_scale(peak), panel=panel,
-                               panel_seconds=seconds, zoom=zoom)
+    renderer = make_renderer(sim, view=view, width=width, height=height, field_scale=dial_scale(peak),
+                             panel=panel, panel_seconds=seconds, zoom=zoom)
+    view = getattr(renderer, "view", None) or "side"
+    if overlay is not None and view != "side":
+        renderer.close()
+        raise ValueError("overlay draws an (x, z) curve in the side view; give view='side' (a rod in the x-z plane).")
     n_frames = int(round(seconds * fps))
     per_frame = max(1, int(round(1.0 / (fps * sim.timestep))))
-    com0 = np.array(sim.center_of_mass(), dtype=float)
-    x0 = com0[0]
+    com0 = sim.pose().com
 
     def frame():
         return renderer.render(label=preset.name, overlay=None if overlay is None else overlay(sim))
 
     frames, message = [frame()], "ok"
+    bar = _progress(progress, n_frames, f"{preset.name} ({rod}, {view})")
     try:
         for _ in range(n_frames):
             sim.step(per_frame)
             frames.append(frame())
+            if bar is not None:
+                bar.update(1)
     except SimulationError as err:
         message = str(err)
     finally:
         renderer.close()
-    dx = float(sim.center_of_mass()[0] - x0)
-    summary = {"displacement_mm": dx * 1e3, "speed_mm_s": dx / max(sim.time, 1e-12) * 1e3, "frames": len(frames),
+        if bar is not None:
+            bar.close()
+    pose = sim.pose()
+    dx = float(pose.com[0] - com0[0])
+    summary = {"displacement_mm": dx * 1e3, "speed_mm_s": dx / max(sim.time, 1e-12) * 1e3,
+               "displacement_y_mm": float(pose.com[1] - com0[1]) * 1e3,
+               "heading_deg": float(np.degrees(pose.heading)), "frames": len(frames),
                "fps": fps, "width": int(frames[0].shape[1]), "height": int(frames[0].shape[0]),
-               "path": None if path is None else str(path), "message": message, "rod": rod}
-    if three:
-        cx, cy, _ = sim.centerline()
-        summary["displacement_y_mm"] = float(sim.center_of_mass()[1] - com0[1]) * 1e3
-        summary["heading_deg"] = float(np.degrees(np.arctan2(cy[-1] - cy[0], cx[-1] - cx[0])))
-        summary["view"] = view or "perspective"
+               "path": None if path is None else str(path), "message": message, "rod": rod, "view": view}
     if path is not None:
         write_video(frames, path, fps=fps)
     return frames, summary
+
+
+def _progress(on: bool, total: int, desc: str):
+    """A tqdm bar of ``total`` frames on stderr, or None."""
+    if not on:
+        return None
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, desc=desc, unit="frame", mininterval=0.5, leave=False)
 
 
 def render_policy(env_id: str, policy=None, seconds: float = 4.0, path=None, *, seed: int = 0,
@@ -204,25 +206,24 @@ def render_policy(env_id: str, policy=None, seconds: float = 4.0, path=None, *, 
     x0 = info.get("x_position", 0.0)
     t_end = float(seconds)
     side = None
-    three = getattr(base.sim.options, "rod", "planar") == "cable"  # the 3D strip: (Δx, Δy) and three components
+    axes = list(base.sim.backend.field_axes)  # the field components the rod takes, and as many panel lines
+    n = len(axes)
     if panel:
         from .frames import TimePanel
 
         floor = bool(base.sim.options.has_contact)
-        side = TimePanel(height=height, seconds=t_end, components=3 if three else 2,
-                         x_label=None if three else "\u0394x centre of mass (mm)" if floor else "tip to target (mm)")
-        com0 = np.array(base.sim.center_of_mass(), dtype=float)
+        side = TimePanel(height=height, seconds=t_end, components=n,
+                         x_label=None if floor else "tip to target (mm)")
+        com0 = base.sim.pose().com
 
     def frame(info):
         img = env.render()
         if side is None:
             return img
         sim = base.sim
-        com = np.asarray(sim.center_of_mass(), dtype=float)
-        if three:
-            return np.concatenate([img, side.update(sim.time, com[:2] - com0[:2], sim.field.vector())], axis=1)
-        x = com[0] - com0[0] if floor else info.get("position_error", 0.0)
-        return np.concatenate([img, side.update(sim.time, x, (sim.field.Bx, sim.field.Bz))], axis=1)
+        # the centre of mass's (Δx) or (Δx, Δy) on the floor; the shape env: the tip's distance to the target
+        x = sim.pose().com[:n - 1] - com0[:n - 1] if floor else info.get("position_error", 0.0)
+        return np.concatenate([img, side.update(sim.time, x, sim.field_vector[axes])], axis=1)
 
     frames, total, steps = [frame(info)], 0.0, 0
     while base.sim.time < t_end - 1e-9:

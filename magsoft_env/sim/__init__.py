@@ -1,18 +1,20 @@
-"""MuJoCo rod: the magnetic beam as a planar hinge chain under gravity, fields and contact.
+"""MuJoCo rods: the magnetic beam as a planar hinge chain or a 3D flexcomp strip, under gravity, fields and contact.
 
 Importing this package imports mujoco (no renderer, no gymnasium, no torch).
 
 Main entry points: :class:`Simulator` (dynamics, waveforms, settling, readouts: one stepping engine over a
-rod backend, :class:`~magsoft_env.sim.planar.PlanarRod` or the 3D flexcomp strip
-:class:`~magsoft_env.sim.cable.CableRod`, with one health monitor),
-:func:`mujoco_equilibrium` and :func:`mujoco_path` (statics along a loading path),
-:func:`build_model` / :class:`RodOptions` (the MjSpec builder), :mod:`.waveforms`.
+rod backend, with one health monitor), the rod backends (:mod:`.backend`: the interface, the :class:`Pose` every
+consumer reads and the registry; :class:`~magsoft_env.sim.planar.PlanarRod`, the hinge chain in the x-z plane;
+:class:`~magsoft_env.sim.cable.CableRod`, the 3D strip), :func:`mujoco_equilibrium` and :func:`mujoco_path`
+(statics along a loading path, with stability), :func:`build_model` / :class:`RodOptions` (the chain's MjSpec
+builder and every rod's options), :mod:`.waveforms`.
 """
 
-from .backend import RodBackend, rod_backend
+from ..rods import register_rod, rod_names
+from .backend import Pose, RodBackend, rod_backend, rod_class
 from .cable import CableRod, cable_equilibrium, cable_path
 from .discretize import RodDiscretization, discretize
-from .equilibrium import SimEquilibrium, mujoco_equilibrium, mujoco_path
+from .equilibrium import SimEquilibrium, Stability, mujoco_equilibrium, mujoco_path, static_stability
 from .health import UnphysicalError
 from .model import CHANNEL_SIZE, INTEGRATORS, OBSTACLE_SIZE, SCENES, RodModel, RodOptions, build_model, build_spec
 from .planar import PlanarRod
@@ -22,7 +24,7 @@ from .waveforms import Hold, PhaseShifted, Ramp, Sequence, Sine, Square, Switche
 __all__ = [
     "CHANNEL_SIZE", "INTEGRATORS", "CableRod", "cable_equilibrium", "cable_path",
     "OBSTACLE_SIZE", "SCENES", "Hold", "PhaseShifted", "Ramp", "RodDiscretization",
-    "PlanarRod", "RodBackend", "RodModel", "RodOptions", "SettleResult", "Sequence", "SimEquilibrium",
+    "PlanarRod", "Pose", "RodBackend", "Stability", "register_rod", "rod_class", "rod_names", "static_stability", "RodModel", "RodOptions", "SettleResult", "Sequence", "SimEquilibrium",
     "SimulationError",
     "UnphysicalError", "Simulator", "Sine", "Square", "SwitchedSquare", "Trajectory", "Waveform", "as_waveform",
     "build_model", "build_spec", "rod_backend", "discretize", "mujoco_equilibrium", "mujoco_path",

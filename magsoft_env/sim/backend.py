@@ -4,7 +4,8 @@ Everything that depends on which rod runs lives in the rod's backend: how a bloc
 MuJoCo or with couples written from Python), which fields it takes, how it settles, its pose, its histories and
 readouts, the options a gait gives it and the view that draws it. The :class:`~magsoft_env.sim.Simulator`, the
 gaits, the statics, the environments, the renderers and the command line know a rod only through this
-interface; a new rod is one new module and one line in :data:`ROD_BACKENDS` (or a :func:`register_rod` call).
+interface; a new rod is one new module and one line in :data:`~magsoft_env.rods.ROD_BACKENDS` (or a
+:func:`~magsoft_env.rods.register_rod` call).
 
 Registered rods:
 
@@ -23,13 +24,8 @@ from typing import Protocol, runtime_checkable
 import mujoco
 import numpy as np
 
+from ..rods import ROD_BACKENDS, check_rod, register_rod, rod_names
 from ..spec import Beam, Field
-
-#: name -> ``"module:Class"`` of every rod backend (``RodOptions.rod`` takes these names).
-ROD_BACKENDS: dict[str, str] = {
-    "planar": "magsoft_env.sim.planar:PlanarRod",
-    "cable": "magsoft_env.sim.cable:CableRod",
-}
 
 
 @dataclass(frozen=True)
@@ -97,9 +93,10 @@ class RodBackend(Protocol):
         for a 3D rod. Its moments and energies are in these components.
     scenes : tuple of str
         The scenes it builds (``RodOptions.scene``).
-    view : str
-        How a frame shows it: ``"side"`` (:class:`~magsoft_env.render.RodRenderer`) or ``"perspective"``
-        (:class:`~magsoft_env.render.strip.StripRenderer`).
+    views : tuple of str
+        How frames may show it, the default first: ``"side"`` (:class:`~magsoft_env.render.RodRenderer`, a rod in
+        the x-z plane), ``"perspective"`` or ``"top"`` (:class:`~magsoft_env.render.strip.StripRenderer`, any rod,
+        drawn from its :class:`Pose`).
     static_timestep, static_tol : float
         Defaults of :func:`~magsoft_env.sim.mujoco_equilibrium`: the settling step (s) and residual tolerance.
     check_options(options)
@@ -144,7 +141,7 @@ class RodBackend(Protocol):
     label: str
     field_axes: tuple
     scenes: tuple
-    view: str
+    views: tuple
     static_timestep: float
     static_tol: float
     model: mujoco.MjModel
@@ -259,26 +256,9 @@ class RodBackend(Protocol):
         """Couples ``(R m) x B`` on the pieces, world frame (N m)."""
 
 
-def register_rod(name: str, entry: str) -> None:
-    """Register a rod backend: ``RodOptions(rod=name)`` builds ``entry`` (``"module:Class"``) from then on."""
-    if not isinstance(name, str) or not name.isidentifier():
-        raise ValueError(f"a rod's name must be an identifier, got {name!r}.")
-    if not isinstance(entry, str) or entry.count(":") != 1:
-        raise ValueError(f"entry must be 'module:Class', got {entry!r}.")
-    ROD_BACKENDS[name] = entry
-
-
-def rod_names() -> tuple[str, ...]:
-    """The registered rods' names."""
-    return tuple(ROD_BACKENDS)
-
-
 def rod_class(name: str) -> type:
     """The backend class registered as ``name`` (ValueError naming the registered ones otherwise)."""
-    entry = ROD_BACKENDS.get(name) if isinstance(name, str) else None
-    if entry is None:
-        raise ValueError(f"rod must be one of {list(ROD_BACKENDS)}, got {name!r}.")
-    module, cls = entry.split(":")
+    module, cls = ROD_BACKENDS[check_rod(name)].split(":")
     return getattr(importlib.import_module(module), cls)
 
 

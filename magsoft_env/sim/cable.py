@@ -102,8 +102,8 @@ class CableRod:
     #: It takes fields with three components (B_x, B_y, B_z).
     field_axes = (0, 1, 2)
     scenes = CABLE_SCENES
-    #: A frame shows it in perspective (:class:`~magsoft_env.render.strip.StripRenderer`).
-    view = "perspective"
+    #: Frames show it in perspective or from above (:class:`~magsoft_env.render.strip.StripRenderer`).
+    views = ("perspective", "top")
     #: :func:`~magsoft_env.sim.mujoco_equilibrium`'s defaults: a 1 ms settling step (the edge constraint follows the
     #: step) and a residual of 1e-6 (fraction of L, or rad).
     static_timestep = 1e-3

@@ -385,7 +385,7 @@ def mujoco_path(
         if (n + extra) * budget > MAX_STEPS:
             need = float(np.max(np.abs(target - prev))) * budget / MAX_STEPS
             check_steps(
-                f"the path segment to {_mt(f)}: {n + extra:.3g} settles (max_field_step = "
+                f"the path segment to {_mt(f, cls.field_axes)}: {n + extra:.3g} settles (max_field_step = "
                 f"{mstep:g} T) x up to {budget} steps each", float(n + extra) * budget,
                 f"Use max_field_step >= {need:.3g} T, or fewer steps per settle (larger timestep, shorter max_time).",
             )
@@ -408,7 +408,7 @@ def mujoco_path(
             steps += r.steps
             if not r.success:
                 ok = False
-                msgs.append(f"field {_mt(sim.field)}: {r.message}")
+                msgs.append(f"field {_mt(sim.field, cls.field_axes)}: {r.message}")
         prev = target
         stab = static_stability(sim) if stability else None
         switches = 0
@@ -419,7 +419,7 @@ def mujoco_path(
             switches += 1
             if not r.success:
                 ok = False
-                msgs.append(f"field {_mt(sim.field)}, leaving an unstable state: {r.message}")
+                msgs.append(f"field {_mt(sim.field, cls.field_axes)}, leaving an unstable state: {r.message}")
             stab = static_stability(sim)
         if stab is not None and switches:
             stab = Stability(stab.stable, stab.eigenvalue, stab.scale, stab.mode,
@@ -429,9 +429,9 @@ def mujoco_path(
     return out
 
 
-def _mt(f: Field) -> str:
-    v = f.as_array() if f.is_planar else f.vector()
-    return "(" + ", ".join(f"{b * 1e3:.4g}" for b in v) + ") mT"
+def _mt(f: Field, axes) -> str:
+    """A field in the components a rod takes, in mT."""
+    return "(" + ", ".join(f"{b * 1e3:.4g}" for b in f.vector()[list(axes)]) + ") mT"
 
 
 def mujoco_equilibrium(beam: Beam, field, **kwargs) -> SimEquilibrium:

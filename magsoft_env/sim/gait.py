@@ -187,6 +187,11 @@ class GaitResult:
     turned: float = 0.0
 
     @property
+    def out_of_plane(self) -> bool:
+        """True when the body left the x-z plane: it moved or turned sideways, or rolled."""
+        return bool(self.displacement_y or self.turned or self.max_roll)
+
+    @property
     def flipped(self) -> bool:
         """True when the body turned past vertical during the run (``locomotion == "tumble"``)."""
         return self.locomotion == "tumble"

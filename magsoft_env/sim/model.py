@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
+from ..rods import check_rod
 from ..spec import Beam
 from ..validate import choice, finite_number, integer, nonnegative, positive
 from .discretize import RodDiscretization, discretize
@@ -259,9 +260,9 @@ class RodOptions:
         choice("RodOptions.contact_geom", self.contact_geom, CONTACT_GEOMS)
         choice("RodOptions.cone", self.cone, CONES)
         choice("RodOptions.magnetics", self.magnetics, MAGNETICS)
-        from .backend import rod_class, rod_names
+        from .backend import rod_class
 
-        choice("RodOptions.rod", self.rod, rod_names())
+        check_rod(self.rod, "RodOptions.rod")
         rod_class(self.rod).check_options(self)  # what this rod cannot build (scenes, integrators, clamp)
         # bounded: with tolerance 0 MuJoCo runs every iteration of every step
         for name, lo in (("noslip_iterations", 0), ("solver_iterations", 1)):

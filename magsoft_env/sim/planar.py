@@ -60,8 +60,8 @@ class PlanarRod:
     #: It takes fields in its plane: (B_x, B_z).
     field_axes = (0, 2)
     scenes = SCENES
-    #: A frame shows it from the side (:class:`~magsoft_env.render.RodRenderer`).
-    view = "side"
+    #: Frames show it from the side (:class:`~magsoft_env.render.RodRenderer`), or in 3D from its pose.
+    views = ("side", "perspective", "top")
     #: :func:`~magsoft_env.sim.mujoco_equilibrium`'s defaults: a 10 ms settling step (the ``discrete`` integrator
     #: is stable there) and a residual of 1e-8 rad.
     static_timestep = 1e-2
@@ -94,7 +94,8 @@ class PlanarRod:
             raise ValueError(
                 f"the {PLANAR_ROD} takes fields in the x-z plane, but the waveform {type(source).__name__} has a y "
                 f"component (|B_y| up to {float(np.nanmax(by)) * 1e3:.4g} mT). Use the 3D rod, "
-                "RodOptions(rod='cable'), or a waveform in the x-z plane (e.g. Rotating about axis=(0, 1, 0)).")
+                "RodOptions(rod='cable') (on the command line --rod cable), or a waveform in the x-z plane (e.g. "
+                "Rotating about axis=(0, 1, 0)).")
 
     @classmethod
     def gait_options(cls, robot, *, scene: str, segments: int, timestep: float, own_numerics: bool) -> dict:

@@ -169,12 +169,12 @@ class PhaseShifted(Waveform):
     def sample(self, t):
         t = np.atleast_1d(np.asarray(t, dtype=float))
         w = 2.0 * np.pi * self.frequency * t
-        three = self.components == 3
+        k = self.components  # (B_x, B_z) rows, or (B_x, B_y, B_z) with a y drive
         o = lift3(np.array([self.offset]))[0]
-        out = np.empty((t.size, 3 if three else 2))
+        out = np.empty((t.size, k))
         out[:, 0] = o[0] + self.amplitude_x * np.sin(w + self.phase_x)
         out[:, -1] = o[2] + self.amplitude_z * np.sin(w + self.phase_z)
-        if three:
+        if k == 3:
             out[:, 1] = o[1] + self.amplitude_y * np.sin(w + self.phase_y)
         return out
 
@@ -388,8 +388,8 @@ class Sequence(Waveform):
 
     def sample(self, t):
         t = np.atleast_1d(np.asarray(t, dtype=float))
-        three = self.components == 3
-        out = np.empty((t.size, 3 if three else 2))
+        k = self.components  # the widest part's: planar parts are lifted to (B_x, 0, B_z) beside a 3D one
+        out = np.empty((t.size, k))
         t0 = 0.0
         done = np.zeros(t.size, dtype=bool)
         for i, p in enumerate(self.parts):
@@ -397,7 +397,7 @@ class Sequence(Waveform):
             m = ~done if last else (~done & (t < t0 + p.duration))
             if np.any(m):
                 part = p.sample(t[m] - t0)
-                out[m] = lift3(part) if three else part
+                out[m] = part if part.shape[1] == k else lift3(part)
             done |= m
             if not last:
                 t0 += p.duration
