@@ -195,7 +195,6 @@ def test_panel_plots_two_displacements_and_three_field_components(paper_5c):
 def test_views_and_options_are_checked(paper_5c):
     from magsoft_env.render.frames import RodRenderer
     from magsoft_env.render.strip import StripRenderer
-
     from magsoft_env.render.views import make_renderer
 
     planar = _sim(paper_5c, rod="planar")

@@ -221,7 +221,8 @@ def run(args) -> int:
         preset = dataclasses.replace(preset, beam=_turned_over(args.preset))
     res = run_gait(preset, args.seconds, segments=args.segments, fidelity=args.fidelity,
                    timestep=None if args.timestep_ms is None else args.timestep_ms * 1e-3,
-                   progress=sys.stderr.isatty(), rod=args.rod, rod_options=rod_options(args))  # a bar on a terminal only: logs and pipes stay clean
+                   # a bar on a terminal only: logs and pipes stay clean
+                   progress=sys.stderr.isatty(), rod=args.rod, rod_options=rod_options(args))
     out = res.to_dict()
     out["paper_speed_mm_s"] = None if preset.paper_speed is None else preset.paper_speed * 1e3
     out["paper_direction"] = preset.paper_direction

@@ -39,7 +39,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
             "Stable-Baselines3 model (--policy model.zip) or, without one, by the robot's open-loop gait "
             "(--robot FILE: that robot in the environment). --panel adds plots of x(t) and B(t) beside the frames. "
             "--rod cable renders the gait of the 3D strip on the floor (in perspective; --view top from above; "
-            "--view perspective shows the planar rod in 3D too), with a three-axis drive from --amplitude-y-mT and --phase-y-deg, or a field turning about an axis "
+            "--view perspective shows the planar rod in 3D too), with a three-axis drive from --amplitude-y-mT and "
+            "--phase-y-deg, or a field turning about an axis "
             "(--rotate-about z: the strip turns in place), as in magsoft gait."
         ),
     )

@@ -5,17 +5,16 @@ from __future__ import annotations
 import math
 
 import gymnasium as gym
-import mujoco
 import numpy as np
 from gymnasium import spaces
 
-from ..cases.gaits import numerics
 from ..cases.robots import resolve_robot
+from ..rods import DEFAULT_ROD
 from ..sim import PhaseShifted, Ramp, SimulationError, Simulator
 from ..sim.gait import gait_rod_options
 from ..sim.health import MAX_STEPS, check_steps
-from ..sim.model import CONTACT_HISTORY, MAX_TIMESTEP, NODE_SENSOR
-from ..sim.readouts import is_flipped, orientation
+from ..sim.model import CONTACT_HISTORY, MAX_TIMESTEP
+from ..sim.readouts import is_flipped
 from ..spec.drive import Waveparams
 from ..validate import choice, finite_number, nonnegative, positive
 from . import as_action, instability_info, refuse_unknown_kwargs, run_to_end
@@ -54,53 +53,16 @@ ACTION_MODES = ("field", "waveform")
 CRAWL_MODES = ("rotation", "height", "none")
 
 
-class CentrelineHistory:
-    """The rod's centreline at every substep of the last native block, from MuJoCo's own sensors.
-
-    The scene carries a ``framepos`` sensor on each centreline point (:data:`~magsoft_env.sim.model.NODE_SENSOR`)
-    with a history buffer of ``nsample`` steps; after ``mj_step(m, d, k)`` (or a ``mujoco.rollout`` block) the
-    buffer holds the centreline of the state each of the ``k`` steps started from, so the crawl limits can be
-    held at every substep without stepping MuJoCo one step at a time from Python.
-    """
-
-    def __init__(self, model, data):
-        ids = []
-        while (sid := mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, f"{NODE_SENSOR}{len(ids)}")) >= 0:
-            ids.append(sid)
-        if len(ids) < 2:
-            raise ValueError(f"the model has no centreline sensors ({NODE_SENSOR}0, ...): a contact scene builds them.")
-        ns = int(model.sensor_history[ids[0], 0])
-        adr = model.sensor_historyadr[ids].astype(int)
-        stride = 2 + ns + 3 * ns  # user slot, cursor, nsample timestamps, nsample 3-vectors
-        if ns < 1 or np.any(model.sensor_history[ids, 0] != ns) or np.any(adr != adr[0] + stride * np.arange(len(ids))):
-            raise ValueError("the centreline sensors must be consecutive 3-vectors with equal history buffers.")
-        #: samples each buffer holds: the longest block it covers (steps)
-        self.nsample = ns
-        rows = data.history[adr[0]: adr[0] + stride * len(ids)].reshape(len(ids), stride)  # a view
-        self._cursor = rows[0, 1:2]
-        self._values = rows[:, 2 + ns:].reshape(len(ids), ns, 3)
-
-    def last(self, k: int) -> tuple[np.ndarray, np.ndarray]:
-        """x and z (m) of the centreline points at the start of each of the last ``k`` steps, oldest first:
-        shape ``(N + 2, k)`` each."""
-        if not 1 <= k <= self.nsample:
-            raise ValueError(f"k must lie in [1, {self.nsample}], got {k!r}.")
-        end = int(self._cursor[0]) + 1
-        if end >= k:  # the last k samples in one piece of the ring: a view
-            v = self._values[:, end - k:end]
-        else:
-            v = self._values[:, (end + np.arange(-k, 0)) % self.nsample]
-        return v[..., 0], v[..., 2]
-
-
 class MagSoftCrawlEnv(gym.Env):
     """
     ## Description
 
     A centimetre-scale hard-magnetic soft beam (silicone + NdFeB, the paper's Fig. 5 robots)
     lies on a floor. A uniform field from coils bends it; friction with the floor turns the
-    bending into crawling. The agent chooses the field. Physics: the MuJoCo hinge-chain rod of
-    :mod:`magsoft_env.sim` (planar, ``segments`` cells, magnetic couples ``(R m) x B``).
+    bending into crawling. The agent chooses the field. Physics: a MuJoCo rod of :mod:`magsoft_env.sim`
+    (``segments`` cells, magnetic couples ``(R m) x B``): the planar hinge chain (``rod="planar"``, the default)
+    or the 3D flexcomp strip (``rod="cable"``: bending both ways, twist, its width on the floor), with the same
+    observation and action contract.
 
     Above about 2.5-3 mT a 20-30 mm beam stops crawling and tumbles end over end at tens of
     mm/s (docs/envs.md, "Crawl mode"). The crawl modes hold what the paper's robots do: part of the
@@ -109,9 +71,11 @@ class MagSoftCrawlEnv(gym.Env):
     a piece turns more than ``max_link_rotation`` from the floor (a tumble); ``"height"`` holds the same
     floor contact and limits the highest point to ``max_height`` (the paper's 7.6 mm channel ceiling);
     ``"none"`` allows hops and tumbling. The limits hold at every simulation substep, not only at the end
-    of a control step (a hop that lands within one 20 ms step counts): MuJoCo's ``framepos`` sensors of the
-    centreline points keep every substep of a native block in their history buffers
-    (:class:`CentrelineHistory`), which the env reads after each block. A hop-tolerant crawl is
+    of a control step (a hop that lands within one 20 ms step counts): the rod keeps the centreline of every
+    substep of a block (the chain's ``framepos`` sensors' history buffers; :meth:`Simulator.centreline_history
+    <magsoft_env.sim.Simulator.centreline_history>`), which the env reads after each block. On the strip the
+    clearance is that of its centreline minus h/2 (exact while it lies on its wide face) and the piece angles are
+    measured from its heading on the floor, toward +z. A hop-tolerant crawl is
     ``max_clearance=2e-3`` (the whole beam up to 2 mm off the floor) or ``None`` (no floor limit).
 
     ## Action Space
@@ -199,6 +163,9 @@ class MagSoftCrawlEnv(gym.Env):
     | Parameter | Default | Description |
     |-----------|---------|-------------|
     | ``robot`` | ``"paper-5c"`` | built-in name (``list_robots()``), robot file (.yml, .json) or ``Robot`` |
+    | ``rod`` | ``"planar"`` | the rod (``RodOptions.rod``): ``"planar"`` (hinge chain) or ``"cable"`` (3D strip; at |
+    | | | the robot's own numerics its gait numerics, :func:`~magsoft_env.sim.cable.cable_gait_numerics`) |
+    | ``rod_options`` | None | more ``RodOptions`` keywords (contact and solver settings), winning over the gait's |
     | ``action_mode`` | ``"field"`` | ``"field"`` or ``"waveform"`` |
     | ``field_limit`` | 0.002 | coil limit per axis (T); the crawl window ends near 2.5-3 mT |
     | ``slew_rate`` | None | largest field change rate per axis (T/s); None: unlimited |
@@ -263,6 +230,8 @@ class MagSoftCrawlEnv(gym.Env):
         self,
         robot="paper-5c",
         *,
+        rod: str = DEFAULT_ROD,
+        rod_options: dict | None = None,
         action_mode: str = "field",
         field_limit: float = DEFAULT_FIELD_LIMIT,
         slew_rate: float | None = None,
@@ -298,9 +267,15 @@ class MagSoftCrawlEnv(gym.Env):
         self.slew_rate = None if slew_rate is None else positive("slew_rate", slew_rate, unit="T/s")
         if sim_dt is not None:
             positive("sim_dt", sim_dt, unit="s")
-        # one physics with the gaits: the robot's own numerics unless a level or explicit ones are given
-        segments, self.sim_dt = numerics(self.gait, fidelity=fidelity, segments=segments, timestep=sim_dt,
-                                         scene=self._scene)
+            if sim_dt > MAX_TIMESTEP:
+                raise ValueError(f"sim_dt must lie in (0, {MAX_TIMESTEP:g}] s, got {sim_dt!r}.")
+        # one physics with the gaits: the robot's own numerics (the rod's own where the robot's do not suit it)
+        # unless a level or explicit ones are given; the gaits' rod (the beam's own stiff contact, not the sim's
+        # fast 2 ms default), so that env results and the open-loop gait table describe the same physics
+        options = gait_rod_options(self.gait, scene=self._scene, segments=segments, timestep=sim_dt,
+                                   fidelity=fidelity, friction=friction, render=render_mode is not None,
+                                   feature_x=feature_x, rod=rod, **(rod_options or {}))
+        self.sim_dt = options.timestep
         self.fidelity = fidelity
         if self.sim_dt > MAX_TIMESTEP:
             raise ValueError(f"sim_dt must lie in (0, {MAX_TIMESTEP:g}] s, got {sim_dt!r}.")
@@ -352,28 +327,26 @@ class MagSoftCrawlEnv(gym.Env):
         self.width, self.height = int(width), int(height)
 
         self.robot = self.gait.name
-        # the gaits' rod (the beam's own stiff contact, not the sim's fast 2 ms default), so that
-        # env results and the open-loop gait table describe the same physics
-        options = gait_rod_options(self.gait, scene=self._scene, segments=segments, timestep=self.sim_dt,
-                                   friction=friction, render=render_mode is not None, feature_x=feature_x)
+        #: the rod (``RodOptions.rod``)
+        self.rod = options.rod
         # the energy checks once per control step (at least every 50 substeps): with the contact history of
         # sim.model.CONTACT_HISTORY steps, a 100-substep step runs as one block in MuJoCo (10 % more env steps/s
         # than blocks of 25, same trajectory: vec_bench); waveform mode: every 100 substeps, its rollout blocks
         every = max(50, self.n_substeps) if self.action_mode == "field" else CONTACT_HISTORY
         self.sim = Simulator(self.gait.beam, options, check_every=every)
         self.segments = options.segments
-        self._mass = self.sim.rod.disc.mass
-        self._bodies = self.sim.rod.body_ids
-        self._nodes = CentrelineHistory(self.sim.model, self.sim.data)
+        self._nodes = self.sim.centreline_history()
         self._cos_rotation = math.cos(self.max_link_rotation)
-        self._inv_piece_length = (1.0 / self.sim.rod.disc.piece_length)[:, None]
+        pose = self.sim.pose()
+        self._inv_piece_length = (1.0 / pose.lengths)[:, None]
+        self._tracker = self.sim.orientation_tracker()  # the body's orientation, and its heading on the floor
         if self.action_mode == "field":
             self.metadata = {**self.metadata, "render_fps": int(round(1.0 / (self.n_substeps * self.sim_dt)))}
             self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         else:
             self.metadata = {**self.metadata, "render_fps": 2}
             self.action_space = spaces.Box(-1.0, 1.0, (4,), np.float32)
-        n1 = self.segments + 1
+        n1 = len(pose.lengths)  # the rod's pieces: N + 1
         high = np.concatenate([np.full(n1, np.pi), np.full(n1, OBS_MAX_ANGULAR_VELOCITY),
                                np.full(2, OBS_MAX_VELOCITY), np.ones(4)]).astype(np.float32)
         self.observation_space = spaces.Box(-high, high, dtype=np.float32)
@@ -394,13 +367,11 @@ class MagSoftCrawlEnv(gym.Env):
     # ------------------------------------------------------------------ physics readouts
     def com_position(self) -> np.ndarray:
         """Centre of mass (x, z) of the rod (m)."""
-        return self.sim.center_of_mass()
+        return self.sim.pose().com[[0, 2]]
 
     def piece_angular_velocities(self) -> np.ndarray:
         """Angular velocity of every piece about -y (rad/s), shape ``(N + 1,)``."""
-        self.sim.centerline()
-        mujoco.mj_comVel(self.sim.model, self.sim.data)
-        return -self.sim.data.cvel[self._bodies, 1].copy()
+        return self.sim.angular_velocities()
 
     def field_of_action(self, action) -> np.ndarray:
         """Field-mode action in [-1, 1]^2 -> (B_x, B_z) (T)."""
@@ -438,9 +409,8 @@ class MagSoftCrawlEnv(gym.Env):
         sim = self.sim
         sim.reset()
         sim.set_field((0.0, 0.0))
-        noise = self.np_random.uniform(-self.reset_noise_scale, self.reset_noise_scale, self.segments)
-        sim.data.qpos[sim.rod.hinge_qpos] += noise
-        mujoco.mj_forward(sim.model, sim.data)
+        sim.set_state(qpos=sim.noisy_rest(self.np_random, self.reset_noise_scale))
+        self._tracker = sim.orientation_tracker()
         self._field = np.zeros(2)
         self._last_action = np.zeros(4)
         self._com = self.com_position()
@@ -448,9 +418,9 @@ class MagSoftCrawlEnv(gym.Env):
         self._broken = False
         self._episode_forward = 0.0
         self._flipped = False
-        x, z = self.sim.centerline()
-        self._highest_clearance = float(np.min(z)) - 0.5 * self.gait.beam.thickness
-        self._lowest_cos = float(self._limits_of(x[:, None], z[:, None])[2, 0])
+        pts = self.sim.pose().centreline
+        self._highest_clearance = float(np.min(pts[:, 2])) - 0.5 * self.gait.beam.thickness
+        self._lowest_cos = float(self._limits_of(pts[:, None, :])[2, 0])
         self._airborne = 0
         self._substeps = 0
         self._last_obs = self._get_obs()
@@ -501,17 +471,23 @@ class MagSoftCrawlEnv(gym.Env):
                                f"{self._nodes.nsample} from the centreline sensors' history (Simulator.stepping "
                                "blocks are at most sim.model.CONTACT_HISTORY steps).")
         if k > 0:
-            self._samples.append(self._limits_of(*self._nodes.last(k)))
+            self._samples.append(self._limits_of(self._nodes.last(k)))
         return self.sim.nstep
 
-    def _limits_of(self, x: np.ndarray, z: np.ndarray) -> np.ndarray:
-        """Rows clearance (m), highest point (m), cos of the largest |piece angle| for centreline points
-        ``x``, ``z`` of shape ``(N + 2, k)``: shape ``(3, k)``."""
-        out = np.empty((3, x.shape[1]))
+    def _limits_of(self, pts: np.ndarray) -> np.ndarray:
+        """Rows clearance (m), highest point (m), cos of the largest |piece angle| for centreline points ``pts``
+        of shape ``(N + 2, k, 3)``: shape ``(3, k)``. A piece's angle is measured from the body's heading on the
+        floor (the orientation tracker's: +x for the planar chain) toward +z."""
+        z = pts[..., 2]
+        out = np.empty((3, z.shape[1]))
         np.subtract(z.min(axis=0), 0.5 * self.gait.beam.thickness, out=out[0])
         z.max(axis=0, out=out[1])
-        # the pieces are rigid: the cosine of a piece's angle is its x extent over its length
-        ((x[1:] - x[:-1]) * self._inv_piece_length).min(axis=0, out=out[2])
+        # the pieces are rigid (or held at length): the cosine of a piece's angle is its extent along the heading
+        # over its length
+        h = self._tracker.heading
+        d = pts[1:] - pts[:-1]
+        along = d[..., 0] * math.cos(h) + d[..., 1] * math.sin(h)
+        (along * self._inv_piece_length).min(axis=0, out=out[2])
         return out
 
     def step(self, action):
@@ -560,8 +536,7 @@ class MagSoftCrawlEnv(gym.Env):
         """Clearance, height and rotation rows (:meth:`_limits_of`) of every substep of the step just taken (the
         state each started from, from the sensors' history) and of its end state (last column); the episode's
         highest clearance and airborne count are updated."""
-        x, z = self.sim.centerline()
-        end = self._limits_of(x[:, None], z[:, None])
+        end = self._limits_of(self.sim.pose().centreline[:, None, :])
         lim = np.concatenate([*self._samples, end], axis=1)
         self._samples = []
         self._highest_clearance = max(self._highest_clearance, float(lim[0].max()))
@@ -606,7 +581,7 @@ class MagSoftCrawlEnv(gym.Env):
               success: float = 0.0) -> dict:
         # the body's orientation (length-weighted mean tangent angle, continuous; sim.readouts) and whether
         # it has been past vertical at the end of any step of this episode: a tumble, not a crawl
-        turn = orientation(self.sim)
+        turn = self._tracker.track(self.sim.pose())
         self._flipped = self._flipped or is_flipped(turn)
         return {
             "orientation": turn, "flipped": self._flipped,

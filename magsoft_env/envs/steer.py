@@ -317,12 +317,11 @@ class MagSoftSteerEnv(gym.Env):
 
     def _perturb(self) -> None:
         """Move the free vertices horizontally by ``U(-reset_noise_scale, reset_noise_scale)`` (m)."""
-        import mujoco
-
         sim, cm = self.sim, self.sim.backend.rod
         adr = cm.vertex_qpos[cm.vertex_body > 0][:, :2].ravel()  # slides x, y of each free vertex
-        sim.data.qpos[adr] += self.np_random.uniform(-self.reset_noise_scale, self.reset_noise_scale, adr.size)
-        mujoco.mj_forward(sim.model, sim.data)
+        qpos = sim.data.qpos.copy()
+        qpos[adr] += self.np_random.uniform(-self.reset_noise_scale, self.reset_noise_scale, adr.size)
+        sim.set_state(qpos=qpos)
 
     def field_of_action(self, action) -> np.ndarray:
         """The field (T) an action in [-1, 1]^3 asks for."""

@@ -1,7 +1,8 @@
 """3D frames of a rod on the floor (the flexcomp strip's own view; any rod's): perspective or top view.
 
 The rod is drawn from its pose (:meth:`Simulator.pose <magsoft_env.sim.Simulator.pose>`: centreline, the pieces'
-tangents and width axes) as one box per piece, so its width, thickness, bending and twist show; the floor carries a mm grid, the strip's drop shadow, the
+tangents and width axes) as one box per piece, so its width, thickness, bending and twist show; the floor carries
+a mm grid, the strip's drop shadow, the
 centre of mass's path, the start, the heading, an optional goal and a scale bar; the field is an arrow in the
 scene above the robot and a dial with its three components. The 2-D overlay (text, dial) is drawn as the
 side view's is (:class:`~magsoft_env.render.frames._Canvas`). What a frame shows: docs/rendering.md, "The 3D

@@ -22,10 +22,10 @@ from .simulator import SettleResult, SimulationError, Simulator, Trajectory
 from .waveforms import Hold, PhaseShifted, Ramp, Sequence, Sine, Square, SwitchedSquare, Waveform, as_waveform
 
 __all__ = [
-    "CHANNEL_SIZE", "INTEGRATORS", "CableRod", "cable_equilibrium", "cable_path",
-    "OBSTACLE_SIZE", "SCENES", "Hold", "PhaseShifted", "Ramp", "RodDiscretization",
-    "PlanarRod", "Pose", "RodBackend", "Stability", "register_rod", "rod_class", "rod_names", "static_stability", "RodModel", "RodOptions", "SettleResult", "Sequence", "SimEquilibrium",
-    "SimulationError",
-    "UnphysicalError", "Simulator", "Sine", "Square", "SwitchedSquare", "Trajectory", "Waveform", "as_waveform",
-    "build_model", "build_spec", "rod_backend", "discretize", "mujoco_equilibrium", "mujoco_path",
+    "as_waveform", "build_model", "build_spec", "cable_equilibrium", "cable_path", "CableRod", "CHANNEL_SIZE",
+    "discretize", "Hold", "INTEGRATORS", "mujoco_equilibrium", "mujoco_path", "OBSTACLE_SIZE", "PhaseShifted",
+    "PlanarRod", "Pose", "Ramp", "register_rod", "rod_backend", "rod_class", "rod_names", "RodBackend",
+    "RodDiscretization", "RodModel", "RodOptions", "SCENES", "Sequence", "SettleResult", "SimEquilibrium",
+    "SimulationError", "Simulator", "Sine", "Square", "Stability", "static_stability", "SwitchedSquare",
+    "Trajectory", "UnphysicalError", "Waveform",
 ]

@@ -279,6 +279,11 @@ class Simulator:
         mujoco.mj_forward(self.model, self.data)
         self._stale = False
 
+    def noisy_rest(self, rng: np.random.Generator, scale: float) -> np.ndarray:
+        """The rest ``qpos`` with every bending angle perturbed by ``U(-scale, scale)`` (rad), drawn from ``rng``
+        (the rod's own way: the chain's hinges, the strip's interior vertices)."""
+        return self.backend.reset_noise(rng, scale)
+
     def _state_args(self, qpos, qvel):
         out = []
         for name, v, n in (("qpos", qpos, self.model.nq), ("qvel", qvel, self.model.nv)):
