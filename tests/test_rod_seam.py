@@ -103,10 +103,11 @@ def test_render_gait_runs_the_twin(twin):
 
 def test_the_command_line_runs_the_twin(tmp_path):
     # a fresh process: the registry line, then `magsoft gait --rod twin` as a user would run it
-    code = ("import sys; sys.path.insert(0, %r); from magsoft_env.rods import register_rod; "
+    out_file = str(tmp_path / "g.json")
+    code = (f"import sys; sys.path.insert(0, {str(HERE)!r}); from magsoft_env.rods import register_rod; "
             "register_rod('twin', 'rod_twin:ChainTwin'); from magsoft_env.cli import main; "
             "raise SystemExit(main(['gait', '--preset', 'paper-5c', '--rod', 'twin', '--seconds', '0.2', "
-            "'--json', '--out', %r]))" % (str(HERE), str(tmp_path / "g.json")))
+            f"'--json', '--out', {out_file!r}]))")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     out = json.loads((tmp_path / "g.json").read_text())
