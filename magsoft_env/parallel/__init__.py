@@ -3,7 +3,7 @@
 Cases are data (:mod:`magsoft_env.parallel.jobs`), results a JSON Lines file the driver writes
 (:mod:`magsoft_env.parallel.batch`), engines ``serial``, ``local`` (a process pool, the default) and ``ray``
 (:mod:`magsoft_env.parallel.ray_engine`, the ``ray`` extra), generators of sweeps and Monte-Carlo scatter and a
-summary of the results (:mod:`magsoft_env.parallel.cases`). Importing this package imports no Ray.
+summary of the results (:mod:`magsoft_env.parallel.sweeps`). Importing this package imports no Ray.
 
 >>> from magsoft_env.parallel import run_batch
 >>> cases = [{"kind": "equilibrium", "robot": "paper-5c", "field_mT": [0.0, 5.0]}]

@@ -35,7 +35,7 @@ Kinds (:data:`KINDS`):
 
 Every robot-based kind also takes ``scale``: factors on the robot's ``length``, ``width``, ``thickness``,
 ``E0`` (modulus), ``magnetization`` (particle magnetization) and ``density``, the way the sweeps and the
-Monte-Carlo scatter vary a robot (:mod:`magsoft_env.parallel.cases`).
+Monte-Carlo scatter vary a robot (:mod:`magsoft_env.parallel.sweeps`).
 """
 
 from __future__ import annotations

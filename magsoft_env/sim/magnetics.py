@@ -3,7 +3,7 @@
 A rigid piece with body-frame moment ``m`` (A m^2) and world rotation ``R`` in a uniform
 field ``B`` (T) feels the couple ``tau = (R m) x B`` (N m) and has energy ``-(R m) . B`` (J).
 All functions are vectorized over pieces and take 3D vectors, so a planar chain (moments
-in the body x-z plane) and a future 3D rod share them.
+in the body x-z plane) and the 3D strip's edges share them.
 """
 
 from __future__ import annotations
