@@ -190,7 +190,7 @@ def run(args) -> int:
         if args.rod is not None:
             env_kwargs["rod"] = args.rod
         _, summary = render_policy(args.env, policy, args.seconds, args.out, env_kwargs=env_kwargs, width=args.width,
-                                   height=args.height, panel=args.panel)
+                                   height=args.height, panel=args.panel, progress=sys.stderr.isatty())
     summary["gl_backend"] = backend
     print(dumps_json(summary))
     return 0

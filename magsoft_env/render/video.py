@@ -179,7 +179,7 @@ def _progress(on: bool, total: int, desc: str):
 
 def render_policy(env_id: str, policy=None, seconds: float = 4.0, path=None, *, seed: int = 0,
                   env_kwargs: dict | None = None, width: int = 960, height: int = 540,
-                  panel: bool = False) -> tuple[list[np.ndarray], dict]:
+                  panel: bool = False, progress: bool = False) -> tuple[list[np.ndarray], dict]:
     """Frames of an environment driven by ``policy`` (``obs -> action``; None: the robot's
     open-loop gait for crawl envs, the target's field for the shape env, the hand-designed controller for the
     steering env), one frame per step.
@@ -187,7 +187,8 @@ def render_policy(env_id: str, policy=None, seconds: float = 4.0, path=None, *, 
     The environment is made with ``render_mode="rgb_array"``, ``env_kwargs`` and the frame size
     ``width`` x ``height`` (these two win over ``env_kwargs``). ``panel`` adds a
     :class:`~magsoft_env.render.frames.TimePanel` to the right: the centre of mass's Δx (floor
-    envs) or the tip's distance to the target (shape env) and the field, over ``[0, seconds]``.
+    envs; (Δx, Δy) for a 3D rod) or the tip's distance to the target (shape env) and the field, over
+    ``[0, seconds]``. ``progress``: a progress bar (tqdm, on stderr) over the simulated time.
 
     Returns frames and a summary (``steps``, ``return``, ``x_displacement_mm``, ``frames``, ``fps``,
     ``width``, ``height``, ``path``).
@@ -226,6 +227,12 @@ def render_policy(env_id: str, policy=None, seconds: float = 4.0, path=None, *, 
         return np.concatenate([img, side.update(sim.time, x, sim.field_vector[axes])], axis=1)
 
     frames, total, steps = [frame(info)], 0.0, 0
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=round(t_end, 6), desc=env_id, unit="s", mininterval=0.5, leave=False,
+                   bar_format="{desc}: {percentage:3.0f}% of " + f"{t_end:g} s" + " simulated [{elapsed}<{remaining}]")
     while base.sim.time < t_end - 1e-9:
         if policy is not None:
             action = policy(obs)
@@ -237,12 +244,17 @@ def render_policy(env_id: str, policy=None, seconds: float = 4.0, path=None, *, 
             action = base.open_loop_action()
         else:
             action = np.zeros(base.action_space.shape, dtype=np.float32)
+        t_before = base.sim.time
         obs, r, term, trunc, info = env.step(action)
         total += float(r)
         steps += 1
         frames.append(frame(info))
+        if bar is not None:
+            bar.update(round(min(base.sim.time, t_end) - min(t_before, t_end), 6))
         if term or trunc:
             break
+    if bar is not None:
+        bar.close()
     fps = base.metadata.get("render_fps", 25)
     env.close()
     if side is not None:
