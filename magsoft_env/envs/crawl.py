@@ -265,10 +265,13 @@ class MagSoftCrawlEnv(gym.Env):
         if self.field_limit > 0.1:
             raise ValueError(f"field_limit must be <= 0.1 T (fields are in tesla: 20 mT is 0.02), got {field_limit!r}.")
         self.slew_rate = None if slew_rate is None else positive("slew_rate", slew_rate, unit="T/s")
+        self.ctrl_dt = positive("ctrl_dt", ctrl_dt, unit="s")
         if sim_dt is not None:
             positive("sim_dt", sim_dt, unit="s")
             if sim_dt > MAX_TIMESTEP:
                 raise ValueError(f"sim_dt must lie in (0, {MAX_TIMESTEP:g}] s, got {sim_dt!r}.")
+            check_steps(f"ctrl_dt / sim_dt = {self.ctrl_dt:g} s / {sim_dt:g} s per env step", self.ctrl_dt / sim_dt,
+                        "Use a larger sim_dt or a smaller ctrl_dt.")
         # one physics with the gaits: the robot's own numerics (the rod's own where the robot's do not suit it)
         # unless a level or explicit ones are given; the gaits' rod (the beam's own stiff contact, not the sim's
         # fast 2 ms default), so that env results and the open-loop gait table describe the same physics
@@ -279,7 +282,6 @@ class MagSoftCrawlEnv(gym.Env):
         self.fidelity = fidelity
         if self.sim_dt > MAX_TIMESTEP:
             raise ValueError(f"sim_dt must lie in (0, {MAX_TIMESTEP:g}] s, got {sim_dt!r}.")
-        self.ctrl_dt = positive("ctrl_dt", ctrl_dt, unit="s")
         if self.action_mode == "field" and self.sim_dt > self.ctrl_dt:
             # one step would silently last sim_dt, not ctrl_dt
             raise ValueError(f"sim_dt must be <= ctrl_dt ({self.ctrl_dt:g} s), got {sim_dt!r}.")

@@ -23,7 +23,7 @@ def restart_from(env, qpos, qvel=None):
     sim.data.qpos[:] = np.asarray(qpos, dtype=float)
     sim.data.qvel[:] = 0.0 if qvel is None else np.asarray(qvel, dtype=float)
     mujoco.mj_forward(sim.model, sim.data)
-    sim._health.reset(np.zeros(2))
+    sim._health.reset(np.zeros(3))
     env._field = np.zeros(2)
     env._last_action = np.zeros(4)
     env._com = env.com_position()
@@ -31,9 +31,10 @@ def restart_from(env, qpos, qvel=None):
     env._broken = False
     env._episode_forward = 0.0
     env._flipped = False
-    x, z = sim.centerline()
-    env._highest_clearance = float(np.min(z)) - 0.5 * env.gait.beam.thickness
-    env._lowest_cos = float(env._limits_of(x[:, None], z[:, None])[2, 0])
+    env._tracker = sim.orientation_tracker()
+    pts = sim.pose().centreline
+    env._highest_clearance = float(np.min(pts[:, 2])) - 0.5 * env.gait.beam.thickness
+    env._lowest_cos = float(env._limits_of(pts[:, None, :])[2, 0])
     env._airborne = 0
     env._substeps = 0
     env._last_obs = env._get_obs()

@@ -103,7 +103,7 @@ class PlanarRod:
         colliders, the robot's numerics."""
         from ..cases.gaits import GAIT_CONTACT_GEOM
 
-        cls.check_beam(robot.beam, f"robot {robot.name!r} on the {PLANAR_ROD} (gaits, floor environments)")
+        cls.check_beam(robot.beam, f"robot {robot.name!r} on {PLANAR_ROD} (gaits, floor environments)")
         return {"segments": segments, "timestep": timestep, "contact_geom": GAIT_CONTACT_GEOM}
 
     def __init__(self, beam: Beam, options: RodOptions):
