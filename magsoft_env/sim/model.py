@@ -698,6 +698,23 @@ def native_controls(rod: RodModel, fields) -> np.ndarray:
     return out
 
 
+def scene_features(beam: Beam, o: RodOptions) -> list[tuple[str, list[float], list[float]]]:
+    """The boxes of a scene besides its floor, the same for every rod: ``(name, half-sizes, centre)`` (m). The
+    channel (the paper's Fig. 5a hollow box: ceiling and two side walls, its entrance at ``feature_x``) or the
+    obstacle (Fig. 5b block, its left face at ``feature_x``); ``feature_x`` None: ``L + 5 mm``."""
+    x0 = beam.length + 5e-3 if o.feature_x is None else float(o.feature_x)
+    if o.scene == "channel":
+        cl, cw, ch = CHANNEL_SIZE
+        out = [("channel_ceiling", [0.5 * cl, 0.5 * cw + _WALL, 0.5 * _WALL], [x0 + 0.5 * cl, 0.0, ch + 0.5 * _WALL])]
+        for side, y in (("left", 0.5 * cw + 0.5 * _WALL), ("right", -(0.5 * cw + 0.5 * _WALL))):
+            out.append((f"channel_wall_{side}", [0.5 * cl, 0.5 * _WALL, 0.5 * ch], [x0 + 0.5 * cl, y, 0.5 * ch]))
+        return out
+    if o.scene == "obstacle":
+        bl, bw, bh = OBSTACLE_SIZE
+        return [("obstacle", [0.5 * bl, 0.5 * bw, 0.5 * bh], [x0 + 0.5 * bl, 0.0, 0.5 * bh])]
+    return []
+
+
 def _add_scene(spec, beam: Beam, o: RodOptions, contact: _Contact) -> list:
     world = spec.worldbody
     geoms = []
@@ -711,24 +728,8 @@ def _add_scene(spec, beam: Beam, o: RodOptions, contact: _Contact) -> list:
 
     half = 10.0 * beam.length
     static_geom("floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[half, half, 1e-3])
-    x0 = beam.length + 5e-3 if o.feature_x is None else float(o.feature_x)
-    if o.scene == "channel":
-        cl, cw, ch = CHANNEL_SIZE
-        static_geom(
-            "channel_ceiling", type=mujoco.mjtGeom.mjGEOM_BOX,
-            size=[0.5 * cl, 0.5 * cw + _WALL, 0.5 * _WALL], pos=[x0 + 0.5 * cl, 0.0, ch + 0.5 * _WALL],
-        )
-        for side, y in (("left", 0.5 * cw + 0.5 * _WALL), ("right", -(0.5 * cw + 0.5 * _WALL))):
-            static_geom(
-                f"channel_wall_{side}", type=mujoco.mjtGeom.mjGEOM_BOX,
-                size=[0.5 * cl, 0.5 * _WALL, 0.5 * ch], pos=[x0 + 0.5 * cl, y, 0.5 * ch],
-            )
-    elif o.scene == "obstacle":
-        bl, bw, bh = OBSTACLE_SIZE
-        static_geom(
-            "obstacle", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.5 * bl, 0.5 * bw, 0.5 * bh],
-            pos=[x0 + 0.5 * bl, 0.0, 0.5 * bh],
-        )
+    for name, size, pos in scene_features(beam, o):
+        static_geom(name, type=mujoco.mjtGeom.mjGEOM_BOX, size=size, pos=pos)
     return geoms
 
 
