@@ -16,6 +16,7 @@ from pathlib import Path
 
 from ..io import check_out_dir, format_table, jsonable
 from ..io import write_json as _write_json
+from ..spec.loading import MAX_GRAVITY  # largest --gravity (m/s^2) every command accepts: 100 g
 from ..units import MM, MT
 
 DEFAULT_OUT = "magsoft_out"
@@ -29,8 +30,6 @@ BEAM_FLAGS = (
     ("--density-kg-per-m3", 1940.0, "composite density in kg/m^3, in [100, 30000]"),
     ("--poisson", 0.49, "Poisson's ratio nu in [0, 0.5]: the shear modulus G = E / (2 (1 + nu)) of the torsion (3D)"),
 )
-#: Largest --gravity accepted by every command (m/s^2): 100 g; 9810 would be mm/s^2.
-MAX_GRAVITY = 1000.0
 _NAME_MAX = 255  # bytes in one path component on common file systems
 
 
