@@ -6,11 +6,15 @@ or ran for a long time before an honest failure.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
 import magsoft_env as ms
+from magsoft_env.cli import main
 from magsoft_env.spec import as_field
+from magsoft_env.theory import TERMINATION_MESSAGES
 
 BEAM_KW = {"length": 0.02, "width": 5e-3, "thickness": 1e-3}
 
@@ -42,3 +46,28 @@ def test_gravity_beyond_100_g_is_refused_before_solving():
         ms.solve_equilibrium(_beam(), (0.0, 13e-3), gravity=1e30)
     with pytest.raises(ValueError, match=r"gravity must lie in \[0, 1000\] m/s\^2.*got 9810"):
         ms.solve_path(_beam(magnetization=(1.0, 1.0, 0.0)), [(0.0, 13e-3, 0.0)], gravity=9810)
+
+
+def test_a_3d_load_step_past_its_work_budget_ends_with_a_status_saying_so():
+    # a strip magnetized across its width, flipped by a field against it: a fold and a jump on the way
+    beam = _beam(magnetization=(0.0, 1.0, 0.0))
+    field = (0.0, -50e-3, 0.0)
+    free = ms.solve_equilibrium(beam, field, options=ms.theory.SolverOptions(max_step_work=math.inf))
+    default = ms.solve_equilibrium(beam, field)
+    assert free.success and free.snap_through
+    np.testing.assert_array_equal(default.centreline, free.centreline)  # the budget changes nothing not hit
+    r = ms.solve_equilibrium(beam, field, options=ms.theory.SolverOptions(max_step_work=2))
+    assert not r.success and r.status == 5
+    assert r.message.startswith(TERMINATION_MESSAGES[5])
+    assert "max_step_work = 2 " in r.message and "ms.ramp" in r.message
+    assert math.isnan(r.verification)
+    with pytest.raises(ValueError, match=r"SolverOptions.max_step_work must be > 0"):
+        ms.solve_equilibrium(beam, field, options=ms.theory.SolverOptions(max_step_work=0))
+
+
+def test_tesla_given_to_an_mT_flag_warns_with_the_likely_value(tmp_path, capsys):
+    assert main(["solve", "--field-mT", "0", "0.013", "--steps", "2", "--no-plot", "--out", str(tmp_path)]) == 0
+    err = capsys.readouterr().err
+    assert "warning: --field-mT 0 0.013 is a field of 0.013 mT" in err and "--field-mT 0 13 is 13 mT" in err
+    assert main(["solve", "--field-mT", "0", "13", "--steps", "2", "--no-plot", "--out", str(tmp_path)]) == 0
+    assert "warning" not in capsys.readouterr().err  # a plausible field: no word
