@@ -71,3 +71,14 @@ def test_tesla_given_to_an_mT_flag_warns_with_the_likely_value(tmp_path, capsys)
     assert "warning: --field-mT 0 0.013 is a field of 0.013 mT" in err and "--field-mT 0 13 is 13 mT" in err
     assert main(["solve", "--field-mT", "0", "13", "--steps", "2", "--no-plot", "--out", str(tmp_path)]) == 0
     assert "warning" not in capsys.readouterr().err  # a plausible field: no word
+
+
+@pytest.mark.parametrize("goal", ["abc", (0.01, 0.02, 0.0), [[0.01], [0.02]], ("0.01", "0.02")])
+def test_a_bad_steering_goal_is_named_with_its_shape_units_and_range(goal):
+    from magsoft_env.envs.steer import MagSoftSteerEnv
+
+    env = MagSoftSteerEnv()
+    with pytest.raises(ValueError, match=r"options\['goal'\] must be a point \(x, y\) on the floor in m, shape \(2,\)"
+                                         r".*within max_distance = .* m .*got "):
+        env.reset(seed=0, options={"goal": goal})
+    env.close()
