@@ -288,9 +288,9 @@ class MagSoftSteerEnv(gym.Env):
         except ValueError:
             goal_xy = np.empty(0)
         if goal_xy is not None and goal_xy.shape != (2,):
-            raise ValueError(f"options['goal'] must be a point (x, y) on the floor in m, shape (2,): two finite numbers "
-                             f"within max_distance = {self.max_distance:g} m of the strip's centre of mass, e.g. "
-                             f"(0.03, 0.0), got {goal!r}.")
+            raise ValueError(f"options['goal'] must be a point (x, y) on the floor in m, shape (2,): two finite "
+                             f"numbers within max_distance = {self.max_distance:g} m of the strip's centre of mass, "
+                             f"e.g. (0.03, 0.0), got {goal!r}.")
         sim = self.sim
         sim.reset()
         sim.set_field((0.0, 0.0, 0.0))
