@@ -82,3 +82,33 @@ def test_a_bad_steering_goal_is_named_with_its_shape_units_and_range(goal):
                                          r".*within max_distance = .* m .*got "):
         env.reset(seed=0, options={"goal": goal})
     env.close()
+
+
+def test_long_work_shows_progress_on_stderr_only_when_asked(capsys):
+    from magsoft_env.compare.grasp import GraspTrial, max_lift_mass
+
+    class Scene:  # lifts up to 3 gripper masses; a real trial takes seconds of MuJoCo
+        gripper_mass = 1e-3
+
+        def trial(self, mass):
+            lifted = mass <= 3e-3
+            return GraspTrial(lifted, mass, 0.01, message="lifted" if lifted else "not lifted")
+
+    quiet = max_lift_mass(Scene())
+    assert capsys.readouterr().err == ""
+    loud = max_lift_mass(Scene(), progress=True)
+    err = capsys.readouterr().err.splitlines()
+    assert loud.ratio == quiet.ratio and len(err) == len(loud.trials)
+    assert err[0].startswith("grasp trial 1: 0.05 x the gripper mass (0.05 g): lifted [")
+
+    pytest.importorskip("stable_baselines3")
+    from magsoft_env.rl.callbacks import ProgressLines
+
+    cb = ProgressLines(100, every=0.5, label="PPO")
+    cb._on_training_start()
+    for n in (49, 50, 99, 100):
+        cb.num_timesteps = n
+        cb._on_step()
+    err = capsys.readouterr().err.splitlines()
+    assert err[0] == "PPO: 100 steps ..." and len(err) == 3
+    assert err[1].startswith("PPO: 50/100 steps (50 %), ") and err[2].startswith("PPO: 100/100 steps (100 %), ")
