@@ -7,6 +7,9 @@ or ran for a long time before an honest failure.
 from __future__ import annotations
 
 import math
+import re
+import tomllib
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -112,3 +115,40 @@ def test_long_work_shows_progress_on_stderr_only_when_asked(capsys):
     err = capsys.readouterr().err.splitlines()
     assert err[0] == "PPO: 100 steps ..." and len(err) == 3
     assert err[1].startswith("PPO: 50/100 steps (50 %), ") and err[2].startswith("PPO: 100/100 steps (100 %), ")
+
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+
+def test_readme_commands_parse_as_pasted_and_name_what_all_installs():
+    import shlex
+
+    from magsoft_env.cli import build_parser
+
+    text = README.read_text()
+    commands = [" ".join(c.split()) for c in re.findall(r"`(magsoft [^`]*)`", text) if "COMMAND" not in c]
+    assert any("--rod cable" in c for c in commands)
+    for cmd in commands:  # argparse exits (status 2) on a missing required flag such as --preset or --out
+        _, extras = build_parser().parse_known_args(shlex.split(cmd)[1:])
+        assert not extras, cmd
+    extras = tomllib.loads((README.parent / "pyproject.toml").read_text())["project"]["optional-dependencies"]
+    (all_extra,) = extras["all"]
+    parts = re.search(r"\[(.*)\]", all_extra).group(1)
+    assert f"`.[all]` is `.[{parts}]`" in text and "Ray" in text and "Warp" in text and "pillow" in text
+
+
+def test_export_takes_built_in_names_anywhere_and_suggests_them_for_a_missing_file(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)  # not the repository's root: assets/robots/... is not here
+    cmd = re.search(r"`magsoft (export [^`]*)`", README.read_text()).group(1).split()
+    assert main(cmd) == 0 and (tmp_path / "m.xml").stat().st_size > 0
+    capsys.readouterr()
+    assert main(["export", "--robot", "assets/robots/paper-5c.yml", "--out", "m2.xml"]) == 2
+    err = capsys.readouterr().err
+    assert "does not exist" in err and "paper-5a, paper-5b, paper-5c" in err and "--robot paper-5c" in err
+
+
+def test_gait_says_when_its_speed_is_not_the_papers(capsys):
+    assert main(["gait", "--preset", "paper-5c", "--seconds", "1.5"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    i = next(k for k, line in enumerate(out) if line.startswith("paper: reversible, 3.00 mm/s either way"))
+    assert out[i + 1].startswith("note: the simulated speed is ") and "docs/envs.md" in out[i + 1]
