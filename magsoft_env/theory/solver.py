@@ -93,8 +93,9 @@ class SolverOptions:
         included) may take, counted in dense solves of a 100-node grid (a Newton iteration on M nodes
         counts (M / 100)^3; a stability test or energy-descent iteration 2-3 times that). Past it the
         path ends with status 5 and a message saying where; math.inf removes the bound. The default,
-        15000, is about 30 s on a 2-core x86_64 machine; every test case and the stress benchmark's take
-        under 11000 (most under 100).
+        15000, is 30-75 s on a 2-core x86_64 machine (2-5 ms a unit measured, the more the busier its
+        cores); the test cases take under 50, 300 stress-benchmark cases (fields to 40 mT) under 75,
+        and 169 random strips of 8-18 cells with fields to 80-100 mT (folds included) under 10500.
 
     Ranges (checked by :meth:`check`, which every solve calls before any work): ``nodes`` None
     or an integer in [8, 400]; ``max_nodes`` an integer in [8, 1000]; ``tol`` in [1e-15, 1e-6];
