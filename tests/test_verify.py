@@ -104,14 +104,19 @@ def test_solver_options_are_checked_before_any_work(options, name):
 
 
 @pytest.mark.parametrize("gravity", [1e8, 1e30])
-def test_absurd_loads_end_with_a_status_after_bounded_work(gravity):
-    r = ms.solve_equilibrium(UNIFORM, (0.0, 13e-3), gravity=gravity)
+def test_absurd_gravity_is_refused_before_any_work(gravity):
+    with pytest.raises(ValueError, match=r"gravity must lie in \[0, 1000\] m/s\^2"):
+        ms.solve_equilibrium(UNIFORM, (0.0, 13e-3), gravity=gravity)
+
+
+@pytest.mark.parametrize("field", [(0.0, 1.0), (-1.0, 0.0)])
+def test_extreme_loads_end_with_a_status_after_bounded_work(field):
+    r = ms.solve_equilibrium(UNIFORM, field, gravity=1000.0)  # the largest gravity and field accepted
     # the work is bounded by steps, not time: at most MAX_STEPS + MAX_JUMPS continuation steps of at most
     # 4 x _MAX_NEWTON Newton iterations in each of the two load segments (gravity, then the field)
     assert 0 <= r.newton_iterations <= 2 * (MAX_STEPS + MAX_JUMPS + 1) * 4 * _MAX_NEWTON
-    if r.success:  # a gravity a million times g and more: the beam hangs straight down, verified
+    if r.success:  # 100 g, or a field of a tesla: verified all the same
         assert r.status in (0, 2) and r.verification <= SolverOptions().verify_tol
-        assert r.tip_angle == pytest.approx(-math.pi / 2, abs=1e-3)
     else:  # a failure says why, and carries no verification
         assert r.status == 1 and r.message.startswith(TERMINATION_MESSAGES[1])
         assert math.isnan(r.verification)

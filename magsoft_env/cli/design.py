@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ..units import MM, MT
-from .solve import MAX_GRAVITY, _check_flag, add_planar_only_flags, out_dir, refuse_3d, write_json
+from .solve import MAX_GRAVITY, _check_flag, add_planar_only_flags, out_dir, refuse_3d, warn_tiny_mT, write_json
 
 
 def add_parser(subparsers) -> None:
@@ -150,6 +150,7 @@ def check_flags(args) -> None:
     if args.field_max_mT is None:
         args.field_max_mT = 40.0 if args.letters is not None else 20.0
     _check_flag("--field-max-mT", args.field_max_mT, lo=0.0, hi=1000.0, open_lo=True)
+    warn_tiny_mT("--field-max-mT", [args.field_max_mT])  # the largest field: tesla typed in mT if this small
     _check_flag("--size", args.size, lo=1, hi=40, integer=True)
     _check_flag("--points", args.points, lo=4, hi=100_000, integer=True)
     _check_flag("--starts", args.starts, lo=1, hi=1000, integer=True)

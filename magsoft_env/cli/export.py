@@ -37,6 +37,21 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     return p
 
 
+def robot_file_exists(value: str, flag: str = "--robot") -> None:
+    """A ValueError when ``value`` names a robot file that is not there, suggesting the built-in names (a path
+    such as assets/robots/paper-5c.yml works only from the repository's root; the name paper-5c anywhere)."""
+    from magsoft_env.cases.robots import ROBOT_SUFFIXES, list_robots
+
+    path = Path(value)
+    if path.suffix.lower() not in ROBOT_SUFFIXES or path.is_file():
+        return
+    names = list_robots()
+    example = f"{flag} {path.stem} is the built-in robot of that name" if path.stem in names else \
+        f"e.g. {flag} {names[-1] if names else 'paper-5c'}"
+    raise ValueError(f"{flag}: robot file {value!r} does not exist (relative to {Path.cwd()}). Built-in robots go "
+                     f"by name, from any folder: {', '.join(names)} (ms.list_robots()); {example}.")
+
+
 def run(args) -> int:
     from magsoft_env.sim.export import EXPORT_SCENES, export_mjcf
 
@@ -51,6 +66,7 @@ def run(args) -> int:
         raise ValueError(f"--feature-x-mm must be a finite x in [-1000, 1000] mm, got {args.feature_x_mm}.")
     if args.feature_x_mm is not None and args.scene == "floor":
         raise ValueError("--feature-x-mm applies to --scene channel or obstacle, not floor.")
+    robot_file_exists(args.robot)
     out = out_file(args.out, suffixes=(".xml",))
     from magsoft_env.cases.robots import resolve_robot
 

@@ -262,6 +262,12 @@ def run(args) -> int:
         print(f"paper: {_paper_values(preset)}; max height {out['max_height_mm']:.2f} mm, "
               f"max link rotation {out['max_link_rotation_deg']:.0f} deg, body orientation up to "
               f"{out['max_orientation_deg']:.0f} deg ({out['locomotion']}); {out['wall_time_s']:.1f} s wall")
+        if preset.paper_speed and not res.flipped:  # say so when the model's speed is not the paper's measured one
+            ratio = abs(out["speed_mm_s"] / (preset.paper_speed * 1e3))
+            if not 0.8 <= ratio <= 1.25:
+                print(f"note: the simulated speed is {ratio:.2g} x the paper's measured "
+                      f"{abs(preset.paper_speed) * 1e3:.2f} mm/s; the model does not reproduce the paper's speed "
+                      "(docs/envs.md, 'Paper gaits: measured against the paper')")
         if res.out_of_plane:
             print(f"out of the x-z plane: sideways travel {out['displacement_y_mm']:+.3f} mm, heading "
                   f"{out['final_heading_deg']:+.2f} deg at the end (turned {out['turned_deg']:+.0f} deg on the floor), "

@@ -10,12 +10,14 @@ import argparse
 import json
 import math
 import os
+import sys
 import tempfile
 import textwrap
 from pathlib import Path
 
 from ..io import check_out_dir, format_table, jsonable
 from ..io import write_json as _write_json
+from ..spec.loading import MAX_GRAVITY  # largest --gravity (m/s^2) every command accepts: 100 g
 from ..units import MM, MT
 
 DEFAULT_OUT = "magsoft_out"
@@ -29,8 +31,6 @@ BEAM_FLAGS = (
     ("--density-kg-per-m3", 1940.0, "composite density in kg/m^3, in [100, 30000]"),
     ("--poisson", 0.49, "Poisson's ratio nu in [0, 0.5]: the shear modulus G = E / (2 (1 + nu)) of the torsion (3D)"),
 )
-#: Largest --gravity accepted by every command (m/s^2): 100 g; 9810 would be mm/s^2.
-MAX_GRAVITY = 1000.0
 _NAME_MAX = 255  # bytes in one path component on common file systems
 
 
@@ -409,6 +409,7 @@ def field_mT_flag(values, flag: str = "--field-mT", *, three: bool = False):
     if three and len(values) == 3:
         for name, v in zip(("BX", "BY", "BZ"), values, strict=True):
             _check_flag(f"{flag} {name}", v, lo=-1000.0, hi=1000.0)
+        warn_tiny_mT(flag, values)
         return Field.from_mT(*values)
     if three and len(values) != 2:
         raise ValueError(f"{flag} takes two numbers, BX BZ, or three, BX BY BZ, in mT, got {len(values)}: "
@@ -420,7 +421,27 @@ def field_mT_flag(values, flag: str = "--field-mT", *, three: bool = False):
     bx, bz = values
     _check_flag(f"{flag} BX", bx, lo=-1000.0, hi=1000.0)
     _check_flag(f"{flag} BZ", bz, lo=-1000.0, hi=1000.0)
+    warn_tiny_mT(flag, values)
     return Field.from_mT(bx, bz)
+
+
+#: A nonzero field below this magnitude (mT) given to an mT flag is taken for tesla typed in mT: the robots
+#: here need a few mT to bend at all (the paper's ramps end at 13-22 mT).
+TINY_MT = 0.1
+
+
+def warn_tiny_mT(flag: str, values) -> bool:
+    """Print a warning on stderr when the nonzero field ``values`` given to ``flag`` (in mT) has a magnitude below
+    :data:`TINY_MT`, with the value it likely meant (the numbers x 1000: tesla typed in mT). A warning, not an
+    error: the field is used as given. Returns whether it warned."""
+    mag = math.sqrt(sum(float(v) ** 2 for v in values))
+    if not 0.0 < mag < TINY_MT:
+        return False
+    meant = " ".join(f"{float(v) * 1e3:g}" for v in values)
+    given = " ".join(f"{float(v):g}" for v in values)
+    print(f"warning: {flag} {given} is a field of {mag:.3g} mT, too small to bend these robots (they take a few mT "
+          f"and up); the flag is in mT: did you give tesla? {flag} {meant} is {mag * 1e3:.3g} mT.", file=sys.stderr)
+    return True
 
 
 def _dest(flag: str) -> str:

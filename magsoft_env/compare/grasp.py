@@ -24,13 +24,15 @@ only when a scene is built.
 from __future__ import annotations
 
 import math
+import sys
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..spec import Beam, as_field
 from ..spec.field import planar_field
-from ..validate import finite_number, nonnegative, positive
+from ..validate import boolean, finite_number, nonnegative, positive
 
 _SHELL_RADIUS = 0.25e-3  # capsule radius of the object's shell (m)
 _SHELL_POINTS = 41  # points per half-contour of the object's shell
@@ -424,24 +426,30 @@ class GraspScene:
 
 
 def max_lift_mass(scene: GraspScene, *, min_ratio: float = 0.05, max_ratio: float = 256.0,
-                  rel_tol: float = 0.05) -> LiftResult:
+                  rel_tol: float = 0.05, progress: bool = False) -> LiftResult:
     """Heaviest object (kg) the gripper of ``scene`` lifts, by bracketing and bisection.
 
     Masses are tried as multiples of the gripper mass: ``min_ratio`` first (if it falls, the
     answer is 0), then doubling from 1 up to ``max_ratio``, then bisection in log-mass until the
     bracket's upper/lower ratio is below ``1 + rel_tol``. Assumes lifting is monotone in mass;
-    every trial is returned so that a violation can be seen.
+    every trial is returned so that a violation can be seen. ``progress``: a line on stderr per trial
+    (a few seconds each), with the mass tried, the outcome and the wall time so far.
     """
     positive("min_ratio", min_ratio)
     positive("rel_tol", rel_tol)
+    progress = boolean("progress", progress)
     if not max_ratio > min_ratio:
         raise ValueError(f"max_ratio must exceed min_ratio ({min_ratio!r}), got {max_ratio!r}.")
     mg = scene.gripper_mass
     trials = []
+    t0 = time.perf_counter()
 
     def ok(r):
         t = scene.trial(r * mg)
         trials.append(t)
+        if progress:
+            print(f"grasp trial {len(trials)}: {r:.3g} x the gripper mass ({r * mg * 1e3:.3g} g): {t.message} "
+                  f"[{time.perf_counter() - t0:.0f} s]", file=sys.stderr, flush=True)
         return t.lifted
 
     if not ok(min_ratio):

@@ -16,7 +16,7 @@ from ..sim.health import check_steps
 from ..sim.model import MAX_TIMESTEP
 from ..sim.readouts import PitchTracker, is_flipped, pitch_orientation
 from ..sim.waveforms import Conical
-from ..validate import choice, finite_number, nonnegative, positive
+from ..validate import choice, finite_array, finite_number, nonnegative, positive
 from . import as_action, instability_info, refuse_unknown_kwargs, run_to_end
 
 #: Default coil limit per axis (T). A field of 3 mT turning in a vertical plane at 1 Hz tumbles the paper-5c strip
@@ -283,6 +283,14 @@ class MagSoftSteerEnv(gym.Env):
         goal = options.pop("goal", None)
         if options:
             raise ValueError(f"reset options must be None or {{'goal': (x, y)}} (m), got keys {sorted(options)}.")
+        try:  # the goal checked before any work; strings and bools refused, not converted
+            goal_xy = None if goal is None else finite_array("goal", goal)
+        except ValueError:
+            goal_xy = np.empty(0)
+        if goal_xy is not None and goal_xy.shape != (2,):
+            raise ValueError(f"options['goal'] must be a point (x, y) on the floor in m, shape (2,): two finite "
+                             f"numbers within max_distance = {self.max_distance:g} m of the strip's centre of mass, "
+                             f"e.g. (0.03, 0.0), got {goal!r}.")
         sim = self.sim
         sim.reset()
         sim.set_field((0.0, 0.0, 0.0))
@@ -297,10 +305,7 @@ class MagSoftSteerEnv(gym.Env):
             bearing = self.np_random.uniform(-math.pi, math.pi)
             self._goal = self._com[:2] + r * np.array([math.cos(bearing), math.sin(bearing)])
         else:
-            g = np.asarray(goal, dtype=float)
-            if g.shape != (2,) or not np.all(np.isfinite(g)):
-                raise ValueError(f"options['goal'] must be a finite point (x, y) in m, got {goal!r}.")
-            self._goal = g.copy()
+            self._goal = goal_xy.copy()
         self._distance = self._horizontal_distance()
         if goal is not None and self._distance >= self.max_distance:
             raise ValueError(f"options['goal'] must lie within max_distance = {self.max_distance:g} m of the strip's "

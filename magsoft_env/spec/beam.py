@@ -142,7 +142,8 @@ class Beam:
             if not np.all(np.isfinite(v)):
                 raise ValueError(f"Beam.magnetization {c} must be finite along the beam; got non-finite values.")
             cols.append(v)
-        zero = np.flatnonzero(np.linalg.norm(np.stack(cols, axis=-1), axis=-1) == 0.0)
+        # the largest magnitude, not the norm: |(1e-200, 0, 0)| underflows to 0 but is a valid direction
+        zero = np.flatnonzero(np.max(np.abs(np.stack(cols, axis=-1)), axis=-1) == 0.0)
         if zero.size:
             raise ValueError(
                 f"Beam.magnetization (axial, width, thickness) must be a non-zero vector everywhere (it gives only "

@@ -179,11 +179,35 @@ def as_field(value, name: str = "field") -> Field:
     """A :class:`Field`, a pair ``(B_x, B_z)`` or a triple ``(B_x, B_y, B_z)`` (T) as a Field."""
     if isinstance(value, Field):
         return value
+    shape = _nested_shape(value)
+    if shape is not None and len(shape) >= 2:
+        hint = (f" Flatten it first (np.ravel gives shape ({math.prod(shape)},))." if math.prod(shape) in (2, 3)
+                else "")
+        raise ValueError(f"{name} must have shape (2,) for (B_x, B_z) or (3,) for (B_x, B_y, B_z) in tesla, "
+                         f"got an array of shape {shape}{_small(value)}.{hint}")
     if _three_components(value):
         bx, by, bz = value
         return Field(*(field_component(f"{name} {c}", v) for c, v in zip(_NAMES, (bx, by, bz), strict=True)))
     bx, bz = pair(name, value, "(B_x, B_z) in tesla (or a triple (B_x, B_y, B_z), or a Field)")
     return Field(field_component(f"{name} Bx", bx), field_component(f"{name} Bz", bz))
+
+
+def _nested_shape(value) -> tuple | None:
+    """The array shape of an ndarray or a nested list/tuple of numbers, or None (not an array, or ragged)."""
+    if isinstance(value, np.ndarray):
+        return value.shape
+    if not isinstance(value, (list, tuple)):
+        return None
+    try:
+        return np.shape(value)
+    except ValueError:  # ragged nesting
+        return None
+
+
+def _small(value) -> str:
+    """``": [...]"`` with the values of a small array (at most 9 numbers), else ``""``."""
+    a = np.asarray(value, dtype=object)
+    return f": {a.tolist()!r}" if a.size <= 9 else ""
 
 
 def as_fields(values: Iterable, name: str = "fields") -> list[Field]:

@@ -16,6 +16,9 @@ from ..validate import choice, finite_number
 SUPPORTS = ("cantilever", "free")
 #: Magnetic couplings: the complete one (magnetization turns with the section) and the paper's eq. (10).
 COUPLINGS = ("rotated", "paper")
+#: Largest gravity accepted (m/s^2), about 100 g: Earth's is 9.81 and no test of a centimetre strip comes near
+#: 100 g (the strip would just hang); a larger number is almost surely a unit mistake (9810 is 9.81 in mm/s^2).
+MAX_GRAVITY = 1000.0
 #: Largest clamp angle accepted (rad): a full turn either way; larger values are almost surely degrees.
 MAX_CLAMP_ANGLE = 2.0 * math.pi
 
@@ -24,7 +27,7 @@ def check_loading(*, gravity, support: str = "cantilever", coupling: str = "rota
                   clamp_angle=0.0, where: str = "") -> dict:
     """The loading options, checked: ``{"gravity", "support", "coupling", "extensible", "clamp_angle"}``.
 
-    ``gravity`` (m/s^2, >= 0, acting along -z; 0 for a free-free beam), ``support`` in
+    ``gravity`` (m/s^2, in [0, :data:`MAX_GRAVITY`], acting along -z; 0 for a free-free beam), ``support`` in
     :data:`SUPPORTS`, ``coupling`` in :data:`COUPLINGS`, ``extensible`` a bool, ``clamp_angle``
     (rad) in [-2 pi, 2 pi]. Raises ValueError naming the option (prefixed by ``where``) otherwise.
     """
@@ -33,6 +36,11 @@ def check_loading(*, gravity, support: str = "cantilever", coupling: str = "rota
     g = finite_number(f"{where}gravity", gravity, unit="m/s^2")
     if g < 0:
         raise ValueError(f"{where}gravity must be >= 0 (m/s^2, acting along -z), got {gravity!r}.")
+    if g > MAX_GRAVITY:
+        raise ValueError(
+            f"{where}gravity must lie in [0, {MAX_GRAVITY:g}] m/s^2 (about 100 g; Earth's is 9.81, and under more "
+            f"than 100 g a centimetre strip just hangs), got {gravity!r}. Gravity is in m/s^2: 9810 mm/s^2 is 9.81."
+        )
     if support == "free" and g != 0.0:
         raise ValueError(
             f"{where}support='free': a free-free beam needs gravity 0 (it has no static equilibrium under "
@@ -49,4 +57,4 @@ def check_loading(*, gravity, support: str = "cantilever", coupling: str = "rota
     return {"gravity": g, "support": support, "coupling": coupling, "extensible": bool(extensible), "clamp_angle": th0}
 
 
-__all__ = ["COUPLINGS", "MAX_CLAMP_ANGLE", "SUPPORTS", "check_loading"]
+__all__ = ["COUPLINGS", "MAX_CLAMP_ANGLE", "MAX_GRAVITY", "SUPPORTS", "check_loading"]

@@ -571,12 +571,16 @@ class Direction:
         """Unit vectors (axial, width, thickness) at arc lengths ``s`` (m) on a beam of ``length`` (m), shape
         ``s.shape + (3,)`` ((n, 3) for n arc lengths). A ValueError where the direction is the zero vector."""
         v = self.components_at(s, length)
-        norm = np.linalg.norm(v, axis=-1, keepdims=True)
-        if np.any(norm == 0.0):
-            bad = np.broadcast_to(np.asarray(s, dtype=float), norm.shape[:-1])[norm[..., 0] == 0.0]
+        if not np.all(np.isfinite(v)):
+            bad = np.broadcast_to(np.asarray(s, dtype=float), v.shape[:-1])[~np.all(np.isfinite(v), axis=-1)]
+            raise ValueError(f"Direction must have finite (axial, width, thickness) components, got non-finite "
+                             f"values at s = {float(bad.ravel()[0]) * 1e3:.6g} mm.")
+        scale = np.max(np.abs(v), axis=-1, keepdims=True)
+        if np.any(scale == 0.0):
+            bad = np.broadcast_to(np.asarray(s, dtype=float), scale.shape[:-1])[scale[..., 0] == 0.0]
             raise ValueError(f"Direction is the zero vector at s = {float(bad.ravel()[0]) * 1e3:.6g} mm: a "
                              "magnetization direction needs a non-zero (axial, width, thickness) everywhere.")
-        return v / norm
+        return unit_rows(v, scale)
 
     def values(self, s, length):
         """Refused: a direction has three components, not one angle (see :meth:`vectors`)."""
@@ -595,6 +599,16 @@ class Direction:
         """Raise ValueError if a component does not cover ``[0, length]``."""
         for c, p in zip(DIRECTION_COMPONENTS, self.components, strict=True):
             p.check_covers(length, f"{name} {c}")
+
+
+def unit_rows(v: np.ndarray, scale: np.ndarray | None = None) -> np.ndarray:
+    """``v / |v|`` along the last axis without overflow or underflow: each row is first divided by its largest
+    magnitude ``scale`` (computed when not given), so components like 1e200 or 1e-200 keep their direction
+    instead of squaring to inf or 0. Rows must be finite and non-zero (the callers check)."""
+    if scale is None:
+        scale = np.max(np.abs(v), axis=-1, keepdims=True)
+    w = v / scale
+    return w / np.linalg.norm(w, axis=-1, keepdims=True)
 
 
 def _identically_zero(p: Profile) -> bool:

@@ -48,6 +48,21 @@ MAX_DESCENT = 300
 MAX_ROD_NODES = 400
 MAX_REFINEMENTS = 8
 VERIFY_MARGIN = 0.1
+#: Work of a load step is counted in dense solves of a grid of this many nodes: each Newton iteration,
+#: stability test or energy-descent iteration on a grid of M nodes counts (M / WORK_NODES)^3 times its
+#: weight below (the dense Jacobian and second variation are 3 M x 3 M; factorizing them is O(M^3)).
+WORK_NODES = 100
+_W_NEWTON = 1.0  # a Jacobian and one solve
+_W_STABLE = 2.0  # the second variation and a Cholesky factorization
+_W_EIGEN = 3.0  # the second variation and its lowest eigenpair (a stability eigenvalue, a descent iteration)
+
+
+#: The status of a result whose load step (or an earlier one on its path) used up ``max_step_work``.
+OVER_BUDGET = 5
+
+
+class _OverBudget(Exception):
+    """A load step passed ``SolverOptions.max_step_work``; caught where the step began."""
 
 
 @dataclass(frozen=True)
@@ -66,7 +81,8 @@ class RodResult:
     ----------
     success, status, message
         As in the planar result (0 converged; 1 continuation stalled; 2 under-resolved;
-        3 direct solve failed; 4 not verified).
+        3 direct solve failed; 4 not verified), plus 5: a load step used up its work budget
+        (``SolverOptions.max_step_work``; the message says where and what to change).
     s : (n,) ndarray
         Reference arc length of the nodes (m).
     centreline : (n, 3) ndarray
@@ -242,6 +258,40 @@ class RodSolver:
         self.note = ""
         self._J = None  # (q, model, J) of the last Newton step
         self._stable = (None, False)
+        self.work = 0.0  # work of the current load step (see WORK_NODES)
+        self._work_limit = math.inf  # SolverOptions.max_step_work inside a load step
+        self.over_budget = False
+        self._accepted = None  # (grid, q, load fraction) of the last accepted point of the load step
+
+    def _spend(self, weight: float) -> None:
+        """Count ``weight`` dense solves on the current grid (scaled to WORK_NODES); past the budget, end the step."""
+        self.work += weight * (self.grid.M / WORK_NODES) ** 3
+        if self.work > self._work_limit:
+            raise _OverBudget
+
+    def _budgeted(self, step, start: Load3, target: Load3) -> bool:
+        """Run ``step()`` (one load step, from ``start`` toward ``target``) within ``options.max_step_work``; past
+        it, go back to the step's last accepted equilibrium and say which limit was hit and what to change."""
+        self.work, self._work_limit = 0.0, self.opt.max_step_work
+        self._accepted = (self.grid, self.q, 0.0)
+        t0 = time.perf_counter()
+        try:
+            return step()
+        except _OverBudget:
+            grid, q, t = self._accepted
+            self._set_grid(grid)
+            self.q, self.load = q, start.lerp(target, t)
+            self.over_budget = True
+            self.note = (
+                f"It reached max_step_work = {self.opt.max_step_work:g} (dense solves counted as on a "
+                f"{WORK_NODES}-node grid; {time.perf_counter() - t0:.1f} s here) at {100 * t:.3g} % of the step, on "
+                f"{int(self.model.uniq.size)} nodes. Ramp the field in smaller steps (solve_path with ms.ramp: each "
+                "field gets its own budget), give fewer magnetization cells or a larger max_domain (fewer nodes), "
+                "or raise max_step_work (math.inf: no bound)."
+            )
+            return False
+        finally:
+            self._work_limit = math.inf
 
     def _set_grid(self, grid: Grid):
         self.grid = grid
@@ -263,6 +313,7 @@ class RodSolver:
         tol = self.opt.tol
         prev = math.inf
         for it in range(1, maxiter + 1):
+            self._spend(_W_NEWTON)
             F, J = mdl.jacobian(q, load)
             if not np.all(np.isfinite(J)) or not np.all(np.isfinite(F)):
                 return False, q, it
@@ -285,10 +336,12 @@ class RodSolver:
     # stability ----------------------------------------------------------------------------------
     def stability(self, q, load: Load3):
         """(stable, smallest eigenvalue in E I_w / L^2, mode psi (M, 3))."""
+        self._spend(_W_EIGEN)
         lam, mode = self.model.min_eigen(q, load)
         return lam > -_NEUTRAL, lam, mode
 
     def _is_stable(self, q, load: Load3) -> bool:
+        self._spend(_W_STABLE)
         _, H = self.model.hessian(q, load)
         Hs = self.model.scaled(H, load)
         Hs.flat[:: Hs.shape[0] + 1] += _NEUTRAL
@@ -309,6 +362,7 @@ class RodSolver:
         U = mdl.energy(q, load)
         tol = 1e-10 * mdl.EI_ref / mdl.L
         for _ in range(MAX_DESCENT):
+            self._spend(_W_EIGEN)
             g, H = mdl.hessian(q, load)
             Hs = mdl.scaled(H, load)
             r = 1.0 / np.sqrt(mdl.mass)
@@ -364,6 +418,7 @@ class RodSolver:
         if st is not None and st[0] is q and st[1] is self.model:
             J = st[2]
         else:
+            self._spend(_W_NEWTON)
             _, J = self.model.jacobian(q, start)
         x = self._solve(J, self.model.load_rate(q, target.minus(start)))
         if x is None or not np.all(np.isfinite(x)):
@@ -421,8 +476,12 @@ class RodSolver:
         return ok, (best[1] if ok else q)
 
     def continue_to(self, target: Load3) -> bool:
-        """Follow the equilibrium from the current load to ``target`` (see the module docstring)."""
+        """Follow the equilibrium from the current load to ``target`` (see the module docstring), within
+        ``options.max_step_work``."""
         start = self.load
+        return self._budgeted(lambda: self._continue_to(start, target), start, target)
+
+    def _continue_to(self, start: Load3, target: Load3) -> bool:
         q = self.q
         t, dt = 0.0, 1.0
         stable = self._stable[0] is q and self._stable[1]
@@ -430,6 +489,7 @@ class RodSolver:
             stable = self._is_stable(q, start)
         steps = jumps = 0
         while t < 1.0:
+            self._accepted = (self.grid, q, t)
             steps += 1
             if steps > MAX_STEPS or jumps > MAX_JUMPS:
                 self.note = (f"Stopped after {steps - 1} continuation steps and {jumps} jumps in one load step (bounds "
@@ -519,7 +579,12 @@ class RodSolver:
         return True
 
     def relax(self, target: Load3) -> bool:
-        """A free beam: each field is reached by energy descent from the previous shape."""
+        """A free beam: each field is reached by energy descent from the previous shape (within
+        ``options.max_step_work``)."""
+        start = self.load
+        return self._budgeted(lambda: self._relax(target), start, target)
+
+    def _relax(self, target: Load3) -> bool:
         ok, q = self.descend(self.q, target)
         if ok:
             lam, mode = self.model.min_eigen(q, target)
@@ -634,7 +699,8 @@ def solve_rod_path(beam, fields, g, support, th0, options, edges, messages, prog
         else:
             snapped, tail, ver = False, math.nan, math.nan
         now = time.perf_counter()
-        out.append(solver.result(ok, 0, snapped, fld, g, tail, ver, messages, wall_time=now - t_prev))
+        status = OVER_BUDGET if solver.over_budget else 0
+        out.append(solver.result(ok, status, snapped, fld, g, tail, ver, messages, wall_time=now - t_prev))
         t_prev = now
     return out
 
@@ -675,7 +741,8 @@ def critical_field(beam: Beam, field, *, gravity: float = 0.0, support: str = "c
 
     Follows the branch (gravity first) on grids of each degree in ``degrees``, stops at the first
     crossing of the smallest eigenvalue of the second variation, and locates it by a secant
-    (:meth:`RodSolver._locate`). Returns None when the branch stays stable up to ``field``.
+    (:meth:`RodSolver._locate`). Returns None when the branch stays stable up to ``field``; a RuntimeError
+    (with the reason) when the branch could not be followed that far (a stall, or ``options.max_step_work``).
 
     Parameters
     ----------
@@ -731,8 +798,11 @@ def _critical(beam, target, g, th0, options, degrees):
         if g > 0 and support == "cantilever" and not solver.continue_to(Load3(0.0, 0.0, 0.0, g)):
             raise ValueError(f"critical_field: the strip found no equilibrium under gravity alone ({solver.note}).")
         start = solver.load
-        solver.continue_to(target)
+        ok = solver.continue_to(target)
         if not solver.events:
+            if not ok:  # stopped before the end of the ramp: that is not "stable up to the field"
+                raise RuntimeError(f"critical_field: the branch could not be followed to the end of the ramp on "
+                                   f"degree {n} ({solver.note}).")
             return None
         ev = solver.events[0]
         kind = ev["kind"]

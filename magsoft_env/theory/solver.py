@@ -15,7 +15,7 @@ import scipy.optimize
 from ..spec import Beam, Field, as_field, as_fields
 from ..spec.loading import check_loading
 from ..threads import single_threaded_blas
-from ..validate import boolean, choice, in_range, integer
+from ..validate import boolean, choice, in_range, integer, positive
 from .collocation import Grid, _grid_cached, make_grid
 from .model import BeamModel, Load
 from .rod_solver import MAX_ROD_NODES, RodResult, solve_rod_path
@@ -32,6 +32,7 @@ TERMINATION_MESSAGES = {
     3: "Direct Newton solve (start='straight') did not converge.",
     4: "Not verified: the solution satisfies the equations at the collocation nodes but not between them "
     "(an under-resolved grid); raise max_nodes, give breakpoints for non-smooth profiles, or relax verify_tol.",
+    5: "Stopped: a load step of the 3D rod used up its work budget (SolverOptions.max_step_work).",
 }
 #: Largest number of collocation nodes of one grid (subdomains x (degree + 1)): the dense solves
 #: cost O(M^3) per Newton iteration (about 0.1 s at 1000 nodes).
@@ -87,10 +88,19 @@ class SolverOptions:
         Cut subdomains at the knots of cubic-spline profiles when there are at most
         ``MAX_KNOT_EDGES`` of them (the solution's fourth derivative jumps there); False leaves
         them to the refinement (cheaper where the accuracy asked for is modest).
+    max_step_work : float
+        3D rod only: the most work one load step (from one field to the next, folds and bifurcations
+        included) may take, counted in dense solves of a 100-node grid (a Newton iteration on M nodes
+        counts (M / 100)^3; a stability test or energy-descent iteration 2-3 times that). Past it the
+        path ends with status 5 and a message saying where; math.inf removes the bound. The default,
+        15000, is 30-75 s on a 2-core x86_64 machine (2-5 ms a unit measured, the more the busier its
+        cores); the test cases take under 50, 300 stress-benchmark cases (fields to 40 mT) under 75,
+        and 169 random strips of 8-18 cells with fields to 80-100 mT (folds included) under 10500.
 
     Ranges (checked by :meth:`check`, which every solve calls before any work): ``nodes`` None
     or an integer in [8, 400]; ``max_nodes`` an integer in [8, 1000]; ``tol`` in [1e-15, 1e-6];
-    ``resolution_tol`` in [0, 1e-3]; ``min_step`` in [1e-12, 0.5]; ``verify_tol`` in [1e-14, 1e-2].
+    ``resolution_tol`` in [0, 1e-3]; ``min_step`` in [1e-12, 0.5]; ``verify_tol`` in [1e-14, 1e-2];
+    ``max_step_work`` > 0 (math.inf allowed).
     """
 
     nodes: int | None = None
@@ -101,6 +111,7 @@ class SolverOptions:
     min_step: float = 1e-5
     verify_tol: float = 1e-8
     split_at_knots: bool = True
+    max_step_work: float = 15_000.0
 
     def check(self) -> SolverOptions:
         """Raise ValueError naming the first option outside its range (see above); returns self."""
@@ -113,6 +124,8 @@ class SolverOptions:
         in_range("SolverOptions.min_step", self.min_step, 1e-12, 0.5, unit="fraction of a load segment")
         in_range("SolverOptions.verify_tol", self.verify_tol, 1e-14, 1e-2, unit="rad")
         boolean("SolverOptions.split_at_knots", self.split_at_knots)
+        if self.max_step_work != math.inf:
+            positive("SolverOptions.max_step_work", self.max_step_work, unit="dense solves of a 100-node grid")
         return self
 
 
