@@ -8,7 +8,7 @@ import json
 import sys
 from pathlib import Path
 
-from .solve import dumps_json, out_file
+from .output import dumps_json, out_file
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:

@@ -17,16 +17,8 @@ import numpy as np
 
 from ..io import format_table, write_csv
 from ..units import MM
-from .solve import (
-    DEFAULT_OUT,
-    MAX_GRAVITY,
-    _check_flag,
-    add_planar_only_flags,
-    metrics_row,
-    out_dir,
-    refuse_3d,
-    write_json,
-)
+from .output import DEFAULT_OUT, out_dir, write_json
+from .solve import MAX_GRAVITY, _check_flag, add_planar_only_flags, metrics_row, refuse_3d
 
 JIG_PRESETS = ("fig4b_quadratic", "fig4c_sinusoidal", "fig4d_piecewise")
 

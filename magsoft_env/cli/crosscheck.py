@@ -7,7 +7,8 @@ import sys
 from pathlib import Path
 
 from ..io import write_text_atomic
-from .solve import _check_flag, field_mT_flag, out_dir, refuse_3d, robot_preset
+from .output import out_dir
+from .solve import _check_flag, field_mT_flag, refuse_3d, robot_preset
 
 DEFAULT_PRESETS = (
     "fig3a_L20", "fig3a_L25", "fig3a_L30", "fig3b_L20", "fig3b_L25", "fig3b_L30",

@@ -11,7 +11,8 @@ import time
 
 from ..io import format_table
 from ..units import MM
-from .solve import DEFAULT_OUT, METRIC_COLUMNS, metrics_row, out_dir, write_json
+from .output import DEFAULT_OUT, out_dir, write_json
+from .solve import METRIC_COLUMNS, metrics_row
 
 DEMO_PRESETS = ("fig3a_L25", "fig4b_quadratic")
 

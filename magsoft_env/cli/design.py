@@ -7,7 +7,8 @@ from pathlib import Path
 import numpy as np
 
 from ..units import MM, MT
-from .solve import MAX_GRAVITY, _check_flag, add_planar_only_flags, out_dir, refuse_3d, warn_tiny_mT, write_json
+from .output import out_dir, write_json
+from .solve import MAX_GRAVITY, _check_flag, add_planar_only_flags, refuse_3d, warn_tiny_mT
 
 
 def add_parser(subparsers) -> None:

@@ -9,7 +9,7 @@ import argparse
 import math
 from pathlib import Path
 
-from .solve import dumps_json, out_file
+from .output import dumps_json, out_file
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:

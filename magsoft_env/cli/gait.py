@@ -10,7 +10,8 @@ import sys
 from pathlib import Path
 
 from ..rods import DEFAULT_ROD, rod_names
-from .solve import add_planar_only_flags, dumps_json, out_file, refuse_3d, write_json
+from .output import dumps_json, out_file, write_json
+from .solve import add_planar_only_flags, refuse_3d
 
 
 def add_rod_option_flag(p) -> None:

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..io import format_table
 from ..units import MM, MT
-from .solve import write_json
+from .output import write_json
 
 ROD_COLUMNS = [
     ("Bx_mT", "Bx mT", ".3g"),

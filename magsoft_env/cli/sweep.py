@@ -10,16 +10,14 @@ from __future__ import annotations
 
 from ..io import format_table, write_csv
 from ..units import MM
+from .output import DEFAULT_OUT, out_dir, write_json
 from .solve import (
-    DEFAULT_OUT,
     _check_flag,
     add_planar_only_flags,
     add_solver_flags,
     apply_overrides,
     metrics_row,
-    out_dir,
     refuse_3d,
-    write_json,
 )
 
 PATHS = {"a": "fig3a_L{L}", "b": "fig3b_L{L}"}

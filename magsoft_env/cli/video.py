@@ -24,7 +24,7 @@ from .gait import (
     rotated_drive,
     with_y_drive,
 )
-from .solve import dumps_json, out_file
+from .output import dumps_json, out_file
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:

@@ -27,6 +27,8 @@ import scipy.linalg
 from ..spec import Beam, Field
 from ..threads import single_threaded_blas
 from .collocation import Grid, make_grid
+from .options import MAX_ROD_NODES, SolverOptions, check_problem, subdomain_edges
+from .result import PathResult
 from .rod import Load3, RodModel, angle_between, clamp_quaternion, qmat, rotate
 from .verify import outcome, rod_residual
 
@@ -44,8 +46,6 @@ _CONT_TAIL = 1e-5
 MAX_STEPS = 2000
 MAX_JUMPS = 20
 MAX_DESCENT = 300
-#: Most collocation nodes of one grid for the 3D rod (the dense Jacobian is 3 M x 3 M).
-MAX_ROD_NODES = 400
 MAX_REFINEMENTS = 8
 VERIFY_MARGIN = 0.1
 #: Work of a load step is counted in dense solves of a grid of this many nodes: each Newton iteration,
@@ -65,8 +65,8 @@ class _OverBudget(Exception):
     """A load step passed ``SolverOptions.max_step_work``; caught where the step began."""
 
 
-@dataclass(frozen=True)
-class RodResult:
+@dataclass(frozen=True, kw_only=True)
+class RodResult(PathResult):
     """Equilibrium of a strip in three dimensions under one field (frozen), the 3D member of the
     :class:`~magsoft_env.theory.solver.EquilibriumResult` family: the same status fields and the
     same :meth:`sample`, with the shape as a centreline and a material frame.
@@ -126,10 +126,6 @@ class RodResult:
         (property) Smallest eigenvalue of the second variation, in units E I_w / L^2.
     """
 
-    success: bool
-    status: int
-    message: str
-    s: np.ndarray
     centreline: np.ndarray
     frames: np.ndarray
     curvature: np.ndarray
@@ -137,26 +133,9 @@ class RodResult:
     tip_position: np.ndarray
     tip_tangent: np.ndarray
     tip_twist: float
-    tip_deflection: float
-    max_curvature: float
     energy: float
-    stable: bool
-    snap_through: bool
-    field: Field
-    gravity: float
-    residual: float
-    resolution: float
-    nodes: int
-    newton_iterations: int
-    wall_time: float = 0.0
-    events: list = dc_field(default_factory=list)
-    verification: float = math.nan
     _grid: Grid | None = dc_field(default=None, repr=False, compare=False)
     _state: tuple | None = dc_field(default=None, repr=False, compare=False)
-
-    @property
-    def length(self) -> float:
-        return float(self.s[-1])
 
     @property
     def x(self) -> np.ndarray:
@@ -178,16 +157,12 @@ class RodResult:
 
     def sample(self, n: int = 101):
         """Shape at ``n`` evenly spaced arc lengths: (s (n,), centreline (n, 3), frames (n, 3, 3))."""
-        if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < 2:
-            raise ValueError(f"sample n must be an integer >= 2, got {n!r}.")
-        s_new = np.linspace(0.0, self.length, int(n))
+        s_new = self._samples(n)
         return (s_new, *self.at(s_new))
 
     def at(self, s):
         """Centreline (…, 3) (m) and frames (…, 3, 3) at reference arc lengths ``s`` (m), interpolated."""
-        s = np.asarray(s, dtype=float)
-        if not np.all(np.isfinite(s)) or np.any(s < 0) or np.any(s > self.length * (1 + 1e-12)):
-            raise ValueError(f"s must lie in [0, {self.length:g}] m, got values in [{s.min():g}, {s.max():g}].")
+        s = self._arc(s)
         mdl, q, _ = self._state
         r = mdl.centreline(q)
         vals = self._grid.interpolate(np.column_stack([q, r]), s.ravel())
@@ -198,24 +173,15 @@ class RodResult:
         """Metrics as plain numbers (SI and degrees), for JSON."""
         L = self.length
         return {
-            "success": bool(self.success),
-            "status": int(self.status),
-            "message": self.message,
+            **self._status_dict(),
             "field_T": [float(v) for v in self.field.vector()],
-            "gravity_m_s2": self.gravity,
             "tip_position_m": [float(v) for v in self.tip_position],
             "tip_position_over_L": [float(v) / L for v in self.tip_position],
             "tip_tangent": [float(v) for v in self.tip_tangent],
             "tip_twist_rad": self.tip_twist,
             "tip_twist_deg": math.degrees(self.tip_twist),
-            "max_curvature_1_m": self.max_curvature,
             "energy_J": self.energy,
-            "stable": bool(self.stable),
             "min_eigenvalue": self.min_eigenvalue,
-            "snap_through": bool(self.snap_through),
-            "verification_rad": self.verification,
-            "residual": self.residual,
-            "nodes": self.nodes,
             "events": [dict(e) for e in self.events],
         }
 
@@ -766,13 +732,11 @@ def critical_field(beam: Beam, field, *, gravity: float = 0.0, support: str = "c
     """
     from ..spec import as_field
     from ..validate import integer
-    from .solver import SolverOptions, _check_common
-
     fld = as_field(field)
     degrees = tuple(integer("critical_field degrees", d, 8, 400) for d in degrees)
     if len(degrees) < 2:
         raise ValueError(f"critical_field degrees needs at least two grids to state an error, got {degrees!r}.")
-    g, support, _, _, th0, options = _check_common(beam, gravity, support, "rotated", False, clamp_angle,
+    g, support, _, _, th0, options = check_problem(beam, gravity, support, "rotated", False, clamp_angle,
                                                    options or SolverOptions(), rod=True)
     if support != "cantilever":
         raise ValueError("critical_field follows the branch of a clamped strip (support='cantilever'); a free "
@@ -786,15 +750,13 @@ def critical_field(beam: Beam, field, *, gravity: float = 0.0, support: str = "c
 def _critical(beam, target, g, th0, options, degrees):
     from dataclasses import replace
 
-    from .solver import _edges
-
     support = "cantilever"
     found = []
     kind = "bifurcation"
     for n in degrees:
         opt = replace(options, nodes=n)
         solver = RodSolver(beam, support=support, clamp_angle=th0, options=opt,
-                           edges=_edges(beam, options.split_at_knots))
+                           edges=subdomain_edges(beam, options.split_at_knots))
         if g > 0 and support == "cantilever" and not solver.continue_to(Load3(0.0, 0.0, 0.0, g)):
             raise ValueError(f"critical_field: the strip found no equilibrium under gravity alone ({solver.note}).")
         start = solver.load

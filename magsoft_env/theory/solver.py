@@ -12,17 +12,23 @@ import numpy as np
 import scipy.linalg
 import scipy.optimize
 
-from ..spec import Beam, Field, as_field, as_fields
-from ..spec.loading import check_loading
+from ..spec import Beam, as_field, as_fields
 from ..threads import single_threaded_blas
-from ..validate import boolean, choice, in_range, integer, positive
+from ..validate import choice
 from .collocation import Grid, _grid_cached, make_grid
 from .model import BeamModel, Load
-from .rod_solver import MAX_ROD_NODES, RodResult, solve_rod_path
+from .options import (
+    MAX_TOTAL_NODES,
+    SolverOptions,
+    check_problem,
+    subdomain_edges,
+    use_rod,
+)
+from .result import PathResult
+from .rod_solver import RodResult, solve_rod_path
 from .verify import equation_residual, outcome
 
 #: The models :func:`solve_path` takes: the planar beam, the 3D rod, or the one the problem needs.
-MODELS = ("auto", "planar", "3d")
 
 TERMINATION_MESSAGES = {
     0: "Converged: equilibrium found along the loading path.",
@@ -34,18 +40,12 @@ TERMINATION_MESSAGES = {
     "(an under-resolved grid); raise max_nodes, give breakpoints for non-smooth profiles, or relax verify_tol.",
     5: "Stopped: a load step of the 3D rod used up its work budget (SolverOptions.max_step_work).",
 }
-#: Largest number of collocation nodes of one grid (subdomains x (degree + 1)): the dense solves
-#: cost O(M^3) per Newton iteration (about 0.1 s at 1000 nodes).
-MAX_TOTAL_NODES = 1000
 #: Largest number of refinements of the grid for one equilibrium (degree raises and subdomain splits).
 MAX_REFINEMENTS = 12
 #: Work bounds of one load segment of the continuation: accepted or rejected steps, and jumps
 #: (folds and bifurcations passed by energy descent). Beyond them the segment fails with a message.
 MAX_STEPS = 4000
 MAX_JUMPS = 40
-#: Spline knots that become subdomain edges (where a cubic spline's third derivative jumps, the
-#: solution is only piecewise smooth); denser knot sets (a sampled jig function) are left alone.
-MAX_KNOT_EDGES = 64
 #: Refinement aims at this fraction of ``verify_tol``, so that an independent measurement of the
 #: residual (other points, other quadrature) also finds it below ``verify_tol``.
 VERIFY_MARGIN = 0.1
@@ -62,78 +62,10 @@ _SHRINK = 0.25  # step reduction after a failed or rejected continuation step
 _abs, _amax = np.abs, np.maximum.reduce  # max |x| without ndarray.max's Python wrapper
 
 
-@dataclass(frozen=True)
-class SolverOptions:
-    """Numerical settings of the equilibrium solver.
-
-    Attributes
-    ----------
-    nodes : int or None
-        Chebyshev degree per subdomain; None chooses it and refines automatically.
-    max_nodes : int
-        Largest degree per subdomain automatic refinement may reach.
-    tol : float
-        Newton tolerance on the angle update (rad).
-    resolution_tol : float
-        Accepted size of the trailing Chebyshev coefficients of theta (rad).
-    max_domain : float
-        Longest subdomain as a fraction of L (long smooth beams get split), in [0.01, 1].
-    min_step : float
-        Smallest continuation step (fraction of a load segment) before a fold is declared.
-    verify_tol : float
-        Largest equation residual between the nodes (rad) that a successful result may have
-        (:mod:`magsoft_env.theory.verify`); the grid is refined (degree, then subdomains) until it
-        holds, and a result that still exceeds it has status 4 and ``success=False``.
-    split_at_knots : bool
-        Cut subdomains at the knots of cubic-spline profiles when there are at most
-        ``MAX_KNOT_EDGES`` of them (the solution's fourth derivative jumps there); False leaves
-        them to the refinement (cheaper where the accuracy asked for is modest).
-    max_step_work : float
-        3D rod only: the most work one load step (from one field to the next, folds and bifurcations
-        included) may take, counted in dense solves of a 100-node grid (a Newton iteration on M nodes
-        counts (M / 100)^3; a stability test or energy-descent iteration 2-3 times that). Past it the
-        path ends with status 5 and a message saying where; math.inf removes the bound. The default,
-        15000, is 30-75 s on a 2-core x86_64 machine (2-5 ms a unit measured, the more the busier its
-        cores); the test cases take under 50, 300 stress-benchmark cases (fields to 40 mT) under 75,
-        and 169 random strips of 8-18 cells with fields to 80-100 mT (folds included) under 10500.
-
-    Ranges (checked by :meth:`check`, which every solve calls before any work): ``nodes`` None
-    or an integer in [8, 400]; ``max_nodes`` an integer in [8, 1000]; ``tol`` in [1e-15, 1e-6];
-    ``resolution_tol`` in [0, 1e-3]; ``min_step`` in [1e-12, 0.5]; ``verify_tol`` in [1e-14, 1e-2];
-    ``max_step_work`` > 0 (math.inf allowed).
-    """
-
-    nodes: int | None = None
-    max_nodes: int = 160
-    tol: float = 1e-12
-    resolution_tol: float = 1e-11
-    max_domain: float = 1.0
-    min_step: float = 1e-5
-    verify_tol: float = 1e-8
-    split_at_knots: bool = True
-    max_step_work: float = 15_000.0
-
-    def check(self) -> SolverOptions:
-        """Raise ValueError naming the first option outside its range (see above); returns self."""
-        if self.nodes is not None:
-            integer("SolverOptions.nodes", self.nodes, 8, 400)
-        integer("SolverOptions.max_nodes", self.max_nodes, 8, 1000)
-        in_range("SolverOptions.tol", self.tol, 1e-15, 1e-6, unit="rad")
-        in_range("SolverOptions.resolution_tol", self.resolution_tol, 0.0, 1e-3, unit="rad")
-        in_range("SolverOptions.max_domain", self.max_domain, 0.01, 1.0, unit="fraction of L")
-        in_range("SolverOptions.min_step", self.min_step, 1e-12, 0.5, unit="fraction of a load segment")
-        in_range("SolverOptions.verify_tol", self.verify_tol, 1e-14, 1e-2, unit="rad")
-        boolean("SolverOptions.split_at_knots", self.split_at_knots)
-        if self.max_step_work != math.inf:
-            positive("SolverOptions.max_step_work", self.max_step_work, unit="dense solves of a 100-node grid")
-        return self
-
-
-
-
-@dataclass(frozen=True)
-class EquilibriumResult:
-    """Equilibrium of a beam under one field, in the style of scipy's ``BVPResult`` (frozen).
+@dataclass(frozen=True, kw_only=True)
+class EquilibriumResult(PathResult):
+    """Equilibrium of a beam in the x-z plane under one field (frozen): a
+    :class:`~magsoft_env.theory.result.PathResult` (status, stability, tip, path) with the planar shape.
 
     Arrays hold one value per distinct collocation node, ``n = nodes`` of them, ordered from the
     clamp (or left end) to the tip; :meth:`sample` and :meth:`at` interpolate spectrally between
@@ -204,30 +136,13 @@ class EquilibriumResult:
         0.0 and (n, 3), so that code written for either result reads both.
     """
 
-    success: bool
-    status: int
-    message: str
-    s: np.ndarray
     theta: np.ndarray
     strain: np.ndarray
     x: np.ndarray
     z: np.ndarray
     tip_angle: float
-    tip_deflection: float
     rotation_angle: float
-    max_curvature: float
     max_strain: float
-    stable: bool
-    snap_through: bool
-    field: Field
-    gravity: float
-    residual: float
-    resolution: float
-    nodes: int
-    newton_iterations: int
-    wall_time: float = 0.0
-    events: list = dc_field(default_factory=list)
-    verification: float = math.nan
     _grid: Grid | None = dc_field(default=None, repr=False, compare=False)
     _eig: tuple | None = dc_field(default=None, repr=False, compare=False)
     _full: tuple | None = dc_field(default=None, repr=False, compare=False)
@@ -253,10 +168,6 @@ class EquilibriumResult:
         return abs(float(lam) - float(self.min_eigenvalue))
 
     @property
-    def length(self) -> float:
-        return float(self.s[-1])
-
-    @property
     def tip_position(self) -> np.ndarray:
         """(x, y, z) of the tip (m), y = 0: the same reading as the 3D :class:`RodResult`'s."""
         return np.array([self.x[-1], 0.0, self.z[-1]])
@@ -273,16 +184,12 @@ class EquilibriumResult:
 
     def sample(self, n: int = 101):
         """Centreline at ``n`` evenly spaced arc lengths: (s, x, z, theta) arrays (m, m, m, rad)."""
-        if not isinstance(n, (int, np.integer)) or n < 2:
-            raise ValueError(f"sample n must be an integer >= 2, got {n!r}.")
-        s_new = np.linspace(0.0, self.length, n)
+        s_new = self._samples(n)
         return (s_new, *self.at(s_new))
 
     def at(self, s):
         """Centreline (x, z, theta) at reference arc lengths ``s`` (m), spectrally interpolated."""
-        s = np.asarray(s, dtype=float)
-        if not np.all(np.isfinite(s)) or np.any(s < 0) or np.any(s > self.length * (1 + 1e-12)):
-            raise ValueError(f"s must lie in [0, {self.length:g}] m, got values in [{s.min():g}, {s.max():g}].")
+        s = self._arc(s)
         th, xx, zz = self._full
         vals = self._grid.interpolate(np.column_stack([th, xx, zz]), s.ravel())
         return vals[:, 1].reshape(s.shape), vals[:, 2].reshape(s.shape), vals[:, 0].reshape(s.shape)
@@ -291,11 +198,8 @@ class EquilibriumResult:
         """Metrics as plain numbers (SI and degrees), for JSON."""
         L = self.length
         return {
-            "success": bool(self.success),
-            "status": int(self.status),
-            "message": self.message,
+            **self._status_dict(),
             "field_T": [self.field.Bx, self.field.Bz],
-            "gravity_m_s2": self.gravity,
             "tip_deflection_m": self.tip_deflection,
             "v_over_L": self.tip_deflection / L,
             "tip_angle_rad": self.tip_angle,
@@ -304,15 +208,9 @@ class EquilibriumResult:
             "rotation_angle_deg": math.degrees(self.rotation_angle),
             "tip_x_m": float(self.x[-1]),
             "tip_z_m": float(self.z[-1]),
-            "max_curvature_1_m": self.max_curvature,
             "max_strain": self.max_strain,
-            "stable": bool(self.stable),
             "min_eigenvalue": self.min_eigenvalue,
             "min_eigenvalue_uncertainty": self.min_eigenvalue_uncertainty,
-            "verification_rad": self.verification,
-            "snap_through": bool(self.snap_through),
-            "residual": self.residual,
-            "nodes": self.nodes,
         }
 
 
@@ -339,7 +237,7 @@ class _Solver:
         self.extensible = extensible
         self.theta0 = clamp_angle
         self.opt = options
-        bps = _edges(beam, options.split_at_knots)
+        bps = subdomain_edges(beam, options.split_at_knots)
         edges = make_grid(beam.length, bps, n=8, max_domain=options.max_domain * beam.length).edges
         if options.nodes is not None:
             n = options.nodes
@@ -890,115 +788,11 @@ class _Solver:
         )
 
 
-def _edges(beam: Beam, knots: bool = True) -> tuple[float, ...]:
-    """Interior subdomain edges: the beam's breakpoints, and its spline knots when they are few."""
-    knots = beam.spline_knots() if knots else ()
-    if not knots or len(knots) > MAX_KNOT_EDGES:
-        return beam.breakpoints()
-    merged: list[float] = []
-    for p in sorted({*beam.breakpoints(), *knots}):
-        if not merged or p - merged[-1] > 1e-9 * beam.length:
-            merged.append(p)
-    return tuple(merged)
-
-
 def _regrid(grid: Grid, n: int) -> Grid:
     return _grid_cached(tuple(float(e) for e in grid.edges), n)
 
 
 # ----------------------------------------------------------------------------------------------
-def _use_rod(beam, fields, model: str) -> bool:
-    """Whether a problem takes the 3D rod (see ``model`` in :func:`solve_path`)."""
-    model = choice("model", model, MODELS)
-    if not isinstance(beam, Beam):
-        raise ValueError(f"beam must be a magsoft_env.Beam, got {type(beam).__name__}.")
-    if model == "3d":
-        return True
-    if isinstance(fields, Field) or (_triple(fields)):
-        fields = [fields]  # one field given where a sequence is expected: as_fields says so
-    if isinstance(fields, np.ndarray):
-        three = fields.ndim == 2 and fields.shape[1] == 3
-        out_of_plane = three and bool(np.any(fields[:, 1] != 0))
-    else:
-        try:
-            items = list(fields)
-        except TypeError:
-            items = []
-        three = any(_triple(f) for f in items)
-        out_of_plane = any((isinstance(f, Field) and not f.is_planar) or (_triple(f) and _nonzero(f[1]))
-                           for f in items)
-        three = three or out_of_plane
-    if model == "planar":
-        if out_of_plane:
-            raise ValueError("model='planar' bends the beam in the x-z plane: every field must have B_y = 0, "
-                             "got a field with a B_y component; use model='3d' (or 'auto').")
-        if not beam.is_planar:
-            raise ValueError("model='planar' cannot take a magnetization with a component across the width; "
-                             "use model='3d' (or 'auto').")
-        return False
-    return three or not beam.is_planar
-
-
-def _triple(v) -> bool:
-    """Whether ``v`` is one field given by three numbers (not a sequence of three fields)."""
-    if isinstance(v, (str, bytes, dict, set, frozenset, Field)):
-        return False
-    try:
-        a = np.asarray(v, dtype=float)
-    except (TypeError, ValueError):
-        return False
-    return a.shape == (3,)
-
-
-def _nonzero(v) -> bool:
-    try:
-        return float(v) != 0.0
-    except (TypeError, ValueError):
-        return False  # as_fields reports it
-
-
-def _check_common(beam, gravity, support, coupling, extensible, clamp_angle, options, *, rod: bool = False):
-    if not isinstance(beam, Beam):
-        raise ValueError(f"beam must be a magsoft_env.Beam, got {type(beam).__name__}.")
-    lo = check_loading(gravity=gravity, support=support, coupling=coupling, extensible=extensible,
-                       clamp_angle=clamp_angle)
-    g, support, coupling, th0 = lo["gravity"], lo["support"], lo["coupling"], lo["clamp_angle"]
-    if rod and coupling != "rotated":
-        raise ValueError(
-            "coupling='paper' is planar only: the paper's eq. (10) couples only the axial component "
-            "B_r cos(beta) of the magnetization, which has no meaning for a cross-section that turns in 3D. "
-            "The 3D rod uses the rotated coupling (A B_r / mu0) (R m_hat) x B; pass coupling='rotated'."
-        )
-    if rod and lo["extensible"]:
-        raise ValueError("extensible=True is planar only: the 3D rod is inextensible (axial strain is about 1 % "
-                         "at 13 mT); pass extensible=False.")
-    if options is None:
-        options = SolverOptions()
-    elif not isinstance(options, SolverOptions):
-        raise ValueError(f"options must be a SolverOptions, got {options!r}.")
-    options.check()
-    edges = _edges(beam, options.split_at_knots)
-    d = len(make_grid(beam.length, edges, n=8, max_domain=options.max_domain * beam.length).edges) - 1
-    n_max = options.nodes if options.nodes is not None else options.max_nodes
-    if rod and d * 9 > MAX_ROD_NODES:
-        raise ValueError(
-            f"the beam has {d} smooth pieces (breakpoints of its profiles, max_domain): the 3D rod needs at least "
-            f"{9 * d} collocation nodes, more than {MAX_ROD_NODES}; use fewer cells or a larger max_domain."
-        )
-    if d * 9 > MAX_TOTAL_NODES:
-        raise ValueError(
-            f"the beam has {d} smooth pieces (breakpoints of its profiles, max_domain): at least {9 * d} "
-            f"collocation nodes, more than {MAX_TOTAL_NODES}; use fewer cells or a larger max_domain."
-        )
-    if d * (n_max + 1) > MAX_TOTAL_NODES and options.nodes is not None:
-        raise ValueError(
-            f"options.nodes = {n_max} on this beam's {d} subdomains gives {d * (n_max + 1)} collocation nodes, "
-            f"more than {MAX_TOTAL_NODES} (a Newton iteration would take ~{(d * (n_max + 1) / 1e3) ** 3 * 0.1:.2g} s); "
-            "lower nodes or raise max_domain."
-        )
-    return g, support, coupling, bool(extensible), th0, options
-
-
 def solve_path(
     beam: Beam,
     fields,
@@ -1065,14 +859,14 @@ def solve_path(
     >>> bool(res[-1].success), round(res[-1].tip_deflection / beam.length, 2)
     (True, 0.92)
     """
-    rod = _use_rod(beam, fields, model)
-    g, support, coupling, extensible, th0, options = _check_common(
+    rod = use_rod(beam, fields, model)
+    g, support, coupling, extensible, th0, options = check_problem(
         beam, gravity, support, coupling, extensible, clamp_angle, options, rod=rod
     )
     fields = as_fields(fields)
     with single_threaded_blas():
         if rod:
-            return solve_rod_path(beam, fields, g, support, th0, options, _edges(beam, options.split_at_knots),
+            return solve_rod_path(beam, fields, g, support, th0, options, subdomain_edges(beam, options.split_at_knots),
                                   TERMINATION_MESSAGES, progress)
         return _solve_path(beam, fields, g, support, coupling, extensible, th0, options, progress)
 
@@ -1152,7 +946,7 @@ def solve_equilibrium(
     >>> r.success, r.stable
     (True, True)
     """
-    rod = _use_rod(beam, [field], model)
+    rod = use_rod(beam, [field], model)
     fld = as_field(field)
     start = choice("start", start, ["path", "straight"])
     if rod and start != "path":
@@ -1170,7 +964,7 @@ def solve_equilibrium(
             options=options,
             model="3d" if rod else "planar",
         )[0]
-    g, support, coupling, extensible, th0, options = _check_common(
+    g, support, coupling, extensible, th0, options = check_problem(
         beam, gravity, support, coupling, extensible, clamp_angle, options
     )
     if support != "cantilever":
