@@ -140,7 +140,7 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
         cm = proto.crawl_mode
         limits = {"half_thickness": 0.5 * self._h, "inv_piece_length": proto._inv_piece_length.ravel(),
                   "max_clearance": math.inf if proto.max_clearance is None or cm == "none" else proto.max_clearance,
-                  "cos_rotation": proto._cos_rotation, "max_height": proto.max_height, "mode": _MODES[cm],
+                  "cos_rotation": proto.task.cos_rotation, "max_height": proto.max_height, "mode": _MODES[cm],
                   "airborne_tolerance": AIRBORNE_TOLERANCE}
         self.batch = WarpRodBatch(rod, sim.data, self.num_envs, limits=limits, device=device, graph=graph,
                                   nconmax=nconmax, njmax=njmax, backend=sim.backend,
