@@ -24,7 +24,7 @@ BEAM = Beam(length=25e-3, width=5e-3, thickness=1.13e-3)
 def test_nothing_imports_warp_until_the_backend_is_asked_for():
     code = (
         "import sys, gymnasium as gym, numpy as np, magsoft_env\n"
-        "import magsoft_env.sim.warp_extra, magsoft_env.envs.warp_reference\n"
+        "import magsoft_env.sim.warp_extra, magsoft_env.envs.crawl_task\n"
         "env = gym.make('MagSoftCrawl-v1', segments=4, sim_dt=1e-3); env.reset(seed=0)\n"
         "envs = gym.make_vec('MagSoftCrawl-v1', num_envs=2, segments=4, sim_dt=1e-3); envs.reset(seed=0)\n"
         "envs.step(np.zeros((2, 2), np.float32)); envs.close()\n"
@@ -46,6 +46,14 @@ def test_unknown_backend_is_refused():
 def test_warp_backend_refuses_the_channel_and_obstacle_naming_what_it_runs(env_id):
     with pytest.raises(ValueError, match="MagSoftCrawl-v1 and MagSoftCrawlWaveform-v1"):
         gym.make_vec(env_id, num_envs=1, backend="warp", device="cpu")
+
+
+@needs_warp
+def test_warp_backend_refuses_the_3d_strip_naming_the_cpu_batch():
+    # MJWarp 4.0 steps the strip's elasticity but not its floor contact as C does, and the strip's couples are
+    # written from Python every substep (docs/gpu.md): refused before anything is built
+    with pytest.raises(ValueError, match=r"rod='cable'.*not on MuJoCo Warp.*backend='cpu'"):
+        gym.make_vec("MagSoftCrawl-v1", num_envs=2, backend="warp", device="cpu", rod="cable")
 
 
 @needs_warp
@@ -180,8 +188,6 @@ def warp_envs():
 
 @needs_warp
 def test_env_contract_and_agreement_with_the_cpu_batch(warp_envs):
-    from magsoft_env.envs.warp_reference import restart_from
-
     envs = warp_envs
     cpu = gym.make_vec("MagSoftCrawl-v1", num_envs=3)
     assert envs.metadata["autoreset_mode"] == gym.vector.AutoresetMode.NEXT_STEP
@@ -195,7 +201,7 @@ def test_env_contract_and_agreement_with_the_cpu_batch(warp_envs):
     for i in range(3):
         noise = cpu.envs[i].sim.data.qpos[hinges] - cpu.envs[i].sim.model.qpos0[hinges]
         np.testing.assert_allclose(envs.unwrapped.start_qpos[i, hinges] - settled[hinges], noise, atol=1e-15)
-        co[i] = restart_from(cpu.envs[i], envs.unwrapped.start_qpos[i])[0]
+        co[i], ci_i = cpu.envs[i].reset(options={"qpos": envs.unwrapped.start_qpos[i]})  # the C reference
     assert wo.dtype == np.float32 and wo.shape == (3, 48)
     np.testing.assert_allclose(wo, co, atol=1e-6)
     assert set(wi) == set(ci)
@@ -221,8 +227,6 @@ def test_waveform_env_matches_the_cpu_batch_and_autoresets_as_it():
     """``MagSoftCrawlWaveform-v1`` on Warp against the CPU batch from the same start: gentle periods (0.3 mT or less,
     the beam stays on the floor) of 3-4 Hz with their own lengths per world; observations, rewards, terminations,
     truncations (time limit 2), the NEXT_STEP autoreset and the info keys as the CPU batch's."""
-    from magsoft_env.envs.warp_reference import restart_from
-
     n = 3
     envs = gym.make_vec("MagSoftCrawlWaveform-v1", num_envs=n, backend="warp", device="cpu", max_episode_steps=2)
     cpu = gym.make_vec("MagSoftCrawlWaveform-v1", num_envs=n, num_threads=1, max_episode_steps=2)
@@ -231,7 +235,7 @@ def test_waveform_env_matches_the_cpu_batch_and_autoresets_as_it():
     wo, wi = envs.reset(seed=5)
     co, ci = cpu.reset(seed=5)
     for i in range(n):
-        co[i] = restart_from(cpu.envs[i], envs.unwrapped.start_qpos[i])[0]
+        co[i] = cpu.envs[i].reset(options={"qpos": envs.unwrapped.start_qpos[i]})[0]
     np.testing.assert_allclose(wo, co, atol=1e-6)
     assert set(wi) == set(ci)
     rng = np.random.default_rng(0)
@@ -350,8 +354,13 @@ def test_worlds_made_to_blow_up_truncate_and_reset_alone(warp_envs):
     tobs, *_ = twin.step(act)
     assert trunc.tolist() == [False, True, True] and not term.any()
     assert info["instability"][1] == "runaway kinetic energy (J)"
-    assert info["unphysical"][2] == "launch" and info["_unphysical"].tolist() == [False, False, True]
+    assert info["truncation_reason"][1].startswith("simulation unstable at step 200 (t = 0.04 s): runaway kinetic "
+                                                   "energy (J) = ")  # the C simulator's text (sim/health.py)
+    assert info["instability"][2] == "launch" and info["_unphysical"].tolist() == [False, False, True]
+    assert info["unphysical"][2].startswith("launch: the rod gained ")
+    assert info["truncation_reason"][2].startswith("unphysical motion at step 200 (t = 0.04 s): launch: the rod")
     assert 0.01 < info["energy_drift"][2] < 100.0 and info["energy_created_J"][2] > 0.0
+    assert info["step"][2] == 200 and info["time_s"][2] == pytest.approx(0.04)
     assert r[1] == r[2] == 0.0 and np.all(np.isfinite(obs))
     np.testing.assert_allclose(obs[0], tobs[0], atol=1e-6)
     obs, r, term, trunc, info = envs.step(act)
@@ -379,7 +388,7 @@ def test_an_mjwarp_buffer_overflow_is_reported_for_its_world_alone(warp_envs):
     flags[2] |= int(mjw.OverflowType.ITERATIONS)
     envs.batch.d.overflow.assign(flags)
     _, r, term, trunc, info = envs.step(act)
-    assert trunc.tolist() == [True, False, False] and info["instability"][0] == "overflow"
+    assert trunc.tolist() == [True, False, False] and info["instability"][0].startswith("MJWarp buffer overflow")
     assert "raise nconmax / njmax" in info["truncation_reason"][0]
     envs.step(act)
     assert envs.batch.d.overflow.numpy()[0] == 0
@@ -417,17 +426,14 @@ def test_reset_mask_resets_only_the_masked_worlds(warp_envs):
 def test_crawl_displacement_statistics_match_c():
     """The paper-5c gait at its default (stiff) contact, where lift-off and touchdown amplify round-off: the
     distribution of the displacement over seeds agrees with C's within the scatter."""
-    from magsoft_env.envs.warp_reference import restart_from
-
     n, steps = 6, 40
     envs = gym.make_vec("MagSoftCrawl-v1", num_envs=n, backend="warp", device="cpu")
     cpu = gym.make_vec("MagSoftCrawl-v1", num_envs=n, num_threads=1)
-    envs.reset(seed=100)
+    _, wi = envs.reset(seed=100)
     cpu.reset(seed=100)
-    for i in range(n):
-        restart_from(cpu.envs[i], envs.unwrapped.start_qpos[i])
-    x0w = envs.unwrapped._com[:, 0].copy()
-    x0c = np.array([e._com[0] for e in cpu.envs])
+    x0c = np.array([cpu.envs[i].reset(options={"qpos": envs.unwrapped.start_qpos[i]})[1]["x_position"]
+                    for i in range(n)])
+    x0w = wi["x_position"].copy()
     proto = cpu.envs[0]
     for k in range(steps):
         a = np.tile(proto.open_loop_action(k * proto.n_substeps * proto.sim_dt), (n, 1))
