@@ -154,7 +154,7 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
                   "max_clearance": math.inf if task.max_clearance is None or task.crawl_mode == "none"
                   else task.max_clearance,
                   "cos_rotation": task.cos_rotation, "max_height": task.max_height, "mode": _MODES[task.crawl_mode],
-                  "airborne_tolerance": AIRBORNE_TOLERANCE}
+                  "airborne_tolerance": AIRBORNE_TOLERANCE, "penetration_limit": sim.penetration_limit}
         self.batch = WarpRodBatch(sim.rod, sim.data, self.num_envs, limits=limits, device=device, graph=graph,
                                   nconmax=nconmax, njmax=njmax, backend=sim.backend,
                                   friction=friction if per_world_friction else None, field_scale=field_scale,
@@ -279,8 +279,6 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
         time = self._clock * self._dt
         old_obs = self._obs.copy()
         self._max_pen[stepping] = np.maximum(self._max_pen, np.maximum(s["depth"], 0.0))[stepping]
-        if "drift" in s:
-            self._drift[stepping] = np.maximum(self._drift, s["drift"])[stepping]
 
         # health, per world: a failing world truncates with the C simulator's error (SimulationError in the single
         # env) and books nothing of its step but its field
@@ -289,6 +287,8 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
                                   energy_drift=self._drift)
         ok = stepping.copy()
         ok[list(failures)] = False
+        if "drift" in s:
+            self._drift[ok] = np.maximum(self._drift, s["drift"])[ok]
         rec.book(ok, com=batch.com(s), duration=k * self._dt, highest_clearance=s["clear_max"],
                  lowest_cos=s["cos_min"], airborne=s["airborne"], substeps=k)
 

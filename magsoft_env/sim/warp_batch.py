@@ -89,22 +89,23 @@ def _limits(xpos: wp.array2d[wp.vec3], xmat: wp.array2d[wp.mat33], bodies: wp.ar
             inv_len: wp.array[float], tip_len: float, half_h: float, max_clearance: float, cos_rotation: float,
             max_height: float, mode: int, airborne_tol: float, column: int, count: int, step: wp.array[int],
             nsub: wp.array[int], clear_max: wp.array[float], cos_min: wp.array[float], airborne: wp.array[int],
-            violation: wp.array[int], figures: wp.array2d[float], depth: wp.array[float],
+            violation: wp.array[int], figures: wp.array2d[float], pen_limit: float, depth: wp.array[float],
             depth_best: wp.array[float], depth_at: wp.array[int]):
     """One column of the crawl limits of every world: clearance of the lowest centreline point, the highest point
     and the cos of the largest piece angle; the first column that breaks a limit is kept with its figures
     (the device twin of :mod:`magsoft_env.envs.crawl_task`'s ``crawl_limits``, ``limit_summary`` and
     ``first_violation``). ``mode``: 0 none, 1 rotation, 2 height. The column is ``column + step[w]`` (``column``
     -2: the end state); a world whose ``step`` has reached its ``nsub`` (its period is over) is left out. A substep
-    column (``count`` 1) whose deepest contact (``depth``, after :func:`_deepest`) is the deepest yet is kept in
-    ``depth_at``."""
+    column (``count`` 1) whose deepest contact (``depth``, the running maximum of :func:`_deepest`) is the deepest
+    yet is kept in ``depth_best`` and ``depth_at``, until one is deeper than ``pen_limit``: as the C simulator's
+    check, which stops at the first step that breaks the bound."""
     w = wp.tid()
     if column != -2 and step[w] >= nsub[w]:
         return
     col = column
     if column != -2:
         col = column + step[w]
-    if count != 0 and depth[w] > depth_best[w]:
+    if count != 0 and depth_best[w] <= pen_limit and depth[w] > depth_best[w]:
         depth_best[w] = depth[w]
         depth_at[w] = col
     n = bodies.shape[0]
@@ -359,7 +360,8 @@ class WarpRodBatch:
     limits : dict, optional
         The crawl limits the substep kernel holds: ``half_thickness`` (m), ``inv_piece_length`` (1/m, one per
         piece), ``max_clearance`` (m, inf: none), ``cos_rotation``, ``max_height`` (m), ``mode`` (0 none,
-        1 rotation, 2 height), ``airborne_tolerance`` (m).
+        1 rotation, 2 height), ``airborne_tolerance`` (m), ``penetration_limit`` (m: the deepest contact is
+        followed up to the first substep deeper than it, as the C simulator's check; default inf).
     device : str, optional
         Warp device (None: Warp's default, a GPU where there is one).
     graph : bool
@@ -466,6 +468,7 @@ class WarpRodBatch:
         self._max_height = float(lim.get("max_height", math.inf))
         self._mode = int(lim.get("mode", 0))
         self._airborne_tol = float(lim.get("airborne_tolerance", math.inf))
+        self._pen_limit = float(lim.get("penetration_limit", math.inf))
         self._mocap = int(rod.field_mocap) if getattr(rod, "field_mocap", -1) is not None else -1
         self._dt = float(src.opt.timestep)
         self.graph = bool(graph)
@@ -503,7 +506,8 @@ class WarpRodBatch:
             self.d.xpos, self.d.xmat, self._bodies, self._inv_len, self._tip_len, self._half_h,
             self._max_clearance, self._cos_rotation, self._max_height, self._mode, self._airborne_tol, column,
             count, self._zero if step is None else step, self._never if nsub is None else nsub, self.clear_max,
-            self.cos_min, self.airborne, self.violation, self.figures, self.depth, self._depth_best, self.depth_at])
+            self.cos_min, self.airborne, self.violation, self.figures, self._pen_limit, self.depth, self._depth_best,
+            self.depth_at])
 
     def _deepest_launch(self, step, nsub) -> None:
         d = self.d
@@ -658,10 +662,11 @@ class WarpRodBatch:
     # ------------------------------------------------------------------ readouts (host copies)
     def state(self) -> dict[str, np.ndarray]:
         """Host copies (float64) of what the env reads: ``qpos``, ``qvel``, ``xpos`` / ``xmat`` / ``xipos`` of
-        the rod's bodies (chain order), the substep records, the deepest contact (and ``depth_at``, the substep
-        whose start state had it; -1: no contact), ``M qvel``, the overflow bits and, with a ``backend``, the
-        energy records ``ke_ratio`` (largest kinetic energy over the energy scale at the checks of the last call)
-        and ``drift`` (largest energy drift there, in energy scales)."""
+        the rod's bodies (chain order), the substep records, the deepest contact ``depth`` (m; up to the first
+        substep deeper than the limits' ``penetration_limit``, as C's check, which stops there) and ``depth_at``,
+        the substep whose start state had it (-1: no contact), ``M qvel``, the overflow bits and, with a
+        ``backend``, the energy records ``ke_ratio`` (largest kinetic energy over the energy scale at the checks of
+        the last call) and ``drift`` (largest energy drift there, in energy scales)."""
         b = np.asarray(self.rod.body_ids)
         d = self.d
         out = {
@@ -670,7 +675,7 @@ class WarpRodBatch:
             "xipos": d.xipos.numpy()[:, b].astype(float),
             "clear_max": self.clear_max.numpy().astype(float), "cos_min": self.cos_min.numpy().astype(float),
             "airborne": self.airborne.numpy().astype(int), "violation": self.violation.numpy().astype(int),
-            "figures": self.figures.numpy().astype(float), "depth": self.depth.numpy().astype(float),
+            "figures": self.figures.numpy().astype(float), "depth": self._depth_best.numpy().astype(float),
             "depth_at": self.depth_at.numpy().astype(int),
             "mqvel": self.mqvel.numpy().astype(float), "overflow": d.overflow.numpy().astype(np.int64),
         }
@@ -756,8 +761,8 @@ class WarpRodBatch:
         state had it), kinetic energy above :data:`~magsoft_env.sim.health.RUNAWAY_FACTOR` x the energy scale, the
         end state's centreline below the floor by more than ``penetration_limit`` (tunnelling) and, where the C
         simulator keeps it, energy the field did not supply (a launch). ``nstep``, ``time``: each world's steps
-        and time (s) now, after its ``substeps`` of this call; ``max_penetration`` (m), ``energy_drift``: its
-        records, quoted in the figures."""
+        and time (s) now, after its ``substeps`` of this call (``sim_dt`` each); ``max_penetration`` (m),
+        ``energy_drift``: its records (the drift's before this call), quoted in the figures."""
         b = self._chain()
         h = b.beam.thickness
         opts = b.options
@@ -776,11 +781,11 @@ class WarpRodBatch:
             step, t = int(nstep[i]), float(time[i])
             numerics = setting_text(opts, fields[i])
 
-            def unphysical(cause, reason, hint, figures, value, at=(step, t), i=i):
+            def unphysical(cause, reason, hint, figures, value, at=(step, t), i=i, drift_now=energy_drift[i]):
                 return unphysical_error(cause, reason, hint, figures, value, step=at[0], time=at[1],
                                         setting=setting_text(opts, fields[i], contact_timeconst=tc),
                                         max_penetration=float(max_penetration[i]), thickness=h,
-                                        drift=float(energy_drift[i]))
+                                        drift=float(drift_now))
 
             if not finite["qpos"][i] or not finite["qvel"][i]:
                 out[i] = nonfinite_error("qpos" if not finite["qpos"][i] else "qvel", step=step, time=t,
@@ -789,13 +794,13 @@ class WarpRodBatch:
                 out[i] = unstable_error(f"MJWarp buffer overflow (OverflowType bits {int(over[i])})", math.nan,
                                         OVERFLOW_HINT, step=step, time=t, setting=numerics)
             elif depth[i] > penetration_limit:
-                j = int(s["depth_at"][i])  # the substep of this call whose start state had the deepest contact
-                pen_step, pen_t = step - int(substeps[i]) + j, t - (int(substeps[i]) - j) * dt
+                # the substep of this call whose start state had the contact: C's check stops after it
+                pen_step = step - int(substeps[i]) + int(s["depth_at"][i])
                 out[i] = unphysical("penetration", penetration_reason(float(depth[i]), thickness=h,
                                                                       limit=penetration_limit, step=pen_step,
-                                                                      time=pen_t),
+                                                                      time=pen_step * dt),
                                     PENETRATION_HINT, penetration_figures(float(depth[i]), h), float(depth[i]),
-                                    at=(step, t) if pen_step + 1 == step else (pen_step + 1, pen_t + dt))
+                                    at=(step, t) if pen_step + 1 == step else (pen_step + 1, (pen_step + 1) * dt))
             elif ratio is not None and not ratio[i] <= RUNAWAY_FACTOR:
                 out[i] = runaway_error(float(ratio[i] * scale[i]), float(scale[i]), step=step, time=t,
                                        setting=numerics)
@@ -807,7 +812,8 @@ class WarpRodBatch:
                 excess = float(drift[i] * scale[i])
                 out[i] = unphysical("launch", launch_reason(excess, float(drift[i]), energy_scale=float(scale[i]),
                                                             weight=b.weight, length=b.beam.length),
-                                    STABILITY_HINT, {"energy_created_J": excess}, excess)
+                                    STABILITY_HINT, {"energy_created_J": excess}, excess,
+                                    drift_now=max(float(energy_drift[i]), float(drift[i])))
         return out
 
 
