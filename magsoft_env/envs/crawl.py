@@ -130,7 +130,9 @@ class MagSoftCrawlEnv(gym.Env):
     ## Rewards
 
     ``reward = forward + field_cost + crawl_penalty (+ success for subclasses)``, each term in
-    ``info`` as ``reward_forward``, ``reward_field``, ``reward_crawl``, ``reward_success``:
+    ``info`` as ``reward_forward``, ``reward_field``, ``reward_crawl``, ``reward_success`` (computed, with the crawl
+    limits, the observation and ``info``, by :mod:`magsoft_env.envs.crawl_task`, the batches' own functions;
+    :attr:`task` holds the parameters):
 
     - ``forward = forward_reward_weight * target_direction * dx / dt``: centre-of-mass travel
       along the target direction over the step, per second (default weight 1000 s/m: the term
@@ -144,7 +146,10 @@ class MagSoftCrawlEnv(gym.Env):
     ## Starting State
 
     The straight beam lies on the floor at rest, zero field, hinge angles perturbed by
-    ``U(-reset_noise_scale, reset_noise_scale)`` rad.
+    ``U(-reset_noise_scale, reset_noise_scale)`` rad (the 3D strip: its interior vertices, by that angle times half
+    a cell). ``reset(options={"qpos": qpos, "qvel": qvel})`` starts from that state instead (shapes ``(nq,)``,
+    ``(nv,)``; either may be left out: the noisy rest state, zero velocities), at time zero and zero field, with no
+    draw from the random stream; other option keys are refused.
 
     ## Episode End
 

@@ -14,6 +14,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from ..rods import DEFAULT_ROD
 from ..sim.model import CONTACT_HISTORY
 from . import constructor_arguments, refuse_unknown_kwargs
 from .channel import MagSoftChannelEnv
@@ -79,6 +80,17 @@ def reset_arguments(seed, options: dict | None, num_envs: int) -> tuple[list, np
         if not mask.any():
             raise ValueError("options['reset_mask'] must select at least one robot, got none.")
     return seeds, mask, rest
+
+
+def refuse_warp_rod(rod) -> None:
+    """ValueError unless ``rod`` is the planar chain, the one rod ``backend="warp"`` runs (checked before Warp is
+    imported)."""
+    if rod != DEFAULT_ROD:
+        raise ValueError(
+            f"backend='warp' runs the planar hinge chain (rod='planar'), got rod={rod!r}: the 3D strip is not on "
+            "MuJoCo Warp here (its magnetic couples are written from Python every substep, from the strip's material "
+            "frame; MJWarp 4.0 steps the strip's elasticity but not its floor contact as MuJoCo does, docs/gpu.md). "
+            "Use the CPU batch for it: gym.make_vec(..., rod='cable', backend='cpu').")
 
 
 def route_warnings(sim):
@@ -270,6 +282,7 @@ class MagSoftCrawlVecEnv(VectorEnv):
     def __new__(cls, num_envs: int = 1, *, backend: str = "cpu", **kwargs):
         # backend="warp": the robots as MuJoCo Warp worlds (the optional extra; envs/warp_vector.py, imported here only)
         if backend == "warp":
+            refuse_warp_rod(kwargs.get("rod", DEFAULT_ROD))
             from .warp_vector import MagSoftCrawlWarpVecEnv
 
             return MagSoftCrawlWarpVecEnv(num_envs, env_class=cls.env_class, **kwargs)
@@ -473,4 +486,4 @@ class MagSoftSteerVecEnv(MagSoftCrawlVecEnv):
 
 
 __all__ = ["MagSoftChannelVecEnv", "MagSoftCrawlVecEnv", "MagSoftObstacleVecEnv", "MagSoftSteerVecEnv", "ThreadTeam",
-           "reset_arguments", "route_warnings", "usable_cpus", "with_sink"]
+           "refuse_warp_rod", "reset_arguments", "route_warnings", "usable_cpus", "with_sink"]

@@ -6,7 +6,10 @@ spaces, observations, rewards, crawl limits at every substep, terminations, trun
 :class:`~magsoft_env.sim.warp_batch.WarpRodBatch`: one env step is one replay of a captured graph (the fields
 written per world, ``n_substeps`` MJWarp steps, each followed by the crawl-limit and contact-depth reductions on
 the device, the end state's kinematics); the host reads one copy of the small per-world arrays and computes
-observations, rewards and ``info`` vectorized over the worlds.
+observations, rewards, terminations and ``info`` with the single env's own functions over the worlds
+(:mod:`magsoft_env.envs.crawl_task`, ``n = num_envs``); the batch's readouts and health checks are
+:class:`~magsoft_env.sim.warp_batch.WarpRodBatch`'s, its failures the C simulator's errors
+(:mod:`magsoft_env.sim.health`).
 
 Differences from the CPU batch, all stated in docs/gpu.md:
 
@@ -16,10 +19,10 @@ Differences from the CPU batch, all stated in docs/gpu.md:
   zero contact distance, where float32 and float64 disagree on which contacts exist.
 - Health checks per world on the device's records: a non-finite state, kinetic energy above 100 x the energy
   scale and the energy drift ("launch") at the C simulator's checkpoints, a contact deeper than the penetration
-  limit, the centreline below the floor by more than it, an MJWarp buffer overflow. MuJoCo's C warnings do not
-  exist there.
-- ``MagSoftCrawl-v1`` and ``MagSoftCrawlWaveform-v1`` (field and waveform modes) without ``slew_rate`` or
-  rendering; the channel and obstacle ids refuse ``backend="warp"``.
+  limit, the centreline below the floor by more than it, an MJWarp buffer overflow; all but the penetration are
+  reported at the end of the env step. MuJoCo's C warnings do not exist there.
+- ``MagSoftCrawl-v1`` and ``MagSoftCrawlWaveform-v1`` (field and waveform modes) on the planar chain, without
+  ``slew_rate`` or rendering; the channel and obstacle ids and ``rod="cable"`` refuse ``backend="warp"``.
 - Per-world parameters: ``friction`` (the rod-floor pairs' sliding friction) and ``field_scale`` (a factor on the
   applied field) may be given one per world.
 """
@@ -33,6 +36,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from ..rods import DEFAULT_ROD
 from ..sim.health import FIELD_FLOOR
 from ..sim.warp_batch import WarpRodBatch
 from . import instability_info
@@ -53,7 +57,7 @@ from .crawl_task import (
     wave_rows,
     zero_terms,
 )
-from .vector import _count, reset_arguments
+from .vector import _count, refuse_warp_rod, reset_arguments
 
 #: Simulated time (s) the straight beam settles on the floor at zero field, in C, before the batch starts from it.
 DEFAULT_SETTLE_TIME = 0.05
@@ -114,18 +118,14 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
             raise ValueError(f"backend='warp' runs {' and '.join(SUPPORTED_IDS)} (the floor), not "
                              f"{env_class.__name__} (its scene's walls and block are not built for MJWarp here); "
                              "use the CPU batch (backend='cpu') for MagSoftChannel-v1 and MagSoftObstacle-v1.")
-        if kwargs.get("rod", "planar") != "planar":
-            raise ValueError(
-                f"backend='warp' runs the planar hinge chain (rod='planar'), got rod={kwargs['rod']!r}: the 3D strip "
-                "is not on MuJoCo Warp here (its magnetic couples are written from Python every substep, from the "
-                "strip's material frame; MJWarp 4.0 steps the strip's elasticity but not its floor contact as MuJoCo "
-                "does, docs/gpu.md). Use the CPU batch for it: gym.make_vec(..., rod='cable', backend='cpu').")
+        refuse_warp_rod(kwargs.get("rod", DEFAULT_ROD))
         self.num_envs = _count("num_envs", num_envs)
         self.max_episode_steps = None if max_episode_steps is None else _count("max_episode_steps", max_episode_steps)
         if not (isinstance(settle_time, (int, float)) and math.isfinite(settle_time) and settle_time >= 0):
             raise ValueError(f"settle_time must be a finite number of seconds >= 0, got {settle_time!r}.")
         per_world_friction = friction is not None and np.ndim(friction) > 0
         proto = env_class(**kwargs) if per_world_friction else env_class(friction=friction, **kwargs)
+        refuse_warp_rod(proto.rod)
         if proto.slew_rate is not None or proto.render_mode is not None:
             raise ValueError("backend='warp' runs without slew_rate or rendering (slew_rate=None, render_mode=None), "
                              f"got slew_rate={proto.slew_rate!r}, render_mode={proto.render_mode!r}; use the CPU "

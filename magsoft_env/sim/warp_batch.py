@@ -2,7 +2,7 @@
 
 :class:`WarpRodBatch` puts a compiled rod model (:mod:`magsoft_env.sim.model`) on a Warp device with MuJoCo's
 auto-reset flag cleared (MJWarp refuses it, and never auto-resets: a world that goes non-finite stays so, which
-:meth:`WarpRodBatch.health` reports), the solver tolerance raised to MJWarp's float32 floor and contact buffers
+:meth:`WarpRodBatch.failures` reports), the solver tolerance raised to MJWarp's float32 floor and contact buffers
 sized for the rod. :meth:`WarpRodBatch.advance` runs ``k`` substeps of every world under its own held field,
 recorded once as a Warp graph (``wp.ScopedCapture``, on the CPU device too) and replayed at every call, or
 launched kernel by kernel (``graph=False``: the same numbers, bit for bit). After every substep a small kernel
@@ -12,7 +12,10 @@ the kinetic energy) close the graph. :meth:`WarpRodBatch.advance_waveforms` play
 waveform instead, the phase from a per-world step counter (MJWarp's ``d.time`` is float32), in graphs of
 ``block`` substeps replayed until the longest period ends; a world whose period is over keeps its end state. The
 energy balance of :mod:`magsoft_env.sim.health` (runaway kinetic energy, energy drift) is kept per world on the
-device. Worlds are reset by mask from states the caller computes in C (:meth:`WarpRodBatch.reset_worlds`).
+device, and :meth:`WarpRodBatch.failures` turns every world's records into the error the C simulator would raise
+(:mod:`magsoft_env.sim.health`'s builders). The rod's readouts (centreline, angles, rates, centre of mass,
+orientation) are computed per world from a :meth:`WarpRodBatch.state`. Worlds are reset by mask from states the
+caller computes in C (:meth:`WarpRodBatch.reset_worlds`).
 Friction (the rod-floor contact pairs) and a field scale may differ per world (MJWarp's batched model arrays).
 """
 
@@ -405,7 +408,7 @@ class WarpRodBatch:
                 pf = np.tile(np.asarray(src.pair_friction, dtype=np.float32), (n, 1, 1))
                 pf[:, :, 0] = pf[:, :, 1] = self.friction[:, None]
                 self.m.pair_friction.assign(pf)
-            self.m.opt.warn_overflow = 0  # recorded per world in d.overflow, read by health()
+            self.m.opt.warn_overflow = 0  # recorded per world in d.overflow, read by failures()
             self.m.opt.contact_sensor_maxmatch = max(int(self.m.opt.contact_sensor_maxmatch), self.nconmax)
             self.d = mjw.put_data(src, data, nworld=n, nconmax=self.nconmax, njmax=self.njmax)
             nq, nv = int(src.nq), int(src.nv)
