@@ -247,33 +247,11 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
             raise ValueError(f"actions must have shape {self.action_space.shape} (num_envs, action), got {a.shape}.")
         if not np.all(np.isfinite(a)):
             raise ValueError("actions must be finite numbers.")
-        n, proto, batch, rec = self.num_envs, self.proto, self.batch, self._records
-        task = proto.task
+        n, batch, rec = self.num_envs, self.batch, self._records
+        task = self.proto.task
         resetting = self._autoreset.copy()
         stepping = ~resetting
-        backend = proto.sim.backend
-        act = np.clip(a, -1.0, 1.0)
-        act[resetting] = 0.0
-        if self.action_mode == "field":
-            field = act * task.field_limit
-            power = np.sum(field**2, axis=1) / task.field_limit**2
-            applied = np.hypot(field[:, 0], field[:, 1]) * self.field_scale
-            batch.set_fields(field)
-            batch.set_energy_scale(backend.energy_scale(np.maximum(applied, FIELD_FLOOR)))
-            batch.advance(self._k)
-            k = np.full(n, self._k, dtype=np.int64)
-        else:
-            waves = wave_rows(act, field_limit=task.field_limit, frequency_range=proto.frequency_range)
-            k = period_substeps(waves[:, 2], self._dt)
-            k[resetting] = 1  # reset after this step: one substep, so that it never sets the batch's length
-            power = 0.5 * (waves[:, 0] ** 2 + waves[:, 1] ** 2) / task.field_limit**2
-            batch.set_waveforms(waves, k)
-            batch.set_energy_scale(backend.energy_scale(np.maximum(self._peaks(waves) * self.field_scale,
-                                                                   FIELD_FLOOR)))
-            batch.advance_waveforms()
-            field = np.zeros((n, 2))  # a whole period ends where it began
-            rec.last_action[stepping] = act[stepping]
-        rec.field[stepping] = field[stepping]
+        k, power = self._advance(a, resetting, task)
         s = self._state = batch.state()
         self._clock[stepping] += k[stepping]
         time = self._clock * self._dt
@@ -317,19 +295,52 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
         ends = {i: instability_info({}, err) for i, err in failures.items()}
         ends.update({i: dict(NONFINITE_OBSERVATION) for i in np.flatnonzero(bad_obs).tolist()})
         infos.update(stack_infos(ends, n))
-        # NEXT_STEP autoreset: the worlds that ended last step start again (their step above is discarded)
         if resetting.any():
-            self._reset_worlds(resetting, [None] * n)
-            reset_info = self._info(self._state, self._clock * self._dt, np.zeros(n), zero_terms(n))
-            for key, v in reset_info.items():
-                infos[key] = np.where(resetting if np.ndim(v) == 1 else resetting[:, None], v, infos[key])
-            for key in list(infos):
-                if key.startswith("_") and key[1:] not in reset_info:
-                    infos[key] = infos[key] & ~resetting
+            self._autoreset_worlds(resetting, infos)
             reward[resetting] = 0.0
             terminated[resetting] = truncated[resetting] = False
         np.logical_or(terminated, truncated, out=self._autoreset)
         return self._obs.copy(), reward, terminated, truncated, infos
+
+    def _advance(self, actions: np.ndarray, resetting: np.ndarray, task) -> tuple[np.ndarray, np.ndarray]:
+        """Apply every world's action (those of ``resetting``: none) and run the batch: returns each world's
+        substeps and mean normalized field power; the records take the field (and the last waveform action)."""
+        n, batch, rec, stepping = self.num_envs, self.batch, self._records, ~resetting
+        energy_scale = self.proto.sim.backend.energy_scale
+        act = np.clip(actions, -1.0, 1.0)
+        act[resetting] = 0.0
+        if self.action_mode == "field":
+            field = act * task.field_limit
+            power = np.sum(field**2, axis=1) / task.field_limit**2
+            batch.set_fields(field)
+            batch.set_energy_scale(energy_scale(np.maximum(np.hypot(field[:, 0], field[:, 1]) * self.field_scale,
+                                                           FIELD_FLOOR)))
+            batch.advance(self._k)
+            k = np.full(n, self._k, dtype=np.int64)
+        else:
+            waves = wave_rows(act, field_limit=task.field_limit, frequency_range=self.proto.frequency_range)
+            k = period_substeps(waves[:, 2], self._dt)
+            k[resetting] = 1  # reset after this step: one substep, so that it never sets the batch's length
+            power = 0.5 * (waves[:, 0] ** 2 + waves[:, 1] ** 2) / task.field_limit**2
+            batch.set_waveforms(waves, k)
+            batch.set_energy_scale(energy_scale(np.maximum(self._peaks(waves) * self.field_scale, FIELD_FLOOR)))
+            batch.advance_waveforms()
+            field = np.zeros((n, 2))  # a whole period ends where it began
+            rec.last_action[stepping] = act[stepping]
+        rec.field[stepping] = field[stepping]
+        return k, power
+
+    def _autoreset_worlds(self, mask: np.ndarray, infos: dict) -> None:
+        """NEXT_STEP autoreset: the worlds of ``mask`` ended last step and start again; their entries of ``infos``
+        become their reset's (the step they were given is discarded)."""
+        n = self.num_envs
+        self._reset_worlds(mask, [None] * n)
+        reset_info = self._info(self._state, self._clock * self._dt, np.zeros(n), zero_terms(n))
+        for key, v in reset_info.items():
+            infos[key] = np.where(mask if np.ndim(v) == 1 else mask[:, None], v, infos[key])
+        for key in list(infos):
+            if key.startswith("_") and key[1:] not in reset_info:
+                infos[key] = infos[key] & ~mask
 
     @staticmethod
     def _peaks(waves: np.ndarray) -> np.ndarray:
