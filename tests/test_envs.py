@@ -7,7 +7,6 @@ import sys
 import warnings
 
 import gymnasium as gym
-import mujoco
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
@@ -233,16 +232,15 @@ def test_feature_envs_reach_success_past_the_feature(env_id, past):
     # the success condition, exercised: a beam set down beyond the box's far end (the block's
     # right face) ends the episode with the success reward; one 0.5 mm short of it is not a
     # success (checked on the predicate only: stepping it would push it off the block it overlaps)
-    import mujoco
-
     env = make(env_id)
     u = env.unwrapped
 
-    def place(shift):
+    def place(shift):  # an episode started from the rested beam moved along x (reset's start-state option)
         env.reset(seed=0)
         sim = u.sim
-        sim.data.qpos[sim.rod.base_qpos[0]] += getattr(u, past) - sim.centerline()[0].min() + shift
-        mujoco.mj_forward(sim.model, sim.data)
+        qpos = sim.data.qpos.copy()
+        qpos[sim.rod.base_qpos[0]] += getattr(u, past) - sim.centerline()[0].min() + shift
+        env.reset(options={"qpos": qpos})
 
     place(-0.5e-3)
     assert not u._is_success() and u._success_reward() == 0.0
@@ -283,13 +281,25 @@ def test_floor_envs_run_each_robots_own_numerics_unless_told():
         gym.make("MagSoftCrawl-v1", fidelity="quick")
 
 
+def _violation_now(env) -> str | None:
+    """The crawl task's verdict on the env's present state (one column of the crawl limits)."""
+    from magsoft_env.envs.crawl_task import crawl_limits, first_violation, violation_texts
+
+    pose = env.sim.pose()
+    lim = crawl_limits(pose.centreline[None, :, None, :], [0.0], half_thickness=0.5 * env.gait.beam.thickness,
+                       inv_piece_length=1.0 / pose.lengths)
+    column, figures = first_violation(lim, env.task)
+    return violation_texts(figures, [env.sim.time], env.task, column >= 0)[0]
+
+
 def test_a_jump_is_not_a_crawl():
     env = make("MagSoftCrawl-v1", max_clearance=2e-3).unwrapped
     env.reset(seed=0)
-    assert env._crawl_violation(env._substep_limits()) == ""  # resting on the floor
-    env.sim.data.qpos[1] += 3e-3  # the whole beam 3 mm up (base_z): more than the 2 mm clearance limit
-    mujoco.mj_forward(env.sim.model, env.sim.data)
-    assert "the lowest point is 2.989 mm above the floor > 2.000 mm" in env._crawl_violation(env._substep_limits())
+    assert _violation_now(env) is None  # resting on the floor
+    qpos = env.sim.data.qpos.copy()
+    qpos[1] += 3e-3  # the whole beam 3 mm up (base_z): more than the 2 mm clearance limit
+    env.sim.set_state(qpos=qpos)
+    assert "the lowest point is 2.989 mm above the floor > 2.000 mm" in _violation_now(env)
     assert make("MagSoftCrawl-v1", max_clearance=None).unwrapped.max_clearance is None
     assert make("MagSoftObstacle-v1").unwrapped.max_clearance is None  # on the block the beam is above the floor
     with pytest.raises(ValueError, match="max_clearance must be > 0"):
@@ -348,8 +358,12 @@ def test_substep_clearance_and_airborne_fraction_are_the_states_own():
     assert info["airborne_fraction"] == pytest.approx(np.count_nonzero(clear[:-1] > AIRBORNE_TOLERANCE) / n)
     assert 0.0 < info["airborne_fraction"] < 1.0
     # the rotation row: the cosine of the largest piece angle
-    lim = env._limits_of(*(a[:, None] for a in env.sim.centerline()))
-    assert lim[2, 0] == pytest.approx(np.cos(np.max(np.abs(env.sim.angles()))), abs=1e-12)
+    from magsoft_env.envs.crawl_task import crawl_limits
+
+    pose = env.sim.pose()
+    lim = crawl_limits(pose.centreline[None, :, None, :], [0.0], half_thickness=half_h,
+                       inv_piece_length=1.0 / pose.lengths)
+    assert lim[0, 2, 0] == pytest.approx(np.cos(np.max(np.abs(env.sim.angles()))), abs=1e-12)
 
 
 def test_the_paper_gait_never_leaves_the_floor():

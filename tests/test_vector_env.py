@@ -114,6 +114,33 @@ def test_reset_mask_resets_only_the_chosen_robots():
     envs.close()
 
 
+def test_reset_arguments_are_parsed_once_for_both_batches():
+    from magsoft_env.envs.vector import reset_arguments
+
+    mask = np.array([True, False, True])
+    assert reset_arguments(7, {"reset_mask": mask, "qpos": 1}, 3) == ([7, 8, 9], mask, {"qpos": 1})
+    assert reset_arguments([None, 1, 2], None, 3) == ([None, 1, 2], None, {})
+    with pytest.raises(ValueError, match=r"seed must be None, an int or a list of 3 seeds"):
+        reset_arguments([1, 2], None, 3)
+    with pytest.raises(ValueError, match=r"options\['reset_mask'\] must be a boolean numpy array of shape \(3,\)"):
+        reset_arguments(None, {"reset_mask": [True, False, True]}, 3)
+    with pytest.raises(ValueError, match="must select at least one robot"):
+        reset_arguments(None, {"reset_mask": np.zeros(3, bool)}, 3)
+
+
+def test_a_start_state_option_reaches_every_robot():
+    envs = gym.make_vec("MagSoftCrawl-v1", num_envs=2, **FAST)
+    envs.reset(seed=0)
+    qpos = envs.envs[0].sim.data.qpos.copy()
+    qpos[0] += 1e-3  # 1 mm along x
+    obs, info = envs.reset(seed=5, options={"qpos": qpos})
+    np.testing.assert_array_equal(obs[0], obs[1])  # the same state, no reset noise drawn
+    assert info["x_position"][0] == info["x_position"][1]
+    with pytest.raises(ValueError, match="options may hold 'qpos' and 'qvel'"):
+        envs.reset(options={"start": qpos})
+    envs.close()
+
+
 def test_an_unphysical_robot_truncates_alone_with_the_single_envs_info():
     # 100 mT pressed straight down at 1 ms: the contact penetrates 2.3 h in the first step (docs/envs.md)
     kw = {"segments": 4, "sim_dt": 1e-3, "field_limit": 0.1}

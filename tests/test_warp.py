@@ -24,7 +24,7 @@ BEAM = Beam(length=25e-3, width=5e-3, thickness=1.13e-3)
 def test_nothing_imports_warp_until_the_backend_is_asked_for():
     code = (
         "import sys, gymnasium as gym, numpy as np, magsoft_env\n"
-        "import magsoft_env.sim.warp_extra, magsoft_env.envs.warp_reference\n"
+        "import magsoft_env.sim.warp_extra, magsoft_env.envs.crawl_task\n"
         "env = gym.make('MagSoftCrawl-v1', segments=4, sim_dt=1e-3); env.reset(seed=0)\n"
         "envs = gym.make_vec('MagSoftCrawl-v1', num_envs=2, segments=4, sim_dt=1e-3); envs.reset(seed=0)\n"
         "envs.step(np.zeros((2, 2), np.float32)); envs.close()\n"
@@ -46,6 +46,13 @@ def test_unknown_backend_is_refused():
 def test_warp_backend_refuses_the_channel_and_obstacle_naming_what_it_runs(env_id):
     with pytest.raises(ValueError, match="MagSoftCrawl-v1 and MagSoftCrawlWaveform-v1"):
         gym.make_vec(env_id, num_envs=1, backend="warp", device="cpu")
+
+
+def test_warp_backend_refuses_the_3d_strip_naming_the_cpu_batch():
+    # MJWarp 4.0 steps the strip's elasticity but not its floor contact as C does, and the strip's couples are
+    # written from Python every substep (docs/gpu.md): refused before anything is built or Warp is imported
+    with pytest.raises(ValueError, match=r"rod='cable'.*not on MuJoCo Warp.*backend='cpu'"):
+        gym.make_vec("MagSoftCrawl-v1", num_envs=2, backend="warp", device="cpu", rod="cable")
 
 
 @needs_warp
@@ -169,6 +176,30 @@ def test_waveform_periods_match_c_to_1e6_rad_on_the_soft_floor():
 
 
 # ---------------------------------------------------------------------- the env
+#: Largest difference of each numeric ``info`` entry, Warp (float32 physics) against C, on the stiff paper-5c contact
+#: over a few gentle steps (rad, m, m/s, reward units); the others must be equal.
+INFO_TOLERANCE = {"orientation": 1e-3, "largest_piece_angle": 1e-3, "x_position": 1e-6, "z_position": 1e-6,
+                  "x_velocity": 1e-4, "reward": 0.1, "reward_forward": 0.1, "highest_clearance": 1e-7,
+                  "max_penetration": 1e-6, "time": 1e-12, "airborne_fraction": 0.02}
+
+
+def assert_same_info(wi: dict, ci: dict, tolerance: dict | None = None) -> None:
+    """The Warp batch's ``info`` against the CPU batch's: the same keys, masks and dtypes; the values equal, or within
+    ``tolerance`` (:data:`INFO_TOLERANCE` by default) where the physics is float32."""
+    tolerance = INFO_TOLERANCE if tolerance is None else tolerance
+    assert set(wi) == set(ci), sorted(set(wi) ^ set(ci))
+    for key, want in ci.items():
+        got = wi[key]
+        assert got.dtype == want.dtype and got.shape == want.shape, (key, got.dtype, want.dtype)
+        if key.startswith("_") or want.dtype == object:
+            assert key.startswith("_") or np.array_equal(wi["_" + key], ci["_" + key])
+            if key.startswith("_"):
+                np.testing.assert_array_equal(got, want, err_msg=key)
+            continue
+        mask = ci["_" + key]
+        np.testing.assert_allclose(got[mask], want[mask], rtol=0, atol=tolerance.get(key, 0.0), err_msg=key)
+
+
 @pytest.fixture(scope="module")
 def warp_envs():
     if not warp_available():
@@ -180,8 +211,6 @@ def warp_envs():
 
 @needs_warp
 def test_env_contract_and_agreement_with_the_cpu_batch(warp_envs):
-    from magsoft_env.envs.warp_reference import restart_from
-
     envs = warp_envs
     cpu = gym.make_vec("MagSoftCrawl-v1", num_envs=3)
     assert envs.metadata["autoreset_mode"] == gym.vector.AutoresetMode.NEXT_STEP
@@ -195,10 +224,13 @@ def test_env_contract_and_agreement_with_the_cpu_batch(warp_envs):
     for i in range(3):
         noise = cpu.envs[i].sim.data.qpos[hinges] - cpu.envs[i].sim.model.qpos0[hinges]
         np.testing.assert_allclose(envs.unwrapped.start_qpos[i, hinges] - settled[hinges], noise, atol=1e-15)
-        co[i] = restart_from(cpu.envs[i], envs.unwrapped.start_qpos[i])[0]
+        co[i], ci_i = cpu.envs[i].reset(options={"qpos": envs.unwrapped.start_qpos[i]})  # the C reference
+        ci = {key: np.asarray(v).copy() for key, v in ci.items()}
+        for key in ci_i:  # the C robot's info of its reset to the Warp world's start
+            ci[key][i] = ci_i[key]
     assert wo.dtype == np.float32 and wo.shape == (3, 48)
     np.testing.assert_allclose(wo, co, atol=1e-6)
-    assert set(wi) == set(ci)
+    assert_same_info(wi, ci)
     rng = np.random.default_rng(0)
     n1 = cpu.envs[0].segments + 1
     for _ in range(5):
@@ -210,9 +242,7 @@ def test_env_contract_and_agreement_with_the_cpu_batch(warp_envs):
         np.testing.assert_allclose(wr, cr, atol=0.05)
         np.testing.assert_array_equal(wt, ct)
         np.testing.assert_array_equal(wtr, ctr)
-        np.testing.assert_allclose(wi["x_position"], ci["x_position"], atol=1e-6)
-        np.testing.assert_allclose(wi["time"], ci["time"], atol=1e-12)
-        assert set(wi) == set(ci)
+        assert_same_info(wi, ci)  # every key, mask and dtype; the values to float32's agreement
     cpu.close()
 
 
@@ -221,8 +251,6 @@ def test_waveform_env_matches_the_cpu_batch_and_autoresets_as_it():
     """``MagSoftCrawlWaveform-v1`` on Warp against the CPU batch from the same start: gentle periods (0.3 mT or less,
     the beam stays on the floor) of 3-4 Hz with their own lengths per world; observations, rewards, terminations,
     truncations (time limit 2), the NEXT_STEP autoreset and the info keys as the CPU batch's."""
-    from magsoft_env.envs.warp_reference import restart_from
-
     n = 3
     envs = gym.make_vec("MagSoftCrawlWaveform-v1", num_envs=n, backend="warp", device="cpu", max_episode_steps=2)
     cpu = gym.make_vec("MagSoftCrawlWaveform-v1", num_envs=n, num_threads=1, max_episode_steps=2)
@@ -231,7 +259,7 @@ def test_waveform_env_matches_the_cpu_batch_and_autoresets_as_it():
     wo, wi = envs.reset(seed=5)
     co, ci = cpu.reset(seed=5)
     for i in range(n):
-        co[i] = restart_from(cpu.envs[i], envs.unwrapped.start_qpos[i])[0]
+        co[i] = cpu.envs[i].reset(options={"qpos": envs.unwrapped.start_qpos[i]})[0]
     np.testing.assert_allclose(wo, co, atol=1e-6)
     assert set(wi) == set(ci)
     rng = np.random.default_rng(0)
@@ -260,6 +288,93 @@ def test_waveform_env_matches_the_cpu_batch_and_autoresets_as_it():
     assert wtr.sum() == 0
     envs.close()
     cpu.close()
+
+
+def _parse(text: str) -> tuple[list[str], list[float]]:
+    """The words and numbers of an info text (a crawl violation, a failure)."""
+    import re
+
+    number = r"[-+]?\d+(?:\.\d*)?(?:e[-+]?\d+)?"
+    return re.sub(number, "#", text).split(), [float(v) for v in re.findall(number, text)]
+
+
+def _c_twins(envs, n, **kw):
+    """A CPU batch whose robots start where the Warp worlds of ``envs`` (just reset) start."""
+    cpu = gym.make_vec("MagSoftCrawl-v1", num_envs=n, num_threads=1, **kw)
+    cpu.reset(seed=0)
+    for i in range(n):
+        cpu.envs[i].reset(options={"qpos": envs.unwrapped.start_qpos[i]})
+    return cpu
+
+
+@needs_warp
+@pytest.mark.slow
+def test_crawl_violations_terminate_as_in_c_with_the_same_texts():
+    """10 mT along z lifts the ends past the 7.6 mm ceiling within a step (height mode): every world terminates at
+    the step C does, with the same text (the same substep; the height within float32's 0.02 mm)."""
+    kw = {"crawl_mode": "height", "max_clearance": None, "field_limit": 0.01}
+    envs = gym.make_vec("MagSoftCrawl-v1", num_envs=3, backend="warp", device="cpu", **kw)
+    envs.reset(seed=5)
+    cpu = _c_twins(envs, 3, **kw)
+    a = np.array([[0.0, 1.0], [0.0, 0.7], [0.0, 0.4]], np.float32)
+    wo, wr, wt, wtr, wi = envs.step(a)
+    co, cr, ct, ctr, ci = cpu.step(a)
+    assert wt.all() and np.array_equal(wt, ct) and not (wtr | ctr).any()
+    assert_same_info(wi, ci, {**INFO_TOLERANCE, "highest_clearance": 1e-6, "reward_crawl": 0.1})
+    np.testing.assert_array_equal(wr, cr)  # -(penalty + the episode's forward reward): nothing earned before
+    for w, c in zip(wi["crawl_violation"], ci["crawl_violation"], strict=True):
+        (ww, wn), (cw, cn) = _parse(w), _parse(c)
+        assert ww == cw and wn[1:] == cn[1:] and abs(wn[0] - cn[0]) <= 0.02, (w, c)  # "height # mm > # mm at t = #"
+    envs.close()
+    cpu.close()
+
+
+@needs_warp
+@pytest.mark.slow
+def test_an_unphysical_world_reads_as_the_c_simulator():
+    """100 mT pressed straight down at 1 ms (docs/envs.md): world 0 penetrates the floor in its fourth substep. Its
+    truncation, ``info["unphysical"]``, ``instability`` and figures are the single C env's, from the same functions
+    (sim/health.py): the same step and time, the depth within float32's; world 1 steps on."""
+    kw = {"sim_dt": 1e-3, "field_limit": 0.1}
+    envs = gym.make_vec("MagSoftCrawl-v1", num_envs=2, backend="warp", device="cpu", **kw)
+    envs.reset(seed=0)
+    cpu = _c_twins(envs, 2, **kw)
+    a = np.array([[0.0, -1.0], [0.0, 0.0]], np.float32)
+    _, wr, wt, wtr, wi = envs.step(a)
+    _, cr, ct, ctr, ci = cpu.step(a)
+    assert wtr.tolist() == ctr.tolist() == [True, False] and not (wt | ct).any()
+    assert wi["instability"][0] == ci["instability"][0] == "penetration"
+    tol = {**INFO_TOLERANCE, "penetration_m": 1e-6, "penetration_h": 1e-3, "max_penetration_m": 1e-6,
+           "max_penetration_h": 1e-3, "max_penetration": 1e-6, "time_s": 1e-12, "orientation": 1e300}
+    assert_same_info(wi, ci, tol)  # world 0's orientation is that of a blown-up state in both
+    for key in ("truncation_reason", "unphysical"):
+        (ww, wn), (cw, cn) = _parse(wi[key][0]), _parse(ci[key][0])
+        assert ww == cw, (wi[key][0], ci[key][0])
+        np.testing.assert_allclose(wn, cn, rtol=2e-3)  # the steps and times equal, the depth float32's
+    assert wi["truncation_reason"][0].startswith("unphysical motion at step 4 (t = 0.004 s): contact penetration")
+    envs.close()
+    cpu.close()
+
+
+@needs_warp
+def test_the_device_crawl_limits_are_the_task_functions(warp_envs):
+    """The substep kernel (sim/warp_batch.py) against :func:`crawl_task.crawl_limits` on the same states: a call of
+    no substeps records the present state alone."""
+    from magsoft_env.envs.crawl_task import crawl_limits
+
+    envs = warp_envs.unwrapped
+    envs.reset(seed=8)
+    envs.step(np.full((3, 2), 0.8, np.float32))
+    batch = envs.batch
+    batch.advance(0)
+    s = batch.state()
+    pts = batch.centreline(s)
+    lim = crawl_limits(pts[:, :, None, :], np.zeros(3), half_thickness=0.5 * envs.proto.gait.beam.thickness,
+                       inv_piece_length=1.0 / batch.piece_lengths)[:, :, 0]
+    np.testing.assert_allclose(s["clear_max"], lim[:, 0], atol=1e-7)  # m: float32 positions near 1e-2 m
+    np.testing.assert_allclose(s["cos_min"], lim[:, 2], atol=5e-6)  # float32 piece lengths and positions
+    assert (lim[:, 2] < 0.9999).all()  # the field bent them: the comparison is not that of straight beams
+    envs.reset(seed=8)
 
 
 @needs_warp
@@ -350,8 +465,13 @@ def test_worlds_made_to_blow_up_truncate_and_reset_alone(warp_envs):
     tobs, *_ = twin.step(act)
     assert trunc.tolist() == [False, True, True] and not term.any()
     assert info["instability"][1] == "runaway kinetic energy (J)"
-    assert info["unphysical"][2] == "launch" and info["_unphysical"].tolist() == [False, False, True]
+    assert info["truncation_reason"][1].startswith("simulation unstable at step 200 (t = 0.04 s): runaway kinetic "
+                                                   "energy (J) = ")  # the C simulator's text (sim/health.py)
+    assert info["instability"][2] == "launch" and info["_unphysical"].tolist() == [False, False, True]
+    assert info["unphysical"][2].startswith("launch: the rod gained ")
+    assert info["truncation_reason"][2].startswith("unphysical motion at step 200 (t = 0.04 s): launch: the rod")
     assert 0.01 < info["energy_drift"][2] < 100.0 and info["energy_created_J"][2] > 0.0
+    assert info["step"][2] == 200 and info["time_s"][2] == pytest.approx(0.04)
     assert r[1] == r[2] == 0.0 and np.all(np.isfinite(obs))
     np.testing.assert_allclose(obs[0], tobs[0], atol=1e-6)
     obs, r, term, trunc, info = envs.step(act)
@@ -379,7 +499,7 @@ def test_an_mjwarp_buffer_overflow_is_reported_for_its_world_alone(warp_envs):
     flags[2] |= int(mjw.OverflowType.ITERATIONS)
     envs.batch.d.overflow.assign(flags)
     _, r, term, trunc, info = envs.step(act)
-    assert trunc.tolist() == [True, False, False] and info["instability"][0] == "overflow"
+    assert trunc.tolist() == [True, False, False] and info["instability"][0].startswith("MJWarp buffer overflow")
     assert "raise nconmax / njmax" in info["truncation_reason"][0]
     envs.step(act)
     assert envs.batch.d.overflow.numpy()[0] == 0
@@ -417,17 +537,14 @@ def test_reset_mask_resets_only_the_masked_worlds(warp_envs):
 def test_crawl_displacement_statistics_match_c():
     """The paper-5c gait at its default (stiff) contact, where lift-off and touchdown amplify round-off: the
     distribution of the displacement over seeds agrees with C's within the scatter."""
-    from magsoft_env.envs.warp_reference import restart_from
-
     n, steps = 6, 40
     envs = gym.make_vec("MagSoftCrawl-v1", num_envs=n, backend="warp", device="cpu")
     cpu = gym.make_vec("MagSoftCrawl-v1", num_envs=n, num_threads=1)
-    envs.reset(seed=100)
+    _, wi = envs.reset(seed=100)
     cpu.reset(seed=100)
-    for i in range(n):
-        restart_from(cpu.envs[i], envs.unwrapped.start_qpos[i])
-    x0w = envs.unwrapped._com[:, 0].copy()
-    x0c = np.array([e._com[0] for e in cpu.envs])
+    x0c = np.array([cpu.envs[i].reset(options={"qpos": envs.unwrapped.start_qpos[i]})[1]["x_position"]
+                    for i in range(n)])
+    x0w = wi["x_position"].copy()
     proto = cpu.envs[0]
     for k in range(steps):
         a = np.tile(proto.open_loop_action(k * proto.n_substeps * proto.sim_dt), (n, 1))

@@ -12,7 +12,7 @@ whose predicted time (the previous size's per-world cost times the worlds) excee
 out and said so; a Warp size that does not fit the device's memory ends the scan of that backend.
 
 The error column: the Warp worlds (the first ``--error-worlds``) and single C envs restarted from their start
-states (:func:`~magsoft_env.envs.warp_reference.restart_from`) step the paper's open-loop gait for ``--error-steps``
+states (``env.reset(options={"qpos": start_qpos[i]})``) step the paper's open-loop gait for ``--error-steps``
 env steps side by side; it gives the largest difference of any piece angle (rad) and of the centre of mass's
 x (mm) at the end. The paper-5c contact is stiff, so lift-off and touchdown amplify round-off: read it against
 the 3e-4 rad that C gives itself when its start state moves by 1e-9 (docs/gpu.md).
@@ -67,25 +67,23 @@ def error_against_c(envs, worlds: int, steps: int) -> tuple[float, float]:
     """Largest piece-angle difference (rad) and centre-of-mass x difference (m) of the first ``worlds`` Warp
     worlds against C envs restarted from their start states, after ``steps`` env steps of the open-loop gait."""
     from ..envs.crawl import MagSoftCrawlEnv
-    from ..envs.warp_reference import restart_from
 
     w = envs.unwrapped
     k = min(worlds, w.num_envs)
-    w.reset(seed=1)
+    wo, wi = w.reset(seed=1)
     refs = [MagSoftCrawlEnv() for _ in range(k)]
+    last = []
     for i, env in enumerate(refs):
         env.reset(seed=1 + i)
-        restart_from(env, w.start_qpos[i])
+        last.append(env.reset(options={"qpos": w.start_qpos[i]}))  # the world's start state, in C
     n1 = refs[0].segments + 1
     dt = refs[0].n_substeps * refs[0].sim_dt
-    wo = None
     for j in range(steps):
         a = refs[0].open_loop_action(j * dt)
-        wo, *_ = w.step(np.tile(a, (w.num_envs, 1)))
-        for env in refs:
-            env.step(a)
-    ang = max(float(np.abs(wo[i, :n1] - refs[i]._last_obs[:n1]).max()) for i in range(k))
-    dx = max(abs(float(w._com[i, 0] - refs[i]._com[0])) for i in range(k))
+        wo, *_, wi = w.step(np.tile(a, (w.num_envs, 1)))
+        last = [(obs, info) for obs, _, _, _, info in (env.step(a) for env in refs)]
+    ang = max(float(np.abs(wo[i, :n1] - last[i][0][:n1]).max()) for i in range(k))
+    dx = max(abs(float(wi["x_position"][i] - last[i][1]["x_position"])) for i in range(k))
     for env in refs:
         env.close()
     return ang, dx

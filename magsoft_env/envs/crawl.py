@@ -14,10 +14,29 @@ from ..sim import PhaseShifted, Ramp, SimulationError, Simulator
 from ..sim.gait import gait_rod_options
 from ..sim.health import MAX_STEPS, check_steps
 from ..sim.model import CONTACT_HISTORY, MAX_TIMESTEP
-from ..sim.readouts import is_flipped
 from ..spec.drive import Waveparams
 from ..validate import choice, finite_number, nonnegative, positive
-from . import as_action, instability_info, refuse_unknown_kwargs, run_to_end
+from . import as_action, instability_info, refuse_unknown_kwargs
+from .crawl_task import (
+    AIRBORNE_TOLERANCE,
+    CRAWL_MODES,
+    NONFINITE_OBSERVATION,
+    CrawlRecords,
+    CrawlTask,
+    clock_tail,
+    crawl_info,
+    crawl_limits,
+    crawl_reward,
+    first_violation,
+    limit_summary,
+    observation,
+    observation_high,
+    period_substeps,
+    single_info,
+    violation_texts,
+    wave_rows,
+    zero_terms,
+)
 
 #: Default coil limit per axis (T): +-2 mT. The paper's crawlers crawl at 1.5-2 mT and tumble end over end
 #: from about 2.5-3 mT: with hops of up to 2 mm allowed (``max_clearance=2e-3``), episodes of random actions at
@@ -30,12 +49,6 @@ DEFAULT_CTRL_DT = 0.02
 #: Simulation step (s) of a robot whose file states none (``sim_dt=None`` takes the robot's own numerics,
 #: :func:`magsoft_env.cases.gaits.numerics`; docs/convergence.md).
 DEFAULT_SIM_DT = 2e-4
-#: Clearance (m) of the rod's lowest point above the floor beyond which the whole beam is off the floor
-#: (airborne): the gap of the capsule colliders, so that a resting beam reads minus its contact depth. A numerical
-#: tolerance, not a hop height: the open-loop paper gaits in this env (paper-5a, 5b, 5c at their own numerics,
-#: 5 s each) reach at most 0.0005 mm at any substep, 20x below it; 0.01 mm is 0.9 % of the paper beams'
-#: 1.13 mm thickness.
-AIRBORNE_TOLERANCE = 1e-5
 #: Largest clearance (m) of the rod's lowest point above the floor at any substep (``max_clearance``) in the crawl
 #: modes: part of the beam on the floor at every instant, as the paper's robots crawl; airborne at any substep
 #: ends the episode (a hop, not a crawl).
@@ -44,13 +57,9 @@ DEFAULT_MAX_CLEARANCE = AIRBORNE_TOLERANCE
 DEFAULT_MAX_HEIGHT = 7.6e-3
 #: Largest |tangent angle| of any piece in crawl mode "rotation" (rad): beyond it the beam tumbles.
 DEFAULT_MAX_LINK_ROTATION = 2.0 * math.pi / 3.0
-#: Observation bounds (observations are clipped to them): angular speed (rad/s), COM speed (m/s).
-OBS_MAX_ANGULAR_VELOCITY = 1e3
-OBS_MAX_VELOCITY = 10.0
 #: Waveform mode: frequency range of one cycle (Hz).
 DEFAULT_FREQUENCY_RANGE = (0.5, 4.0)
 ACTION_MODES = ("field", "waveform")
-CRAWL_MODES = ("rotation", "height", "none")
 
 
 class MagSoftCrawlEnv(gym.Env):
@@ -121,7 +130,9 @@ class MagSoftCrawlEnv(gym.Env):
     ## Rewards
 
     ``reward = forward + field_cost + crawl_penalty (+ success for subclasses)``, each term in
-    ``info`` as ``reward_forward``, ``reward_field``, ``reward_crawl``, ``reward_success``:
+    ``info`` as ``reward_forward``, ``reward_field``, ``reward_crawl``, ``reward_success`` (computed, with the crawl
+    limits, the observation and ``info``, by :mod:`magsoft_env.envs.crawl_task`, the batches' own functions;
+    :attr:`task` holds the parameters):
 
     - ``forward = forward_reward_weight * target_direction * dx / dt``: centre-of-mass travel
       along the target direction over the step, per second (default weight 1000 s/m: the term
@@ -135,7 +146,10 @@ class MagSoftCrawlEnv(gym.Env):
     ## Starting State
 
     The straight beam lies on the floor at rest, zero field, hinge angles perturbed by
-    ``U(-reset_noise_scale, reset_noise_scale)`` rad.
+    ``U(-reset_noise_scale, reset_noise_scale)`` rad (the 3D strip: its interior vertices, by that angle times half
+    a cell). ``reset(options={"qpos": qpos, "qvel": qvel})`` starts from that state instead (shapes ``(nq,)``,
+    ``(nv,)``; either may be left out: the noisy rest state, zero velocities), at time zero and zero field, with no
+    draw from the random stream; other option keys are refused.
 
     ## Episode End
 
@@ -338,9 +352,9 @@ class MagSoftCrawlEnv(gym.Env):
         self.sim = Simulator(self.gait.beam, options, check_every=every)
         self.segments = options.segments
         self._nodes = self.sim.centreline_history()
-        self._cos_rotation = math.cos(self.max_link_rotation)
         pose = self.sim.pose()
-        self._inv_piece_length = (1.0 / pose.lengths)[:, None]
+        self._half_thickness = 0.5 * self.gait.beam.thickness
+        self._inv_piece_length = 1.0 / pose.lengths
         self._tracker = self.sim.orientation_tracker()  # the body's orientation, and its heading on the floor
         if self.action_mode == "field":
             self.metadata = {**self.metadata, "render_fps": int(round(1.0 / (self.n_substeps * self.sim_dt)))}
@@ -348,23 +362,24 @@ class MagSoftCrawlEnv(gym.Env):
         else:
             self.metadata = {**self.metadata, "render_fps": 2}
             self.action_space = spaces.Box(-1.0, 1.0, (4,), np.float32)
-        n1 = len(pose.lengths)  # the rod's pieces: N + 1
-        high = np.concatenate([np.full(n1, np.pi), np.full(n1, OBS_MAX_ANGULAR_VELOCITY),
-                               np.full(2, OBS_MAX_VELOCITY), np.ones(4)]).astype(np.float32)
-        self.observation_space = spaces.Box(-high, high, dtype=np.float32)
+        self._high = observation_high(len(pose.lengths))  # the rod's pieces: N + 1
+        self.observation_space = spaces.Box(-self._high, self._high, dtype=np.float32)
         self._renderer = None
-        self._field = np.zeros(2)
-        self._last_action = np.zeros(4)
-        self._com = np.zeros(2)
-        self._com_vel = np.zeros(2)
+        #: the episode's records (the crawl task's, n = 1)
+        self._records = CrawlRecords.zeros(1)
         self._broken = False
-        self._episode_forward = 0.0
-        self._flipped = False
         self._samples: list = []
-        self._highest_clearance = 0.0
-        self._lowest_cos = 1.0
-        self._airborne = 0
-        self._substeps = 0
+
+    # ------------------------------------------------------------------ the task's parameters
+    @property
+    def task(self) -> CrawlTask:
+        """The crawl task's parameters now (:class:`~magsoft_env.envs.crawl_task.CrawlTask`), from this env's
+        attributes (changed attributes take effect at the next step)."""
+        return CrawlTask(crawl_mode=self.crawl_mode, max_clearance=self.max_clearance,
+                         max_link_rotation=self.max_link_rotation, max_height=self.max_height,
+                         forward_reward_weight=self.forward_reward_weight, target_direction=self.target_direction,
+                         field_cost_weight=self.field_cost_weight, crawl_penalty=self.crawl_penalty,
+                         field_limit=self.field_limit, clock_frequency=self.clock_frequency)
 
     # ------------------------------------------------------------------ physics readouts
     def com_position(self) -> np.ndarray:
@@ -381,10 +396,9 @@ class MagSoftCrawlEnv(gym.Env):
 
     def waveparams_of_action(self, action) -> Waveparams:
         """Waveform-mode action in [-1, 1]^4 -> the cycle's :class:`~magsoft_env.spec.drive.Waveparams`."""
-        a = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
-        f_lo, f_hi = self.frequency_range
-        freq = f_lo + 0.5 * (a[3] + 1.0) * (f_hi - f_lo)
-        return Waveparams(a[0] * self.field_limit, a[1] * self.field_limit, float(freq), float(a[2] * math.pi))
+        ax, az, freq, phase = wave_rows(np.asarray(action, dtype=float).reshape(1, -1), field_limit=self.field_limit,
+                                        frequency_range=self.frequency_range)[0]
+        return Waveparams(ax, az, float(freq), float(phase))
 
     def action_of_waveparams(self, wave: Waveparams) -> np.ndarray:
         """Inverse of :meth:`waveparams_of_action` (clipped to the limits)."""
@@ -395,105 +409,84 @@ class MagSoftCrawlEnv(gym.Env):
         return np.clip(a, -1.0, 1.0).astype(np.float32)
 
     # ------------------------------------------------------------------ gymnasium API
-    def _get_obs(self) -> np.ndarray:
-        ang = self.sim.angles()
-        omega = self.piece_angular_velocities()
-        if self.action_mode == "field":
-            w = 2.0 * math.pi * self.clock_frequency * self.sim.time
-            tail = np.array([*(self._field / self.field_limit), math.sin(w), math.cos(w)])
-        else:
-            tail = self._last_action
-        obs = np.concatenate([ang, omega, self._com_vel, tail]).astype(np.float32)
-        return np.clip(obs, self.observation_space.low, self.observation_space.high)
+    def _get_obs(self, task: CrawlTask | None = None) -> np.ndarray:
+        task = self.task if task is None else task
+        rec = self._records
+        tail = clock_tail(rec.field, [self.sim.time], task) if self.action_mode == "field" else rec.last_action
+        return observation(self.sim.angles()[None], self.sim.angular_velocities()[None], rec.com_velocity, tail,
+                           self._high)[0]
+
+    def _limits(self, points: np.ndarray) -> np.ndarray:
+        """The crawl limits (:func:`~magsoft_env.envs.crawl_task.crawl_limits`) of centreline states ``points``
+        ``(N + 2, k, 3)``, the pieces' angles from the body's heading now: shape ``(1, 3, k)``."""
+        return crawl_limits(points[None], [self._tracker.heading], half_thickness=self._half_thickness,
+                            inv_piece_length=self._inv_piece_length)
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """Start an episode (``seed``: reseed the env's random stream). ``options``: ``{"qpos": (nq,), "qvel":
+        (nv,)}`` starts from that state (either may be left out: the noisy rest state, zero velocities) instead of
+        the straight beam with reset noise (which draws nothing from the random stream then)."""
         super().reset(seed=seed)
+        opts = dict(options or {})
+        qpos, qvel = opts.pop("qpos", None), opts.pop("qvel", None)
+        if opts:
+            raise ValueError(f"options may hold 'qpos' and 'qvel' (a start state), got {sorted(opts)}.")
         sim = self.sim
-        sim.reset()
+        if qpos is None:
+            qpos = sim.noisy_rest(self.np_random, self.reset_noise_scale)
         sim.set_field((0.0, 0.0))
-        sim.set_state(qpos=sim.noisy_rest(self.np_random, self.reset_noise_scale))
+        sim.reset(qpos=qpos, qvel=qvel)
         self._tracker = sim.orientation_tracker()
-        self._field = np.zeros(2)
-        self._last_action = np.zeros(4)
-        self._com = self.com_position()
-        self._com_vel = np.zeros(2)
+        pose = sim.pose()
+        self._records.restart([True], com=pose.com[[0, 2]][None],
+                              start_limits=self._limits(pose.centreline[:, None, :])[:, :, 0])
         self._broken = False
-        self._episode_forward = 0.0
-        self._flipped = False
-        pts = self.sim.pose().centreline
-        self._highest_clearance = float(np.min(pts[:, 2])) - 0.5 * self.gait.beam.thickness
-        self._lowest_cos = float(self._limits_of(pts[:, None, :])[2, 0])
-        self._airborne = 0
-        self._substeps = 0
         self._last_obs = self._get_obs()
-        return self._last_obs, self._info(0.0)
+        return self._last_obs, self._info(pose)
 
-    def _advance(self, action, block: int | None = None):
-        """Apply the action and step the physics; a generator (:meth:`Simulator.stepping
-        <magsoft_env.sim.Simulator.stepping>`'s blocks, at most ``block`` steps each) that returns
-        (duration s, mean normalized field power)."""
-        sim = self.sim
+    def _apply(self, action) -> tuple[int, float]:
+        """Apply the action's field: returns the step's substeps and mean normalized field power."""
+        sim, rec = self.sim, self._records
         if self.action_mode == "field":
             target = self.field_of_action(action)
             if self.slew_rate is not None:
                 dmax = self.slew_rate * self.n_substeps * self.sim_dt
-                target = self._field + np.clip(target - self._field, -dmax, dmax)
-                start = self._field.copy()
+                start = rec.field[0].copy()
+                target = start + np.clip(target - start, -dmax, dmax)
                 sim.set_waveform(Ramp(tuple(start), tuple(target), duration=self.n_substeps * self.sim_dt))
                 # mean of the squared linear ramp
                 power = float(np.sum(start**2 + start * target + target**2) / 3.0)
             else:
                 sim.set_field(tuple(target))
                 power = float(np.sum(target**2))
-            self._field = target
-            n = self.n_substeps
-        else:
-            wave = self.waveparams_of_action(action)
-            self._last_action = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
-            sim.set_waveform(PhaseShifted(wave.amplitude_x, wave.amplitude_z, wave.frequency, wave.phase, 0.0))
-            n = max(1, int(round(1.0 / (wave.frequency * self.sim_dt))))
-            power = 0.5 * (wave.amplitude_x**2 + wave.amplitude_z**2)
-            self._field = np.zeros(2)  # a whole period ends where it began
-        # the centreline of every substep, block by block from the sensors' history (before the next block
-        # overwrites it)
-        self._samples = []
-        done = sim.nstep
-        for _ in sim.stepping(n, block=block):
-            done = self._read_block(done)
-            yield
-        self._read_block(done)
-        return n * self.sim_dt, power / self.field_limit**2
+            rec.field[0] = target
+            return self.n_substeps, power / self.field_limit**2
+        wave = self.waveparams_of_action(action)
+        rec.last_action[0] = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
+        sim.set_waveform(PhaseShifted(wave.amplitude_x, wave.amplitude_z, wave.frequency, wave.phase, 0.0))
+        rec.field[0] = 0.0  # a whole period ends where it began
+        power = 0.5 * (wave.amplitude_x**2 + wave.amplitude_z**2)
+        return int(period_substeps([wave.frequency], self.sim_dt)[0]), power / self.field_limit**2
 
     def _read_block(self, start: int) -> int:
-        """Reduce the substeps since step count ``start`` to their clearance, height and rotation (cos of the
-        largest piece angle); returns the present step count."""
+        """Reduce the substeps since step count ``start`` to their crawl limits (from the centreline sensors'
+        history, before the next block overwrites it); returns the present step count."""
         k = self.sim.nstep - start
         if k > self._nodes.nsample:
             raise RuntimeError(f"{k} substeps ran in one native block; the crawl limits read at most "
                                f"{self._nodes.nsample} from the centreline sensors' history (Simulator.stepping "
                                "blocks are at most sim.model.CONTACT_HISTORY steps).")
         if k > 0:
-            self._samples.append(self._limits_of(self._nodes.last(k)))
+            self._samples.append(self._limits(self._nodes.last(k)))
         return self.sim.nstep
 
-    def _limits_of(self, pts: np.ndarray) -> np.ndarray:
-        """Rows clearance (m), highest point (m), cos of the largest |piece angle| for centreline points ``pts``
-        of shape ``(N + 2, k, 3)``: shape ``(3, k)``. A piece's angle is measured from the body's heading on the
-        floor (the orientation tracker's: +x for the planar chain) toward +z."""
-        z = pts[..., 2]
-        out = np.empty((3, z.shape[1]))
-        np.subtract(z.min(axis=0), 0.5 * self.gait.beam.thickness, out=out[0])
-        z.max(axis=0, out=out[1])
-        # the pieces are rigid (or held at length): the cosine of a piece's angle is its extent along the heading
-        # over its length
-        h = self._tracker.heading
-        d = pts[1:] - pts[:-1]
-        along = d[..., 0] * math.cos(h) + d[..., 1] * math.sin(h)
-        (along * self._inv_piece_length).min(axis=0, out=out[2])
-        return out
-
     def step(self, action):
-        return run_to_end(self._stepping(action))
+        steps = self._stepping(action)
+        while True:
+            try:
+                next(steps)
+            except StopIteration as done:
+                return done.value
 
     def _stepping(self, action, block: int | None = None):
         """:meth:`step` as a generator: it yields between the physics' native blocks (at most ``block``
@@ -501,77 +494,49 @@ class MagSoftCrawlEnv(gym.Env):
         batched environments interleave their robots' blocks with it (:mod:`magsoft_env.envs.vector`)."""
         if self._broken:
             raise RuntimeError("step() called after the simulation became unstable; call reset() first.")
-        action = as_action(self.action_space, action)
+        n, power = self._apply(as_action(self.action_space, action))
+        sim = self.sim
+        self._samples = []
+        done = sim.nstep
         try:
-            duration, power = yield from self._advance(action, block)
+            for _ in sim.stepping(n, block=block):
+                done = self._read_block(done)
+                yield
+            self._read_block(done)
         except SimulationError as err:
             self._broken = True
-            info = instability_info(self._info(0.0), err)
-            return self._last_obs.copy(), 0.0, False, True, info
-        com = self.com_position()
-        self._com_vel = (com - self._com) / duration
-        self._com = com
-        violation = self._crawl_violation(self._substep_limits())
-        # a step that breaks the crawl limit earns no forward reward (else one flip pays)
-        forward = 0.0 if violation else self.forward_reward_weight * self.target_direction * self._com_vel[0]
-        field_cost = -self.field_cost_weight * power
-        # breaking the limit also forfeits the episode's forward reward: a lurch into a tumble
-        # moves the centre of mass fast for a few steps, which must never pay
-        crawl = -(self.crawl_penalty + max(self._episode_forward, 0.0)) if violation else 0.0
-        self._episode_forward += forward
-        success = self._success_reward()
-        reward = forward + field_cost + crawl + success
-        obs = self._get_obs()
+            self._samples = []
+            return self._last_obs.copy(), 0.0, False, True, instability_info(self._info(sim.pose()), err)
+        return self._finish(n, power)
+
+    def _finish(self, n: int, power: float):
+        """The step's outcome after its ``n`` substeps of mean normalized field ``power``: the crawl task's
+        records, crawl limits, reward, observation and ``info``."""
+        task, sim, rec = self.task, self.sim, self._records
+        pose = sim.pose()
+        # every substep's start state (the sensors' history), then the step's end state (now)
+        lim = np.concatenate([*self._samples, self._limits(pose.centreline[:, None, :])], axis=2)
+        self._samples = []
+        clear, cos, airborne = limit_summary(lim)
+        k = lim.shape[2] - 1
+        rec.book([True], com=pose.com[[0, 2]][None], duration=[n * self.sim_dt], highest_clearance=clear,
+                 lowest_cos=cos, airborne=airborne, substeps=[k])
+        column, figures = first_violation(lim, task)
+        violated = column >= 0
+        reward, terms = crawl_reward(rec.com_velocity[:, 0], [power], violated, rec.episode_forward, task,
+                                     self._success_reward())
+        rec.episode_forward += terms["forward"]
+        obs = self._get_obs(task)
         if not np.all(np.isfinite(obs)):
             self._broken = True
-            info = self._info(0.0)
-            info.update(truncation_reason="non-finite observation", instability="observation")
-            return self._last_obs.copy(), 0.0, False, True, info
+            return self._last_obs.copy(), 0.0, False, True, {**self._info(pose), **NONFINITE_OBSERVATION}
         self._last_obs = obs
-        info = self._info(float(reward), forward=forward, field=field_cost, crawl=crawl, success=success)
-        if violation:
-            info["crawl_violation"] = violation
-        terminated = bool(violation) or self._is_success()
-        return obs, float(reward), terminated, False, info
-
-    def _substep_limits(self) -> np.ndarray:
-        """Clearance, height and rotation rows (:meth:`_limits_of`) of every substep of the step just taken (the
-        state each started from, from the sensors' history) and of its end state (last column); the episode's
-        highest clearance and airborne count are updated."""
-        end = self._limits_of(self.sim.pose().centreline[:, None, :])
-        lim = np.concatenate([*self._samples, end], axis=1)
-        self._samples = []
-        self._highest_clearance = max(self._highest_clearance, float(lim[0].max()))
-        self._lowest_cos = min(self._lowest_cos, float(lim[2].min()))
-        self._airborne += int(np.count_nonzero(lim[0, :-1] > AIRBORNE_TOLERANCE))
-        self._substeps += lim.shape[1] - 1
-        return lim
-
-    def _crawl_violation(self, lim: np.ndarray) -> str:
-        """The first broken crawl limit among the substeps of ``lim`` (:meth:`_substep_limits`), or ""."""
-        if self.crawl_mode == "none":
-            return ""
-        broken = np.zeros(lim.shape[1], dtype=bool)
-        if self.max_clearance is not None:
-            broken |= lim[0] > self.max_clearance
-        if self.crawl_mode == "rotation":
-            broken |= lim[2] < self._cos_rotation
-        else:
-            broken |= lim[1] > self.max_height
-        if not broken.any():
-            return ""
-        j = int(np.argmax(broken))
-        clear, top, cos = lim[:, j]
-        # column j is the state j substeps into the step, the last one the step's end (now)
-        when = f"at t = {self.sim.time - (lim.shape[1] - 1 - j) * self.sim_dt:.4f} s"
-        if self.max_clearance is not None and clear > self.max_clearance:
-            return (f"airborne {when}: the lowest point is {clear * 1e3:.3f} mm above the floor > "
-                    f"{self.max_clearance * 1e3:.3f} mm (the whole beam off the floor: a hop, not a crawl)")
-        if self.crawl_mode == "rotation":
-            rot = math.acos(max(-1.0, min(1.0, cos)))
-            return (f"link rotation {math.degrees(rot):.1f} deg > {math.degrees(self.max_link_rotation):.1f} deg "
-                    f"{when}")
-        return f"height {top * 1e3:.2f} mm > {self.max_height * 1e3:.2f} mm {when}"
+        info = self._info(pose, reward, terms)
+        if violated[0]:
+            when = sim.time - (k - column) * self.sim_dt  # column j: j substeps into the step
+            info["crawl_violation"] = violation_texts(figures, when, task, violated)[0]
+        terminated = bool(violated[0]) or self._is_success()
+        return obs, float(reward[0]), terminated, False, info
 
     def _success_reward(self) -> float:
         return 0.0
@@ -579,23 +544,13 @@ class MagSoftCrawlEnv(gym.Env):
     def _is_success(self) -> bool:
         return False
 
-    def _info(self, reward: float, *, forward: float = 0.0, field: float = 0.0, crawl: float = 0.0,
-              success: float = 0.0) -> dict:
-        # the body's orientation (length-weighted mean tangent angle, continuous; sim.readouts) and whether
-        # it has been past vertical at the end of any step of this episode: a tumble, not a crawl
-        turn = self._tracker.track(self.sim.pose())
-        self._flipped = self._flipped or is_flipped(turn)
-        return {
-            "orientation": turn, "flipped": self._flipped,
-            "reward_forward": float(forward), "reward_field": float(field), "reward_crawl": float(crawl),
-            "reward_success": float(success), "reward": float(reward),
-            "x_position": float(self._com[0]), "z_position": float(self._com[1]),
-            "x_velocity": float(self._com_vel[0]), "field": self._field.copy(), "time": self.sim.time,
-            "is_success": self._is_success(), "max_penetration": self.sim.max_penetration,
-            "highest_clearance": self._highest_clearance,
-            "airborne_fraction": self._airborne / self._substeps if self._substeps else 0.0,
-            "largest_piece_angle": math.acos(max(-1.0, min(1.0, self._lowest_cos))),
-        }
+    def _info(self, pose, reward=(0.0,), terms: dict | None = None) -> dict:
+        """The crawl task's ``info`` (:func:`~magsoft_env.envs.crawl_task.crawl_info`) at ``pose``, the state now:
+        the body's orientation (continuous; sim.readouts) is tracked here, once per step."""
+        values = crawl_info(self._records, orientation=[self._tracker.track(pose)], reward=reward,
+                            terms=zero_terms(1) if terms is None else terms, time=[self.sim.time],
+                            max_penetration=[self.sim.max_penetration], is_success=[self._is_success()])
+        return single_info(values)
 
     def open_loop_action(self, t: float, wave: Waveparams | None = None) -> np.ndarray:
         """Action reproducing the open-loop gait ``wave`` (default: the robot's paper gait).

@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 
 import gymnasium as gym
-import mujoco
 import numpy as np
 from gymnasium import spaces
 
@@ -184,7 +183,6 @@ class MagSoftShapeEnv(gym.Env):
         self.sim = Simulator(self.beam, RodOptions(scene="cantilever", segments=segments, timestep=self.sim_dt,
                                                    render=render_mode is not None))
         self.segments = int(segments)
-        self._bodies = self.sim.rod.body_ids
         self.metadata = {**self.metadata, "render_fps": max(1, int(round(1.0 / (self.n_substeps * self.sim_dt))))}
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         n1 = self.segments + 1
@@ -220,8 +218,7 @@ class MagSoftShapeEnv(gym.Env):
     def _get_obs(self, tip: np.ndarray) -> np.ndarray:
         sim = self.sim
         ang = sim.angles()
-        mujoco.mj_comVel(sim.model, sim.data)
-        omega = -sim.data.cvel[self._bodies, 1]
+        omega = sim.angular_velocities()
         tgt, L = self._target, self.beam.length
         n1 = ang.size
         obs = self._obs_buf  # filled in place: this runs every control step
@@ -261,11 +258,8 @@ class MagSoftShapeEnv(gym.Env):
                 t = self.target_pose(b)
             self._target = t
             self._target_field = b
-        self.sim.reset()
         self.sim.set_field((0.0, 0.0))
-        noise = self.np_random.uniform(-self.reset_noise_scale, self.reset_noise_scale, self.segments)
-        self.sim.data.qpos[self.sim.rod.hinge_qpos] += noise
-        mujoco.mj_forward(self.sim.model, self.sim.data)
+        self.sim.reset(qpos=self.sim.noisy_rest(self.np_random, self.reset_noise_scale))
         self._field = np.zeros(2)
         self._broken = False
         tip = self.tip_pose()

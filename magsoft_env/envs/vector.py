@@ -14,10 +14,12 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from ..rods import DEFAULT_ROD
 from ..sim.model import CONTACT_HISTORY
 from . import constructor_arguments, refuse_unknown_kwargs
 from .channel import MagSoftChannelEnv
 from .crawl import MagSoftCrawlEnv
+from .crawl_task import stack_infos
 from .obstacle import MagSoftObstacleEnv
 from .steer import MagSoftSteerEnv
 
@@ -55,6 +57,40 @@ def _count(name: str, value, *, lo: int = 1) -> int:
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < lo:
         raise ValueError(f"{name} must be an integer >= {lo}, got {value!r}.")
     return int(value)
+
+
+def reset_arguments(seed, options: dict | None, num_envs: int) -> tuple[list, np.ndarray | None, dict]:
+    """A batched env's ``reset`` arguments: the robots' seeds (``seed`` None, an int: robot ``i`` gets ``seed + i``
+    as ``SyncVectorEnv``, or one seed per robot), the boolean ``options["reset_mask"]`` (None: every robot; it must
+    select at least one) and the other options, each checked (ValueError)."""
+    n = num_envs
+    if seed is None:
+        seeds = [None] * n
+    elif isinstance(seed, (int, np.integer)) and not isinstance(seed, (bool, np.bool_)):
+        seeds = [int(seed) + i for i in range(n)]
+    else:
+        seeds = list(seed)
+        if len(seeds) != n:
+            raise ValueError(f"seed must be None, an int or a list of {n} seeds (one per robot), got {seed!r}.")
+    rest = dict(options) if options else {}
+    mask = rest.pop("reset_mask", None)
+    if mask is not None:
+        if not isinstance(mask, np.ndarray) or mask.dtype != np.bool_ or mask.shape != (n,):
+            raise ValueError(f"options['reset_mask'] must be a boolean numpy array of shape ({n},), got {mask!r}.")
+        if not mask.any():
+            raise ValueError("options['reset_mask'] must select at least one robot, got none.")
+    return seeds, mask, rest
+
+
+def refuse_warp_rod(rod) -> None:
+    """ValueError unless ``rod`` is the planar chain, the one rod ``backend="warp"`` runs (checked before Warp is
+    imported)."""
+    if rod != DEFAULT_ROD:
+        raise ValueError(
+            f"backend='warp' runs the planar hinge chain (rod='planar'), got rod={rod!r}: the 3D strip is not on "
+            "MuJoCo Warp here (its magnetic couples are written from Python every substep, from the strip's material "
+            "frame; MJWarp 4.0 steps the strip's elasticity but not its floor contact as MuJoCo does, docs/gpu.md). "
+            "Use the CPU batch for it: gym.make_vec(..., rod='cable', backend='cpu').")
 
 
 def route_warnings(sim):
@@ -246,6 +282,7 @@ class MagSoftCrawlVecEnv(VectorEnv):
     def __new__(cls, num_envs: int = 1, *, backend: str = "cpu", **kwargs):
         # backend="warp": the robots as MuJoCo Warp worlds (the optional extra; envs/warp_vector.py, imported here only)
         if backend == "warp":
+            refuse_warp_rod(kwargs.get("rod", DEFAULT_ROD))
             from .warp_vector import MagSoftCrawlWarpVecEnv
 
             return MagSoftCrawlWarpVecEnv(num_envs, env_class=cls.env_class, **kwargs)
@@ -356,35 +393,16 @@ class MagSoftCrawlVecEnv(VectorEnv):
         self._env_infos[i] = info
 
     def _infos(self, ids) -> dict:
-        infos: dict = {}
-        for i in ids:
-            infos = self._add_info(infos, self._env_infos[i], int(i))
-        return infos
+        return stack_infos({int(i): self._env_infos[i] for i in ids}, self.num_envs)
 
     # ------------------------------------------------------------------ gymnasium API
     def reset(self, *, seed: int | list[int | None] | None = None, options: dict | None = None):
         """Reset every robot (or those of ``options["reset_mask"]``); ``seed``: None, an int (robot ``i``
-        gets ``seed + i``, as ``SyncVectorEnv``) or one seed per robot."""
-        n = self.num_envs
-        if seed is None:
-            seeds = [None] * n
-        elif isinstance(seed, (int, np.integer)) and not isinstance(seed, (bool, np.bool_)):
-            seeds = [int(seed) + i for i in range(n)]
-        else:
-            seeds = list(seed)
-            if len(seeds) != n:
-                raise ValueError(f"seed must be None, an int or a list of {n} seeds (one per robot), got {seed!r}.")
-        options = dict(options) if options else {}
-        mask = options.pop("reset_mask", None)
-        if mask is None:
-            ids = range(n)
-        else:
-            if not isinstance(mask, np.ndarray) or mask.dtype != np.bool_ or mask.shape != (n,):
-                raise ValueError(f"options['reset_mask'] must be a boolean numpy array of shape ({n},), got {mask!r}.")
-            if not mask.any():
-                raise ValueError("options['reset_mask'] must select at least one robot, got none.")
-            ids = np.flatnonzero(mask).tolist()
-        env_options = options or None
+        gets ``seed + i``, as ``SyncVectorEnv``) or one seed per robot; the other options go to every robot's
+        ``reset`` (e.g. a start state, ``{"qpos": ..., "qvel": ...}``)."""
+        seeds, mask, rest = reset_arguments(seed, options, self.num_envs)
+        ids = range(self.num_envs) if mask is None else np.flatnonzero(mask).tolist()
+        env_options = rest or None
         self._team.each(ids, lambda i: self._reset_one(i, seeds[i], env_options))
         return self._obs.copy(), self._infos(ids)
 
@@ -468,4 +486,4 @@ class MagSoftSteerVecEnv(MagSoftCrawlVecEnv):
 
 
 __all__ = ["MagSoftChannelVecEnv", "MagSoftCrawlVecEnv", "MagSoftObstacleVecEnv", "MagSoftSteerVecEnv", "ThreadTeam",
-           "route_warnings", "usable_cpus", "with_sink"]
+           "refuse_warp_rod", "reset_arguments", "route_warnings", "usable_cpus", "with_sink"]

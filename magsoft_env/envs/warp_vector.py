@@ -6,7 +6,10 @@ spaces, observations, rewards, crawl limits at every substep, terminations, trun
 :class:`~magsoft_env.sim.warp_batch.WarpRodBatch`: one env step is one replay of a captured graph (the fields
 written per world, ``n_substeps`` MJWarp steps, each followed by the crawl-limit and contact-depth reductions on
 the device, the end state's kinematics); the host reads one copy of the small per-world arrays and computes
-observations, rewards and ``info`` vectorized over the worlds.
+observations, rewards, terminations and ``info`` with the single env's own functions over the worlds
+(:mod:`magsoft_env.envs.crawl_task`, ``n = num_envs``); the batch's readouts and health checks are
+:class:`~magsoft_env.sim.warp_batch.WarpRodBatch`'s, its failures the C simulator's errors
+(:mod:`magsoft_env.sim.health`).
 
 Differences from the CPU batch, all stated in docs/gpu.md:
 
@@ -16,10 +19,10 @@ Differences from the CPU batch, all stated in docs/gpu.md:
   zero contact distance, where float32 and float64 disagree on which contacts exist.
 - Health checks per world on the device's records: a non-finite state, kinetic energy above 100 x the energy
   scale and the energy drift ("launch") at the C simulator's checkpoints, a contact deeper than the penetration
-  limit, the centreline below the floor by more than it, an MJWarp buffer overflow. MuJoCo's C warnings do not
-  exist there.
-- ``MagSoftCrawl-v1`` and ``MagSoftCrawlWaveform-v1`` (field and waveform modes) without ``slew_rate`` or
-  rendering; the channel and obstacle ids refuse ``backend="warp"``.
+  limit, the centreline below the floor by more than it, an MJWarp buffer overflow; all but the penetration are
+  reported at the end of the env step. MuJoCo's C warnings do not exist there.
+- ``MagSoftCrawl-v1`` and ``MagSoftCrawlWaveform-v1`` (field and waveform modes) on the planar chain, without
+  ``slew_rate`` or rendering; the channel and obstacle ids and ``rod="cable"`` refuse ``backend="warp"``.
 - Per-world parameters: ``friction`` (the rod-floor pairs' sliding friction) and ``field_scale`` (a factor on the
   applied field) may be given one per world.
 """
@@ -33,29 +36,36 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from ..sim.health import ENERGY_DRIFT_LIMIT, FIELD_FLOOR, RUNAWAY_FACTOR
-from ..sim.readouts import FLIP_ANGLE
-from ..sim.warp_batch import BUFFER_OVERFLOWS, WarpRodBatch
-from .crawl import AIRBORNE_TOLERANCE, MagSoftCrawlEnv
-from .vector import _count
+from ..rods import DEFAULT_ROD
+from ..sim.health import FIELD_FLOOR
+from ..sim.warp_batch import WarpRodBatch
+from . import instability_info
+from .crawl import MagSoftCrawlEnv
+from .crawl_task import (
+    AIRBORNE_TOLERANCE,
+    NONFINITE_OBSERVATION,
+    CrawlRecords,
+    clock_tail,
+    crawl_info,
+    crawl_limits,
+    crawl_reward,
+    observation,
+    period_substeps,
+    stack_infos,
+    vector_info,
+    violation_texts,
+    wave_rows,
+    zero_terms,
+)
+from .vector import _count, refuse_warp_rod, reset_arguments
 
 #: Simulated time (s) the straight beam settles on the floor at zero field, in C, before the batch starts from it.
 DEFAULT_SETTLE_TIME = 0.05
-_TURN = 2.0 * math.pi
 _MODES = {"none": 0, "rotation": 1, "height": 2}
 #: The ids ``backend="warp"`` runs.
 SUPPORTED_IDS = ("MagSoftCrawl-v1", "MagSoftCrawlWaveform-v1")
 #: Substeps per graph of a waveform period (and between its energy checks, as the C simulator's waveform mode).
 WAVE_BLOCK = 100
-
-
-def _vector_info(values: dict, mask: np.ndarray | None = None) -> dict:
-    """Gymnasium's vector ``info``: each key an array over the worlds and ``"_" + key`` its mask."""
-    out = {}
-    for key, v in values.items():
-        out[key] = v
-        out["_" + key] = np.ones(len(v), dtype=bool) if mask is None else mask.copy()
-    return out
 
 
 class MagSoftCrawlWarpVecEnv(VectorEnv):
@@ -68,8 +78,10 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
     (its own number of substeps) from a per-world step counter; the batch steps until the longest ends. Spaces,
     observations, rewards, the crawl limits at every substep, terminations, truncations, ``info`` and
     ``AutoresetMode.NEXT_STEP`` are the CPU batch's
-    (:class:`~magsoft_env.envs.vector.MagSoftCrawlVecEnv`); the numbers are MJWarp's float32 physics from a
-    start state settled in C (module docstring, docs/gpu.md).
+    (:class:`~magsoft_env.envs.vector.MagSoftCrawlVecEnv`), computed by the same functions
+    (:mod:`magsoft_env.envs.crawl_task`, with ``n = num_envs``; the health checks' errors by
+    :mod:`magsoft_env.sim.health`'s); the numbers are MJWarp's float32 physics from a start state settled in C
+    (module docstring, docs/gpu.md). The planar hinge chain only: ``rod="cable"`` (the 3D strip) is refused.
 
     ## Arguments
 
@@ -106,12 +118,14 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
             raise ValueError(f"backend='warp' runs {' and '.join(SUPPORTED_IDS)} (the floor), not "
                              f"{env_class.__name__} (its scene's walls and block are not built for MJWarp here); "
                              "use the CPU batch (backend='cpu') for MagSoftChannel-v1 and MagSoftObstacle-v1.")
+        refuse_warp_rod(kwargs.get("rod", DEFAULT_ROD))
         self.num_envs = _count("num_envs", num_envs)
         self.max_episode_steps = None if max_episode_steps is None else _count("max_episode_steps", max_episode_steps)
         if not (isinstance(settle_time, (int, float)) and math.isfinite(settle_time) and settle_time >= 0):
             raise ValueError(f"settle_time must be a finite number of seconds >= 0, got {settle_time!r}.")
         per_world_friction = friction is not None and np.ndim(friction) > 0
         proto = env_class(**kwargs) if per_world_friction else env_class(friction=friction, **kwargs)
+        refuse_warp_rod(proto.rod)
         if proto.slew_rate is not None or proto.render_mode is not None:
             raise ValueError("backend='warp' runs without slew_rate or rendering (slew_rate=None, render_mode=None), "
                              f"got slew_rate={proto.slew_rate!r}, render_mode={proto.render_mode!r}; use the CPU "
@@ -130,19 +144,18 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
         sim.reset()
         sim.set_field((0.0, 0.0))
         sim.step(int(round(self.settle_time / proto.sim_dt)))
-        self._qpos_settled = sim.data.qpos.copy()
+        self._qpos_settled = sim.data.qpos.copy()  # a read: the state is written through the simulator only
         self._qvel_settled = np.zeros(sim.model.nv)
-        rod = sim.rod
-        if sim.model.nq != sim.model.nv:
-            raise RuntimeError("the planar rod's joints are hinges and slides (nq == nv)")  # guaranteed by build_model
-        self._hinge_qpos = np.asarray(rod.hinge_qpos)
-        self._h = proto.gait.beam.thickness
-        cm = proto.crawl_mode
-        limits = {"half_thickness": 0.5 * self._h, "inv_piece_length": proto._inv_piece_length.ravel(),
-                  "max_clearance": math.inf if proto.max_clearance is None or cm == "none" else proto.max_clearance,
-                  "cos_rotation": proto._cos_rotation, "max_height": proto.max_height, "mode": _MODES[cm],
-                  "airborne_tolerance": AIRBORNE_TOLERANCE}
-        self.batch = WarpRodBatch(rod, sim.data, self.num_envs, limits=limits, device=device, graph=graph,
+        # the rest state the reset noise perturbs (a draw of zero width: the rest state itself)
+        self._qpos_rest = sim.noisy_rest(np.random.default_rng(0), 0.0)
+        self._half_h = 0.5 * proto.gait.beam.thickness
+        task = proto.task
+        limits = {"half_thickness": self._half_h,
+                  "max_clearance": math.inf if task.max_clearance is None or task.crawl_mode == "none"
+                  else task.max_clearance,
+                  "cos_rotation": task.cos_rotation, "max_height": task.max_height, "mode": _MODES[task.crawl_mode],
+                  "airborne_tolerance": AIRBORNE_TOLERANCE, "penetration_limit": sim.penetration_limit}
+        self.batch = WarpRodBatch(sim.rod, sim.data, self.num_envs, limits=limits, device=device, graph=graph,
                                   nconmax=nconmax, njmax=njmax, backend=sim.backend,
                                   friction=friction if per_world_friction else None, field_scale=field_scale,
                                   block=WAVE_BLOCK)
@@ -151,36 +164,21 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
                          else np.full(self.num_envs, float(sim.model.pair_friction[0, 0]) if sim.model.npair
                                       else math.nan))
         self.field_scale = self.batch.field_scale
-        self._energy_on = bool(sim._health.energy_on)
         self.device = str(self.batch.device)
-        backend = sim.backend
-        self._mass = np.asarray(rod.disc.mass, dtype=float)
-        bodies = np.asarray(rod.body_ids)
-        self._omega_map = backend._angles[0][:, bodies - backend.b0]  # (nv, pieces): piece angle about y per qvel
-        w = np.diff(backend.arc_length())
-        self._piece_w, self._piece_total = w, float(w.sum())
-        self._tip_len = backend.tip_len
-        self._base_angle = float(backend.options.clamp_angle)
-        self._base_qpos = int(rod.base_qpos[2]) if rod.base_qpos.size else -1
-        self._tip_hinges = self._hinge_qpos[backend.options.base_piece:]
+        self._inv_piece_length = 1.0 / self.batch.piece_lengths
         self._pen_limit = sim.penetration_limit
         self._dt = proto.sim_dt
         self._k = proto.n_substeps
         n = self.num_envs
         self._rngs: list = [None] * n
         self._obs = np.zeros((n, *self.single_observation_space.shape), dtype=np.float32)
-        self._field = np.zeros((n, 2))
-        self._last_action = np.zeros((n, 4))
-        self._com = np.zeros((n, 2))
-        self._com_vel = np.zeros((n, 2))
-        self._episode_forward = np.zeros(n)
-        self._flipped = np.zeros(n, dtype=bool)
-        self._highest_clearance = np.zeros(n)
-        self._lowest_cos = np.ones(n)
-        self._airborne = np.zeros(n, dtype=np.int64)
-        self._substeps = np.zeros(n, dtype=np.int64)
+        self._high = self.single_observation_space.high
+        #: the episodes' records (the crawl task's, n = num_envs)
+        self._records = CrawlRecords.zeros(n)
+        self._clock = np.zeros(n, dtype=np.int64)  # substeps run in the episode: the world's time
         self._elapsed = np.zeros(n, dtype=np.int64)
         self._max_pen = np.zeros(n)
+        self._drift = np.zeros(n)
         self._autoreset = np.zeros(n, dtype=bool)
         self._state: dict = {}
         #: Every world's start state of its present episode (float64, before the device's float32)
@@ -190,128 +188,54 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
         name = SUPPORTED_IDS[self.action_mode == "waveform"]
         return f"{type(self).__name__}({name}, num_envs={self.num_envs}, device={self.device!r})"
 
-    # ------------------------------------------------------------------ readouts, vectorized over the worlds
-    def _angles(self, s) -> np.ndarray:
-        R = s["xmat"].reshape(self.num_envs, -1, 9)
-        return np.arctan2(R[:, :, 6], R[:, :, 0])
+    # ------------------------------------------------------------------ the crawl task over the worlds
+    def _observe(self, s, time, task) -> np.ndarray:
+        rec = self._records
+        tail = clock_tail(rec.field, time, task) if self.action_mode == "field" else rec.last_action
+        return observation(self.batch.angles(s), self.batch.angular_velocities(s), rec.com_velocity, tail, self._high)
 
-    def _orientation(self, s, angles) -> np.ndarray:
-        q = s["qpos"]
-        anchor = self._base_angle + q[:, self._tip_hinges].sum(axis=1)
-        if self._base_qpos >= 0:
-            anchor = anchor + q[:, self._base_qpos]
-        rel = np.cumsum(np.remainder(np.diff(angles, axis=1) + math.pi, _TURN) - math.pi, axis=1)
-        first = angles[:, 0]
-        last = first + (rel[:, -1] if rel.shape[1] else 0.0)
-        with np.errstate(invalid="ignore"):
-            first = first + _TURN * np.round((anchor - last) / _TURN)
-        out = first + rel @ self._piece_w[1:] / self._piece_total
-        return np.where(np.isfinite(anchor), out, np.nan)
-
-    def _com_of(self, s) -> np.ndarray:
-        p = s["xipos"]
-        return np.stack([p[:, :, 0] @ self._mass, p[:, :, 2] @ self._mass], axis=1) / self._mass.sum()
-
-    def _centreline_limits(self, s) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Clearance, highest point and cos of the largest piece angle of every world's present state."""
-        p, R = s["xpos"], s["xmat"].reshape(self.num_envs, -1, 9)
-        x = np.concatenate([p[:, :, 0], p[:, -1:, 0] + self._tip_len * R[:, -1:, 0]], axis=1)
-        z = np.concatenate([p[:, :, 2], p[:, -1:, 2] + self._tip_len * R[:, -1:, 6]], axis=1)
-        cos = (np.diff(x, axis=1) * self.proto._inv_piece_length.ravel()).min(axis=1)
-        return z.min(axis=1) - 0.5 * self._h, z.max(axis=1), cos
-
-    def _observe(self, s, angles) -> np.ndarray:
-        omega = -(s["qvel"] @ self._omega_map)
-        if self.action_mode == "waveform":
-            tail = self._last_action
-        else:
-            t = self._substeps * self._dt
-            w = 2.0 * math.pi * self.proto.clock_frequency * t
-            tail = np.column_stack([self._field / self.proto.field_limit, np.sin(w), np.cos(w)])
-        obs = np.concatenate([angles, omega, self._com_vel, tail], axis=1).astype(np.float32)
-        return np.clip(obs, self.single_observation_space.low, self.single_observation_space.high)
-
-    def _info(self, s, angles, reward, forward, field_cost, crawl) -> dict:
-        turn = self._orientation(s, angles)
-        self._flipped |= np.abs(turn) > FLIP_ANGLE
-        n = self.num_envs
-        frac = np.divide(self._airborne, self._substeps, out=np.zeros(n), where=self._substeps > 0)
-        return {
-            "orientation": turn, "flipped": self._flipped.copy(),
-            "reward_forward": forward, "reward_field": field_cost, "reward_crawl": crawl,
-            "reward_success": np.zeros(n), "reward": reward,
-            "x_position": self._com[:, 0].copy(), "z_position": self._com[:, 1].copy(),
-            "x_velocity": self._com_vel[:, 0].copy(), "field": self._field.copy(), "time": self._substeps * self._dt,
-            "is_success": np.zeros(n, dtype=bool), "max_penetration": self._max_pen.copy(),
-            "highest_clearance": self._highest_clearance.copy(), "airborne_fraction": frac,
-            "largest_piece_angle": np.arccos(np.clip(self._lowest_cos, -1.0, 1.0)),
-        }
+    def _info(self, s, time, reward, terms) -> dict:
+        return crawl_info(self._records, orientation=self.batch.orientation(s), reward=reward, terms=terms,
+                          time=time, max_penetration=self._max_pen.copy(), is_success=np.zeros(self.num_envs, bool))
 
     # ------------------------------------------------------------------ resets
     def _start_states(self, ids, seeds) -> tuple[np.ndarray, np.ndarray]:
-        """Per-world start states: the settled beam plus each world's reset noise on its hinges (the single env's
-        draw: ``np_random.uniform(-scale, scale, segments)`` after seeding)."""
+        """Per-world start states: the settled beam plus each world's reset noise (the single env's draw,
+        :meth:`Simulator.noisy_rest <magsoft_env.sim.Simulator.noisy_rest>`, after seeding)."""
         n = self.num_envs
         qpos = np.tile(self._qpos_settled, (n, 1))
         qvel = np.tile(self._qvel_settled, (n, 1))
-        scale = self.proto.reset_noise_scale
+        sim, scale = self.proto.sim, self.proto.reset_noise_scale
         for i in ids:
             if seeds[i] is not None or self._rngs[i] is None:
-                self._rngs[i], _ = seeding.np_random(seeds[i])
-            qpos[i, self._hinge_qpos] += self._rngs[i].uniform(-scale, scale, self.proto.segments)
+                self._rngs[i], _ = seeding.np_random(seeds[i])  # as gymnasium.Env.reset seeds the single env
+            qpos[i] += sim.noisy_rest(self._rngs[i], scale) - self._qpos_rest
         return qpos, qvel
 
     def _reset_worlds(self, mask: np.ndarray, seeds) -> None:
-        ids = np.flatnonzero(mask).tolist()
-        qpos, qvel = self._start_states(ids, seeds)
+        qpos, qvel = self._start_states(np.flatnonzero(mask).tolist(), seeds)
         self.start_qpos[mask] = qpos[mask]
         self.batch.reset_worlds(mask, qpos, qvel)
-        s = self.batch.state()
-        self._state = s
-        m = mask
-        self._field[m] = 0.0
-        self._last_action[m] = 0.0
-        self._com[m] = self._com_of(s)[m]
-        self._com_vel[m] = 0.0
-        self._episode_forward[m] = 0.0
-        self._flipped[m] = False
-        clear, _, cos = self._centreline_limits(s)
-        self._highest_clearance[m] = clear[m]
-        self._lowest_cos[m] = cos[m]
-        self._airborne[m] = 0
-        self._substeps[m] = 0
-        self._elapsed[m] = 0
-        self._max_pen[m] = 0.0
-        self._autoreset[m] = False
-        angles = self._angles(s)
-        self._obs[m] = self._observe(s, angles)[m]
+        s = self._state = self.batch.state()
+        start = crawl_limits(self.batch.centreline(s)[:, :, None, :], np.zeros(self.num_envs),
+                             half_thickness=self._half_h, inv_piece_length=self._inv_piece_length)[:, :, 0]
+        self._records.restart(mask, com=self.batch.com(s), start_limits=start)
+        for a in (self._clock, self._elapsed, self._max_pen, self._drift):
+            a[mask] = 0
+        self._autoreset[mask] = False
+        self._obs[mask] = self._observe(s, self._clock * self._dt, self.proto.task)[mask]
 
     def reset(self, *, seed: int | list[int | None] | None = None, options: dict | None = None):
         """Reset every robot (or those of ``options["reset_mask"]``); ``seed`` as the CPU batch's (robot ``i`` gets
         ``seed + i``)."""
         n = self.num_envs
-        if seed is None:
-            seeds = [None] * n
-        elif isinstance(seed, (int, np.integer)) and not isinstance(seed, (bool, np.bool_)):
-            seeds = [int(seed) + i for i in range(n)]
-        else:
-            seeds = list(seed)
-            if len(seeds) != n:
-                raise ValueError(f"seed must be None, an int or a list of {n} seeds (one per robot), got {seed!r}.")
-        options = dict(options) if options else {}
-        mask = options.pop("reset_mask", None)
-        if options:
-            raise ValueError(f"backend='warp' takes only options['reset_mask'], got {sorted(options)}.")
-        if mask is None:
-            mask = np.ones(n, dtype=bool)
-        elif not isinstance(mask, np.ndarray) or mask.dtype != np.bool_ or mask.shape != (n,):
-            raise ValueError(f"options['reset_mask'] must be a boolean numpy array of shape ({n},), got {mask!r}.")
-        elif not mask.any():
-            raise ValueError("options['reset_mask'] must select at least one robot, got none.")
+        seeds, mask, rest = reset_arguments(seed, options, n)
+        if rest:
+            raise ValueError(f"backend='warp' takes only options['reset_mask'], got {sorted(rest)}.")
+        mask = np.ones(n, dtype=bool) if mask is None else mask
         self._reset_worlds(mask, seeds)
         s = self._state
-        z = np.zeros(n)
-        info = _vector_info(self._info(s, self._angles(s), z, z, z, z), mask)
+        info = vector_info(self._info(s, self._clock * self._dt, np.zeros(n), zero_terms(n)), mask)
         return self._obs.copy(), info
 
     # ------------------------------------------------------------------ the step
@@ -323,151 +247,100 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
             raise ValueError(f"actions must have shape {self.action_space.shape} (num_envs, action), got {a.shape}.")
         if not np.all(np.isfinite(a)):
             raise ValueError("actions must be finite numbers.")
-        n, proto = self.num_envs, self.proto
+        n, batch, rec = self.num_envs, self.batch, self._records
+        task = self.proto.task
         resetting = self._autoreset.copy()
         stepping = ~resetting
-        backend = proto.sim.backend
-        if self.action_mode == "field":
-            field = np.clip(a, -1.0, 1.0) * proto.field_limit
-            field[resetting] = 0.0
-            power = np.sum(field**2, axis=1) / proto.field_limit**2
-            applied = np.hypot(field[:, 0], field[:, 1]) * self.field_scale
-            self.batch.set_fields(field)
-            self.batch.set_energy_scale(backend.energy_scale(np.maximum(applied, FIELD_FLOOR)))
-            self.batch.advance(self._k)
-            k = np.full(n, self._k, dtype=np.int64)
-        else:
-            act = np.clip(a, -1.0, 1.0)
-            act[resetting] = 0.0
-            waves, k = self._waves(act)
-            k[resetting] = 1  # reset after this step: one substep, so that it never sets the batch's length
-            power = 0.5 * (waves[:, 0] ** 2 + waves[:, 1] ** 2) / proto.field_limit**2
-            self.batch.set_waveforms(waves, k)
-            self.batch.set_energy_scale(backend.energy_scale(np.maximum(self._peaks(waves) * self.field_scale,
-                                                                        FIELD_FLOOR)))
-            self.batch.advance_waveforms()
-            field = np.zeros((n, 2))  # a whole period ends where it began
-            self._last_action[stepping] = act[stepping]
-        s = self.batch.state()
-        self._state = s
-        duration = k * self._dt
+        k, power = self._advance(a, resetting, task)
+        s = self._state = batch.state()
+        self._clock[stepping] += k[stepping]
+        time = self._clock * self._dt
         old_obs = self._obs.copy()
-        self._field[stepping] = field[stepping]
-        self._substeps[stepping] += k[stepping]
-        com = self._com_of(s)
-        self._com_vel[stepping] = ((com - self._com) / duration[:, None])[stepping]
-        self._com[stepping] = com[stepping]
-        self._highest_clearance = np.where(stepping, np.maximum(self._highest_clearance, s["clear_max"]),
-                                           self._highest_clearance)
-        self._lowest_cos = np.where(stepping, np.minimum(self._lowest_cos, s["cos_min"]), self._lowest_cos)
-        self._airborne[stepping] += s["airborne"][stepping]
-        depth = np.maximum(s["depth"], 0.0)
-        self._max_pen[stepping] = np.maximum(self._max_pen, depth)[stepping]
+        self._max_pen[stepping] = np.maximum(self._max_pen, np.maximum(s["depth"], 0.0))[stepping]
 
-        # health, per world (a failing world truncates, as a SimulationError in the single env)
-        reasons: dict[int, tuple[str, str, str | None, dict]] = {}
-        finite = np.isfinite(s["qpos"]).all(axis=1) & np.isfinite(s["qvel"]).all(axis=1)
-        over = s["overflow"] & BUFFER_OVERFLOWS
-        scale = self.batch._scale.numpy()
-        ratio, drift = s["ke_ratio"], s["drift"]
-        clear_end, _, _ = self._centreline_limits(s)
-        for i in np.flatnonzero(stepping).tolist():
-            if not finite[i]:
-                reasons[i] = ("non-finite state (qpos or qvel) in MJWarp", "state", None, {})
-            elif over[i]:
-                reasons[i] = (f"MJWarp buffer overflow (OverflowType bits {int(over[i])}): raise nconmax / njmax",
-                              "overflow", None, {})
-            elif not ratio[i] <= RUNAWAY_FACTOR:
-                reasons[i] = (f"runaway kinetic energy (J): {ratio[i] * scale[i]:.3g} > {RUNAWAY_FACTOR:g} x the "
-                              f"energy scale {scale[i]:.3g} J", "runaway kinetic energy (J)", None, {})
-            elif depth[i] > self._pen_limit:
-                figs = {"penetration_m": float(depth[i]), "penetration_h": float(depth[i] / self._h)}
-                reasons[i] = (f"penetration {depth[i] * 1e3:.3f} mm > {self._pen_limit * 1e3:.3f} mm",
-                              "penetration (m)", "penetration", figs)
-            elif clear_end[i] + 0.5 * self._h < -self._pen_limit:
-                depth_t = -(clear_end[i] + 0.5 * self._h)
-                figs = {"penetration_m": float(depth_t), "penetration_h": float(depth_t / self._h)}
-                reasons[i] = (f"tunnelling: the centreline {depth_t * 1e3:.3f} mm below the floor",
-                              "tunnelling (m)", "tunnelling", figs)
-            elif self._energy_on and drift[i] > ENERGY_DRIFT_LIMIT:
-                excess = float(drift[i] * scale[i])
-                figs = {"energy_created_J": excess, "energy_drift": float(drift[i])}
-                reasons[i] = (f"launch: the rod gained {excess:.3g} J more than the field supplied ({drift[i]:.3g} of "
-                              f"the energy scale {scale[i]:.3g} J, limit {ENERGY_DRIFT_LIMIT:g})", "launch", "launch",
-                              figs)
+        # health, per world: a failing world truncates with the C simulator's error (SimulationError in the single
+        # env) and books nothing of its step but its field
+        failures = batch.failures(s, stepping, nstep=self._clock, time=time, substeps=k,
+                                  penetration_limit=self._pen_limit, max_penetration=self._max_pen,
+                                  energy_drift=self._drift)
+        ok = stepping.copy()
+        ok[list(failures)] = False
+        if "drift" in s:
+            self._drift[ok] = np.maximum(self._drift, s["drift"])[ok]
+        rec.book(ok, com=batch.com(s), duration=k * self._dt, highest_clearance=s["clear_max"],
+                 lowest_cos=s["cos_min"], airborne=s["airborne"], substeps=k)
 
-        # crawl limits at every substep (the device's records) and the rewards
-        col = s["violation"]
-        violated = stepping & (col != -1) & (proto.crawl_mode != "none")
-        forward = np.where(violated, 0.0, proto.forward_reward_weight * proto.target_direction * self._com_vel[:, 0])
-        field_cost = -proto.field_cost_weight * power
-        crawl = np.where(violated, -(proto.crawl_penalty + np.maximum(self._episode_forward, 0.0)), 0.0)
-        self._episode_forward = np.where(stepping, self._episode_forward + forward, self._episode_forward)
-        reward = forward + field_cost + crawl
-        angles = self._angles(s)
-        obs = self._observe(s, angles)
-        bad_obs = ~np.isfinite(obs).all(axis=1)
-        for i in np.flatnonzero(stepping & bad_obs).tolist():
-            reasons.setdefault(i, ("non-finite observation", "observation", None, {}))
-        broken = np.zeros(n, dtype=bool)
-        broken[list(reasons)] = True
-        reward = np.where(stepping & ~broken, reward, 0.0)
-        z = np.zeros(n)
-        forward, field_cost, crawl = (np.where(broken, 0.0, v) for v in (forward, field_cost, crawl))
-        self._obs = np.where(broken[:, None], old_obs, obs).astype(np.float32)
-        terminated = violated & ~broken
-        truncated = broken.copy()
+        # crawl limits at every substep (the device's records), the reward, the observation
+        column = s["violation"]
+        violated = ok & (column != -1) & (task.crawl_mode != "none")
+        reward, terms = crawl_reward(rec.com_velocity[:, 0], power, violated, rec.episode_forward, task)
+        rec.episode_forward[ok] += terms["forward"][ok]
+        obs = self._observe(s, time, task)
+        bad_obs = ok & ~np.isfinite(obs).all(axis=1)
+        failed = ~ok | bad_obs  # the resetting worlds' step is replaced below
+        reward = np.where(failed, 0.0, reward)
+        terms = {key: np.where(failed, 0.0, v) for key, v in terms.items()}
+        self._obs = np.where(failed[:, None], old_obs, obs).astype(np.float32)
+        terminated = violated & ~bad_obs
+        truncated = stepping & failed
         self._elapsed[stepping] += 1
         if self.max_episode_steps is not None:
             truncated |= stepping & (self._elapsed >= self.max_episode_steps)
-        values = self._info(s, angles, reward, forward, field_cost, crawl)
-        infos = _vector_info(values)
-        time_end = self._substeps * self._dt
-        if violated.any():
-            infos.update(_vector_info({"crawl_violation": self._violation_texts(s, violated, time_end, k)},
-                                      violated & ~broken))
-        if reasons:
-            mask = broken
-            texts = np.full(n, None, dtype=object)
-            kinds = np.full(n, None, dtype=object)
-            for i, (text, kind, _, _) in reasons.items():
-                texts[i], kinds[i] = text, kind
-            infos.update(_vector_info({"truncation_reason": texts, "instability": kinds}, mask))
-            un = {i: r for i, r in reasons.items() if r[2] is not None}
-            if un:
-                umask = np.zeros(n, dtype=bool)
-                umask[list(un)] = True
-                extra: dict[str, np.ndarray] = {"unphysical": np.full(n, None, dtype=object)}
-                for i, (_, _, why, figs) in un.items():
-                    extra["unphysical"][i] = why
-                    for key, v in figs.items():
-                        extra.setdefault(key, np.zeros(n))[i] = v
-                infos.update(_vector_info(extra, umask))
-        # NEXT_STEP autoreset: the worlds that ended last step start again (their step above is discarded)
+        infos = vector_info(self._info(s, time, reward, terms))
+        if terminated.any():
+            # column j: the state j substeps into the step (-2: its end state)
+            when = time - (k - np.where(column == -2, k, column)) * self._dt
+            infos.update(vector_info({"crawl_violation": violation_texts(s["figures"], when, task, terminated)},
+                                     terminated))
+        ends = {i: instability_info({}, err) for i, err in failures.items()}
+        ends.update({i: dict(NONFINITE_OBSERVATION) for i in np.flatnonzero(bad_obs).tolist()})
+        infos.update(stack_infos(ends, n))
         if resetting.any():
-            self._reset_worlds(resetting, [None] * n)
-            reset_info = self._info(self._state, self._angles(self._state), z, z, z, z)
-            for key, v in reset_info.items():
-                infos[key] = np.where(resetting if np.ndim(v) == 1 else resetting[:, None], v, infos[key])
-            for key in list(infos):
-                if key.startswith("_") and key[1:] not in reset_info:
-                    infos[key] = infos[key] & ~resetting
+            self._autoreset_worlds(resetting, infos)
             reward[resetting] = 0.0
             terminated[resetting] = truncated[resetting] = False
         np.logical_or(terminated, truncated, out=self._autoreset)
         return self._obs.copy(), reward, terminated, truncated, infos
 
-    def _waves(self, act: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Rows ``(A_x, A_z, f, phase)`` of the waveform-mode actions ``act`` (clipped) and each period's substeps
-        (:meth:`MagSoftCrawlEnv.waveparams_of_action <magsoft_env.envs.crawl.MagSoftCrawlEnv.waveparams_of_action>`
-        and its ``round(1 / (f sim_dt))``)."""
-        proto = self.proto
-        f_lo, f_hi = proto.frequency_range
-        freq = f_lo + 0.5 * (act[:, 3] + 1.0) * (f_hi - f_lo)
-        waves = np.column_stack([act[:, 0] * proto.field_limit, act[:, 1] * proto.field_limit, freq,
-                                 act[:, 2] * math.pi])
-        k = np.maximum(1, np.round(1.0 / (freq * self._dt))).astype(np.int64)
-        return waves, k
+    def _advance(self, actions: np.ndarray, resetting: np.ndarray, task) -> tuple[np.ndarray, np.ndarray]:
+        """Apply every world's action (those of ``resetting``: none) and run the batch: returns each world's
+        substeps and mean normalized field power; the records take the field (and the last waveform action)."""
+        n, batch, rec, stepping = self.num_envs, self.batch, self._records, ~resetting
+        energy_scale = self.proto.sim.backend.energy_scale
+        act = np.clip(actions, -1.0, 1.0)
+        act[resetting] = 0.0
+        if self.action_mode == "field":
+            field = act * task.field_limit
+            power = np.sum(field**2, axis=1) / task.field_limit**2
+            batch.set_fields(field)
+            batch.set_energy_scale(energy_scale(np.maximum(np.hypot(field[:, 0], field[:, 1]) * self.field_scale,
+                                                           FIELD_FLOOR)))
+            batch.advance(self._k)
+            k = np.full(n, self._k, dtype=np.int64)
+        else:
+            waves = wave_rows(act, field_limit=task.field_limit, frequency_range=self.proto.frequency_range)
+            k = period_substeps(waves[:, 2], self._dt)
+            k[resetting] = 1  # reset after this step: one substep, so that it never sets the batch's length
+            power = 0.5 * (waves[:, 0] ** 2 + waves[:, 1] ** 2) / task.field_limit**2
+            batch.set_waveforms(waves, k)
+            batch.set_energy_scale(energy_scale(np.maximum(self._peaks(waves) * self.field_scale, FIELD_FLOOR)))
+            batch.advance_waveforms()
+            field = np.zeros((n, 2))  # a whole period ends where it began
+            rec.last_action[stepping] = act[stepping]
+        rec.field[stepping] = field[stepping]
+        return k, power
+
+    def _autoreset_worlds(self, mask: np.ndarray, infos: dict) -> None:
+        """NEXT_STEP autoreset: the worlds of ``mask`` ended last step and start again; their entries of ``infos``
+        become their reset's (the step they were given is discarded)."""
+        n = self.num_envs
+        self._reset_worlds(mask, [None] * n)
+        reset_info = self._info(self._state, self._clock * self._dt, np.zeros(n), zero_terms(n))
+        for key, v in reset_info.items():
+            infos[key] = np.where(mask if np.ndim(v) == 1 else mask[:, None], v, infos[key])
+        for key in list(infos):
+            if key.startswith("_") and key[1:] not in reset_info:
+                infos[key] = infos[key] & ~mask
 
     @staticmethod
     def _peaks(waves: np.ndarray) -> np.ndarray:
@@ -478,26 +351,6 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
         bx = np.abs(waves[:, 0:1] * np.sin(w + waves[:, 3:4])).max(axis=1)
         bz = np.abs(waves[:, 1:2] * np.sin(w)).max(axis=1)
         return np.hypot(bx, bz)
-
-    def _violation_texts(self, s, violated, time_end, k) -> np.ndarray:
-        proto = self.proto
-        out = np.full(self.num_envs, None, dtype=object)
-        for i in np.flatnonzero(violated).tolist():
-            ki = int(k[i])
-            j = int(s["violation"][i])
-            j = ki if j == -2 else j  # -2: the end state (the last column)
-            clear, top, cos = s["figures"][i]
-            when = f"at t = {time_end[i] - (ki - j) * self._dt:.4f} s"
-            if proto.max_clearance is not None and clear > proto.max_clearance:
-                out[i] = (f"airborne {when}: the lowest point is {clear * 1e3:.3f} mm above the floor > "
-                          f"{proto.max_clearance * 1e3:.3f} mm (the whole beam off the floor: a hop, not a crawl)")
-            elif proto.crawl_mode == "rotation":
-                rot = math.acos(max(-1.0, min(1.0, cos)))
-                out[i] = (f"link rotation {math.degrees(rot):.1f} deg > {math.degrees(proto.max_link_rotation):.1f} "
-                          f"deg {when}")
-            else:
-                out[i] = f"height {top * 1e3:.2f} mm > {proto.max_height * 1e3:.2f} mm {when}"
-        return out
 
     # ------------------------------------------------------------------ the rest of the VectorEnv API
     def qpos(self) -> np.ndarray:

@@ -122,6 +122,100 @@ def runaway_hint(energy_scale: float, where: str = "") -> str:
     return f"It exceeds {RUNAWAY_FACTOR:g} x the energy scale {energy_scale:.3g} J{where}. {STABILITY_HINT}"
 
 
+# ---------------------------------------------------------------------- the failures' texts and figures
+# Written once: the health monitor of a C simulation and the MuJoCo Warp batch's per-world checks
+# (sim/warp_batch.py) build their errors here, so that a failure reads the same on either.
+
+#: What to change when the contact is not resolved (a penetration).
+PENETRATION_HINT = ("The contact is not resolved: use a smaller timestep or a gentler field "
+                    "(Simulator(penetration_limit=...) moves the bound)")
+#: What to change when the centreline passed below the floor (tunnelling).
+TUNNELLING_HINT = "The contact is not resolved: use a smaller timestep"
+
+
+def setting_text(options, field, *, contact_timeconst: float | None = None) -> str:
+    """The numerics a failure message quotes: ``integrator=..., timestep=... s, [contact time constant ... ms, ]
+    segments=..., field=(...) mT``, from :class:`~magsoft_env.sim.model.RodOptions` ``options`` and the applied
+    ``field`` (T, the components the rod takes); the contact time constant (s) only where one is given."""
+    tc = "" if contact_timeconst is None else f"contact time constant {contact_timeconst * 1e3:.3g} ms, "
+    return (f"integrator={options.integrator!r}, timestep={options.timestep:g} s, {tc}segments={options.segments}, "
+            f"field={_mt(field)}")
+
+
+def unstable_error(quantity: str, value: float, hint: str, *, step: int, time: float,
+                   setting: str) -> SimulationError:
+    """The :class:`SimulationError` of an unstable run: ``quantity`` (and its ``value``, NaN: none) at ``step``
+    (``time`` s), what to change (``hint``) and the numerics (:func:`setting_text` without the contact)."""
+    return SimulationError(
+        f"simulation unstable at step {step} (t = {time:.6g} s): {quantity}"
+        f"{'' if math.isnan(value) else f' = {value:.4g}'}. {hint} ({setting}).",
+        step=step, time=time, quantity=quantity, value=value,
+    )
+
+
+def runaway_error(kinetic_energy: float, energy_scale: float, *, step: int, time: float,
+                  setting: str) -> SimulationError:
+    """Runaway kinetic energy (J) above :data:`RUNAWAY_FACTOR` x ``energy_scale`` (J)."""
+    return unstable_error("runaway kinetic energy (J)", kinetic_energy, runaway_hint(energy_scale), step=step,
+                          time=time, setting=setting)
+
+
+def nonfinite_error(name: str, *, step: int, time: float, setting: str) -> SimulationError:
+    """A non-finite ``name`` (``"qpos"``, ``"qvel"``)."""
+    return unstable_error(f"non-finite {name}", math.nan, STABILITY_HINT, step=step, time=time, setting=setting)
+
+
+def penetration_reason(depth: float, *, thickness: float, limit: float, step: int, time: float,
+                       overlap: float = 0.0, into: str = "floor") -> str:
+    """One line: a contact ``depth`` (m) into the ``into`` (the floor, the scene) deeper than ``limit`` (m) plus the
+    start's ``overlap`` (m), at ``step`` (``time`` s), in beam thicknesses ``thickness`` (m) too."""
+    h = thickness
+    lim = limit + overlap
+    start = f" + the {overlap * 1e3:.3g} mm overlap of the start" if overlap > 0.0 else ""
+    return (f"contact penetration into the {into} {depth * 1e3:.3g} mm = {depth / h:.3g} h (limit {limit / h:.3g} "
+            f"h{start} = {lim * 1e3:.3g} mm) at step {step} (t = {time:.6g} s)")
+
+
+def penetration_figures(depth: float, thickness: float) -> dict:
+    """The figures of a penetration (m, beam thicknesses)."""
+    return {"penetration_m": depth, "penetration_h": depth / thickness}
+
+
+def tunnelling_reason(lowest: float, *, thickness: float, limit: float) -> str:
+    """One line: the centreline's ``lowest`` point (m, below the floor z = 0) beyond ``limit`` (m)."""
+    h = thickness
+    return (f"tunnelling: the centreline is {-lowest * 1e3:.3g} mm = {-lowest / h:.3g} h below the floor "
+            f"(limit {limit / h:.3g} h)")
+
+
+def tunnelling_figures(lowest: float, thickness: float) -> dict:
+    """The figures of a tunnelling: how deep the centreline is below the floor (m, beam thicknesses)."""
+    return {"floor_depth_m": -lowest, "floor_depth_h": -lowest / thickness}
+
+
+def launch_reason(excess: float, drift: float, *, energy_scale: float, weight: float, length: float) -> str:
+    """One line: ``excess`` energy (J) the field did not supply, ``drift`` of the ``energy_scale`` (J), and how
+    far it would lift a rod of ``weight`` (N) in beam lengths ``length`` (m)."""
+    lift = excess / (weight * length) if weight > 0 else math.inf
+    return (f"launch: the rod gained {excess:.3g} J more than the field supplied ({drift:.3g} of the "
+            f"energy scale {energy_scale:.3g} J, limit {ENERGY_DRIFT_LIMIT:g}; enough to lift it "
+            f"{lift:.3g} beam lengths)")
+
+
+def unphysical_error(cause: str, reason: str, hint: str, figures: dict, value: float, *, step: int, time: float,
+                     setting: str, max_penetration: float, thickness: float, drift: float) -> UnphysicalError:
+    """The :class:`UnphysicalError` of a broken physical bound: its ``cause`` (``"penetration"``, ``"tunnelling"``,
+    ``"launch"``), one-line ``reason``, ``hint``, the cause's ``figures`` and the run's records
+    (``max_penetration`` m, ``drift``) beside them, at ``step`` (``time`` s); ``setting``: :func:`setting_text`."""
+    h = thickness
+    figs = {"step": step, "time_s": time, "max_penetration_m": max_penetration,
+            "max_penetration_h": max_penetration / h, "energy_drift": float(drift), **figures}
+    return UnphysicalError(
+        f"unphysical motion at step {step} (t = {time:.6g} s): {reason}. {hint} ({setting}).",
+        cause=cause, reason=reason, figures=figs, step=step, time=time, quantity=cause, value=value,
+    )
+
+
 
 def _mt(field) -> str:
     """A field (T) as ``(B_x, B_z) mT`` or ``(B_x, B_y, B_z) mT`` (the components a rod takes)."""
@@ -374,7 +468,7 @@ class HealthMonitor:
             self._fail_penetration(nstep, field3, where)
         for name in ("qpos", "qvel"):
             if not math.isfinite(getattr(d, name).sum()):  # a NaN or an infinity makes the sum non-finite
-                self.fail(nstep, field3, f"non-finite {name}", math.nan, STABILITY_HINT)
+                raise nonfinite_error(name, step=nstep, time=float(d.time), setting=self._numerics(field3))
         bad = self.rod.integrity(d)  # a rod with bounds of its own (the 3D strip's edge stretch)
         if bad is not None:
             self.fail(nstep, field3, bad[0], bad[1], bad[2])
@@ -384,7 +478,7 @@ class HealthMonitor:
         # factor-100 runaway test and saves recomputing the position stage every check
         ke = self.kinetic()
         if runaway(ke, self.energy_scale):
-            self.fail(nstep, field3, "runaway kinetic energy (J)", ke, runaway_hint(self.energy_scale))
+            raise runaway_error(ke, self.energy_scale, step=nstep, time=float(d.time), setting=self._numerics(field3))
         self.max_ke_ratio = max(self.max_ke_ratio, ke / self.energy_scale)
         if self.contact:
             if self._sd.item(self._adr) == 0.0:
@@ -400,63 +494,43 @@ class HealthMonitor:
         return step, self.call_ref[1] + (step - self.call_ref[0]) * self.model.opt.timestep
 
     def _setting(self, field3) -> str:
-        o = self.rod.options
-        tc = f"contact time constant {self.tc * 1e3:.3g} ms, " if self.contact else ""
-        return (f"integrator={o.integrator!r}, timestep={o.timestep:g} s, {tc}segments={o.segments}, "
-                f"field={_mt(np.asarray(field3)[self.axes])}")
+        return setting_text(self.rod.options, np.asarray(field3)[self.axes],
+                            contact_timeconst=self.tc if self.contact else None)
+
+    def _numerics(self, field3) -> str:
+        return setting_text(self.rod.options, np.asarray(field3)[self.axes])
 
     def fail(self, nstep: int, field3, quantity: str, value: float, hint: str, *, step: int | None = None) -> None:
         step, t = self._where(nstep, nstep if step is None else step)
-        o = self.rod.options
-        raise SimulationError(
-            f"simulation unstable at step {step} (t = {t:.6g} s): {quantity}"
-            f"{'' if math.isnan(value) else f' = {value:.4g}'}. {hint} "
-            f"(integrator={o.integrator!r}, timestep={o.timestep:g} s, segments={o.segments}, "
-            f"field={_mt(np.asarray(field3)[self.axes])}).",
-            step=step, time=t, quantity=quantity, value=value,
-        )
+        raise unstable_error(quantity, value, hint, step=step, time=t, setting=self._numerics(field3))
 
     def _unphysical(self, nstep: int, field3, cause: str, reason: str, hint: str, figures: dict, value: float, *,
                     at: tuple | None = None) -> None:
         step, t = (nstep, float(self.data.time)) if at is None else at
-        h = self.rod.beam.thickness
-        base = {"step": int(nstep), "time_s": float(self.data.time), "max_penetration_m": self.max_penetration,
-                "max_penetration_h": self.max_penetration / h, "energy_drift": float(self.drift)}
-        raise UnphysicalError(
-            f"unphysical motion at step {step} (t = {t:.6g} s): {reason}. {hint} ({self._setting(field3)}).",
-            cause=cause, reason=reason, figures={**base, **figures, "step": step, "time_s": t}, step=step,
-            time=t, quantity=cause, value=value,
-        )
+        raise unphysical_error(cause, reason, hint, figures, value, step=step, time=t, setting=self._setting(field3),
+                               max_penetration=self.max_penetration, thickness=self.rod.beam.thickness,
+                               drift=self.drift)
 
     def _fail_penetration(self, nstep: int, field3, where: str) -> None:
         h = self.rod.beam.thickness
         if where == "floor":
-            depth, (step, t), what = -self.min_dist, self.pen_at, "contact penetration into the floor"
+            depth, (step, t), into = -self.min_dist, self.pen_at, "floor"
         else:
-            depth, (step, t) = -self.min_feature, self.feature_at
-            what = f"contact penetration into the {self.rod.options.scene}"
-        lim = self.penetration_limit + self.overlap0
-        start = f" + the {self.overlap0 * 1e3:.3g} mm overlap of the start" if self.overlap0 > 0.0 else ""
-        reason = (f"{what} {depth * 1e3:.3g} mm = {depth / h:.3g} h (limit {self.penetration_limit / h:.3g} h{start} "
-                  f"= {lim * 1e3:.3g} mm) at step {step} (t = {t:.6g} s)")
+            depth, (step, t), into = -self.min_feature, self.feature_at, self.rod.options.scene
+        reason = penetration_reason(depth, thickness=h, limit=self.penetration_limit, step=step, time=t,
+                                    overlap=self.overlap0, into=into)
         dt = self.model.opt.timestep
-        self._unphysical(
-            nstep, field3, "penetration", reason,
-            "The contact is not resolved: use a smaller timestep or a gentler field "
-            "(Simulator(penetration_limit=...) moves the bound)",
-            {"penetration_m": depth, "penetration_h": depth / h}, depth,
-            at=None if step + 1 == nstep else (step + 1, t + dt),
-        )
+        self._unphysical(nstep, field3, "penetration", reason, PENETRATION_HINT, penetration_figures(depth, h), depth,
+                         at=None if step + 1 == nstep else (step + 1, t + dt))
 
     def _check_tunnelling(self, nstep: int, field3) -> None:
         # the centreline (stale: the step's start, as the contact sensor) against the floor z = 0
         zmin = self.rod.lowest_point(self.data, -self.penetration_limit)
         if zmin < -self.penetration_limit:
             h = self.rod.beam.thickness
-            reason = (f"tunnelling: the centreline is {-zmin * 1e3:.3g} mm = {-zmin / h:.3g} h below the floor "
-                      f"(limit {self.penetration_limit / h:.3g} h)")
-            self._unphysical(nstep, field3, "tunnelling", reason, "The contact is not resolved: use a smaller timestep",
-                             {"floor_depth_m": -zmin, "floor_depth_h": -zmin / h}, -zmin)
+            self._unphysical(nstep, field3, "tunnelling", tunnelling_reason(zmin, thickness=h,
+                                                                            limit=self.penetration_limit),
+                             TUNNELLING_HINT, tunnelling_figures(zmin, h), -zmin)
 
     def _check_energy(self, nstep: int, field3, kinetic: float) -> None:
         # E - E_0 - W <= 0 for a passive rod in a field that did work W on it (damping and
@@ -466,14 +540,13 @@ class HealthMonitor:
         if drift > self.drift:
             self.drift = drift
         if drift > ENERGY_DRIFT_LIMIT:
-            mg = self.rod.weight
-            lift = excess / (mg * self.rod.beam.length) if mg > 0 else math.inf
-            reason = (f"launch: the rod gained {excess:.3g} J more than the field supplied ({drift:.3g} of the "
-                      f"energy scale {self.energy_scale:.3g} J, limit {ENERGY_DRIFT_LIMIT:g}; enough to lift it "
-                      f"{lift:.3g} beam lengths)")
+            reason = launch_reason(excess, drift, energy_scale=self.energy_scale, weight=self.rod.weight,
+                                   length=self.rod.beam.length)
             self._unphysical(nstep, field3, "launch", reason, STABILITY_HINT, {"energy_created_J": excess}, excess)
 
 
-__all__ = ["ENERGY_DRIFT_LIMIT", "FIELD_FLOOR", "MAX_STEPS", "PENETRATION_LIMIT", "RUNAWAY_FACTOR", "STABILITY_HINT",
-           "WARNINGS", "WARNING_IDS", "HealthMonitor", "SensorHistory", "SimulationError", "UnphysicalError",
-           "check_steps", "new_warning", "runaway", "runaway_hint"]
+__all__ = ["ENERGY_DRIFT_LIMIT", "FIELD_FLOOR", "MAX_STEPS", "PENETRATION_HINT", "PENETRATION_LIMIT", "RUNAWAY_FACTOR",
+           "STABILITY_HINT", "TUNNELLING_HINT", "WARNINGS", "WARNING_IDS", "HealthMonitor", "SensorHistory",
+           "SimulationError", "UnphysicalError", "check_steps", "launch_reason", "new_warning", "nonfinite_error",
+           "penetration_figures", "penetration_reason", "runaway", "runaway_error", "runaway_hint", "setting_text",
+           "tunnelling_figures", "tunnelling_reason", "unphysical_error", "unstable_error"]

@@ -2,7 +2,7 @@
 
 :class:`WarpRodBatch` puts a compiled rod model (:mod:`magsoft_env.sim.model`) on a Warp device with MuJoCo's
 auto-reset flag cleared (MJWarp refuses it, and never auto-resets: a world that goes non-finite stays so, which
-:meth:`WarpRodBatch.health` reports), the solver tolerance raised to MJWarp's float32 floor and contact buffers
+:meth:`WarpRodBatch.failures` reports), the solver tolerance raised to MJWarp's float32 floor and contact buffers
 sized for the rod. :meth:`WarpRodBatch.advance` runs ``k`` substeps of every world under its own held field,
 recorded once as a Warp graph (``wp.ScopedCapture``, on the CPU device too) and replayed at every call, or
 launched kernel by kernel (``graph=False``: the same numbers, bit for bit). After every substep a small kernel
@@ -12,7 +12,10 @@ the kinetic energy) close the graph. :meth:`WarpRodBatch.advance_waveforms` play
 waveform instead, the phase from a per-world step counter (MJWarp's ``d.time`` is float32), in graphs of
 ``block`` substeps replayed until the longest period ends; a world whose period is over keeps its end state. The
 energy balance of :mod:`magsoft_env.sim.health` (runaway kinetic energy, energy drift) is kept per world on the
-device. Worlds are reset by mask from states the caller computes in C (:meth:`WarpRodBatch.reset_worlds`).
+device, and :meth:`WarpRodBatch.failures` turns every world's records into the error the C simulator would raise
+(:mod:`magsoft_env.sim.health`'s builders). The rod's readouts (centreline, angles, rates, centre of mass,
+orientation) are computed per world from a :meth:`WarpRodBatch.state`. Worlds are reset by mask from states the
+caller computes in C (:meth:`WarpRodBatch.reset_worlds`).
 Friction (the rod-floor contact pairs) and a field scale may differ per world (MJWarp's batched model arrays).
 """
 
@@ -24,7 +27,25 @@ import math
 import mujoco
 import numpy as np
 
-from .model import field_controls
+from .health import (
+    ENERGY_DRIFT_LIMIT,
+    PENETRATION_HINT,
+    RUNAWAY_FACTOR,
+    STABILITY_HINT,
+    TUNNELLING_HINT,
+    SimulationError,
+    launch_reason,
+    nonfinite_error,
+    penetration_figures,
+    penetration_reason,
+    runaway_error,
+    setting_text,
+    tunnelling_figures,
+    tunnelling_reason,
+    unphysical_error,
+    unstable_error,
+)
+from .model import contact_timeconst, field_controls
 from .warp_extra import require_warp
 
 wp, mjw = require_warp()
@@ -36,6 +57,8 @@ TOLERANCE_FLOOR = 1e-6
 BUFFER_OVERFLOWS = int(mjw.OverflowType.NEFC | mjw.OverflowType.NJMAX_NNZ | mjw.OverflowType.BROADPHASE
                        | mjw.OverflowType.NARROWPHASE | mjw.OverflowType.CCD | mjw.OverflowType.CONTACT_MATCH
                        | mjw.OverflowType.NVMAX)
+#: What to change when a world's contacts or constraint rows did not fit MJWarp's buffers.
+OVERFLOW_HINT = "The contacts or constraint rows did not fit MJWarp's buffers: raise nconmax / njmax"
 
 
 @wp.kernel
@@ -49,7 +72,8 @@ def _write_inputs(mag: wp.array[float], quat: wp.array2d[float], mocap: int, ctr
 
 @wp.kernel
 def _clear_records(clear_max: wp.array[float], cos_min: wp.array[float], airborne: wp.array[int],
-                   violation: wp.array[int], figures: wp.array2d[float], depth: wp.array[float]):
+                   violation: wp.array[int], figures: wp.array2d[float], depth: wp.array[float],
+                   depth_best: wp.array[float], depth_at: wp.array[int]):
     w = wp.tid()
     clear_max[w] = -1.0e30
     cos_min[w] = 1.0e30
@@ -59,6 +83,8 @@ def _clear_records(clear_max: wp.array[float], cos_min: wp.array[float], airborn
     figures[w, 1] = 0.0
     figures[w, 2] = 0.0
     depth[w] = -1.0e30
+    depth_best[w] = -1.0e30
+    depth_at[w] = -1
 
 
 @wp.kernel
@@ -66,17 +92,25 @@ def _limits(xpos: wp.array2d[wp.vec3], xmat: wp.array2d[wp.mat33], bodies: wp.ar
             inv_len: wp.array[float], tip_len: float, half_h: float, max_clearance: float, cos_rotation: float,
             max_height: float, mode: int, airborne_tol: float, column: int, count: int, step: wp.array[int],
             nsub: wp.array[int], clear_max: wp.array[float], cos_min: wp.array[float], airborne: wp.array[int],
-            violation: wp.array[int], figures: wp.array2d[float]):
+            violation: wp.array[int], figures: wp.array2d[float], pen_limit: float, depth: wp.array[float],
+            depth_best: wp.array[float], depth_at: wp.array[int]):
     """One column of the crawl limits of every world: clearance of the lowest centreline point, the highest point
-    and the cos of the largest piece angle; the first column that breaks a limit is kept with its figures.
-    ``mode``: 0 none, 1 rotation, 2 height. The column is ``column + step[w]`` (``column`` -2: the end state);
-    a world whose ``step`` has reached its ``nsub`` (its period is over) is left out."""
+    and the cos of the largest piece angle; the first column that breaks a limit is kept with its figures
+    (the device twin of :mod:`magsoft_env.envs.crawl_task`'s ``crawl_limits``, ``limit_summary`` and
+    ``first_violation``). ``mode``: 0 none, 1 rotation, 2 height. The column is ``column + step[w]`` (``column``
+    -2: the end state); a world whose ``step`` has reached its ``nsub`` (its period is over) is left out. A substep
+    column (``count`` 1) whose deepest contact (``depth``, the running maximum of :func:`_deepest`) is the deepest
+    yet is kept in ``depth_best`` and ``depth_at``, until one is deeper than ``pen_limit``: as the C simulator's
+    check, which stops at the first step that breaks the bound."""
     w = wp.tid()
     if column != -2 and step[w] >= nsub[w]:
         return
     col = column
     if column != -2:
         col = column + step[w]
+    if count != 0 and depth_best[w] <= pen_limit and depth[w] > depth_best[w]:
+        depth_best[w] = depth[w]
+        depth_at[w] = col
     n = bodies.shape[0]
     # float(): variables a Warp loop changes are declared dynamic
     lo = float(1.0e30)  # noqa: UP018
@@ -329,7 +363,8 @@ class WarpRodBatch:
     limits : dict, optional
         The crawl limits the substep kernel holds: ``half_thickness`` (m), ``inv_piece_length`` (1/m, one per
         piece), ``max_clearance`` (m, inf: none), ``cos_rotation``, ``max_height`` (m), ``mode`` (0 none,
-        1 rotation, 2 height), ``airborne_tolerance`` (m).
+        1 rotation, 2 height), ``airborne_tolerance`` (m), ``penetration_limit`` (m: the deepest contact is
+        followed up to the first substep deeper than it, as the C simulator's check; default inf).
     device : str, optional
         Warp device (None: Warp's default, a GPU where there is one).
     graph : bool
@@ -373,7 +408,7 @@ class WarpRodBatch:
                 pf = np.tile(np.asarray(src.pair_friction, dtype=np.float32), (n, 1, 1))
                 pf[:, :, 0] = pf[:, :, 1] = self.friction[:, None]
                 self.m.pair_friction.assign(pf)
-            self.m.opt.warn_overflow = 0  # recorded per world in d.overflow, read by health()
+            self.m.opt.warn_overflow = 0  # recorded per world in d.overflow, read by failures()
             self.m.opt.contact_sensor_maxmatch = max(int(self.m.opt.contact_sensor_maxmatch), self.nconmax)
             self.d = mjw.put_data(src, data, nworld=n, nconmax=self.nconmax, njmax=self.njmax)
             nq, nv = int(src.nq), int(src.nv)
@@ -385,6 +420,8 @@ class WarpRodBatch:
             self.violation = wp.zeros(n, dtype=int)
             self.figures = wp.zeros((n, 3), dtype=float)
             self.depth = wp.zeros(n, dtype=float)
+            self._depth_best = wp.zeros(n, dtype=float)
+            self.depth_at = wp.zeros(n, dtype=int)
             self.mqvel = wp.zeros((n, nv), dtype=float)
             self._mask = wp.zeros(n, dtype=int)
             self._qpos_new = wp.zeros((n, nq), dtype=float)
@@ -411,7 +448,10 @@ class WarpRodBatch:
             self.drift_max = wp.zeros(n, dtype=wp.float64)
             disc = rod.disc
             lim = dict(limits or {})
-            inv = lim.get("inv_piece_length", 1.0 / np.asarray(disc.piece_length))
+            #: the rod's pieces' lengths (m): the backend's pose's (the crawl env's) where there is one
+            self.piece_lengths = (np.diff(backend.arc_length()) if backend is not None
+                                  else np.asarray(disc.piece_length, dtype=float))
+            inv = lim.get("inv_piece_length", 1.0 / self.piece_lengths)
             self._inv_len = wp.array(np.asarray(inv, dtype=np.float32).ravel(), dtype=float)
             self.backend = backend
             if backend is not None:
@@ -431,6 +471,7 @@ class WarpRodBatch:
         self._max_height = float(lim.get("max_height", math.inf))
         self._mode = int(lim.get("mode", 0))
         self._airborne_tol = float(lim.get("airborne_tolerance", math.inf))
+        self._pen_limit = float(lim.get("penetration_limit", math.inf))
         self._mocap = int(rod.field_mocap) if getattr(rod, "field_mocap", -1) is not None else -1
         self._dt = float(src.opt.timestep)
         self.graph = bool(graph)
@@ -468,7 +509,8 @@ class WarpRodBatch:
             self.d.xpos, self.d.xmat, self._bodies, self._inv_len, self._tip_len, self._half_h,
             self._max_clearance, self._cos_rotation, self._max_height, self._mode, self._airborne_tol, column,
             count, self._zero if step is None else step, self._never if nsub is None else nsub, self.clear_max,
-            self.cos_min, self.airborne, self.violation, self.figures])
+            self.cos_min, self.airborne, self.violation, self.figures, self._pen_limit, self.depth, self._depth_best,
+            self.depth_at])
 
     def _deepest_launch(self, step, nsub) -> None:
         d = self.d
@@ -492,7 +534,8 @@ class WarpRodBatch:
 
     def _clear(self) -> None:
         wp.launch(_clear_records, dim=self.nworld, inputs=[self.clear_max, self.cos_min, self.airborne,
-                                                           self.violation, self.figures, self.depth])
+                                                           self.violation, self.figures, self.depth,
+                                                           self._depth_best, self.depth_at])
         if self.backend is not None:
             wp.launch(_clear_energy_records, dim=self.nworld, inputs=[self.ke_max, self.drift_max])
 
@@ -504,10 +547,10 @@ class WarpRodBatch:
         self._clear()
         for j in range(k):
             mjw.step(m, d)
-            # xpos / xmat now hold the state this substep started from (MuJoCo's history buffers in C)
+            # xpos / xmat and the contacts now hold the state this substep started from (MuJoCo's history buffers
+            # in C): its deepest contact, then its crawl limits (which keep the substep of the deepest contact)
+            self._deepest_launch(self._zero, self._never)
             self._limit_launch(j, 1)
-            wp.launch(_deepest, dim=d.naconmax, inputs=[d.nacon, d.contact.dist, d.contact.worldid, self._zero,
-                                                        self._never, self.depth])
             if j == 0:  # a held field: its work is booked at its jump, with the moment of the state it jumps at
                 self._work_launch(self._zero, self._never)
         # the energy check of the step's end, staggered as C's (positions of the last substep's start)
@@ -565,8 +608,8 @@ class WarpRodBatch:
             wp.launch(_wave_inputs, dim=n, inputs=[step, nsub, self._wave, self._dt, self._mocap, self._field,
                                                    d.ctrl, d.mocap_quat])
             mjw.step(m, d)
-            self._limit_launch(0, 1, step, nsub)
             self._deepest_launch(step, nsub)
+            self._limit_launch(0, 1, step, nsub)
             self._work_launch(step, nsub)
             wp.launch(_tick, dim=n, inputs=[step, nsub, d.qpos, d.qvel, d.qacc_warmstart, d.time, d.overflow,
                                             self._qpos_end, self._qvel_end, self._warm_end, self._time_end,
@@ -622,9 +665,11 @@ class WarpRodBatch:
     # ------------------------------------------------------------------ readouts (host copies)
     def state(self) -> dict[str, np.ndarray]:
         """Host copies (float64) of what the env reads: ``qpos``, ``qvel``, ``xpos`` / ``xmat`` / ``xipos`` of
-        the rod's bodies (chain order), the substep records, the deepest contact, ``M qvel``, the overflow bits
-        and, with a ``backend``, the energy records ``ke_ratio`` (largest kinetic energy over the energy scale at
-        the checks of the last call) and ``drift`` (largest energy drift there, in energy scales)."""
+        the rod's bodies (chain order), the substep records, the deepest contact ``depth`` (m; up to the first
+        substep deeper than the limits' ``penetration_limit``, as C's check, which stops there) and ``depth_at``,
+        the substep whose start state had it (-1: no contact), ``M qvel``, the overflow bits and, with a
+        ``backend``, the energy records ``ke_ratio`` (largest kinetic energy over the energy scale at the checks of
+        the last call) and ``drift`` (largest energy drift there, in energy scales)."""
         b = np.asarray(self.rod.body_ids)
         d = self.d
         out = {
@@ -633,7 +678,8 @@ class WarpRodBatch:
             "xipos": d.xipos.numpy()[:, b].astype(float),
             "clear_max": self.clear_max.numpy().astype(float), "cos_min": self.cos_min.numpy().astype(float),
             "airborne": self.airborne.numpy().astype(int), "violation": self.violation.numpy().astype(int),
-            "figures": self.figures.numpy().astype(float), "depth": self.depth.numpy().astype(float),
+            "figures": self.figures.numpy().astype(float), "depth": self._depth_best.numpy().astype(float),
+            "depth_at": self.depth_at.numpy().astype(int),
             "mqvel": self.mqvel.numpy().astype(float), "overflow": d.overflow.numpy().astype(np.int64),
         }
         if self.backend is not None:
@@ -645,5 +691,133 @@ class WarpRodBatch:
         """Joint positions of every world, ``(nworld, nq)`` (float64 copy)."""
         return self.d.qpos.numpy().astype(float)
 
+    def applied_fields(self) -> np.ndarray:
+        """The field every world applied last, ``(nworld, 2)`` (B_x, B_z; T; its ``field_scale`` included)."""
+        return self._field.numpy().astype(float)
 
-__all__ = ["BUFFER_OVERFLOWS", "TOLERANCE_FLOOR", "WarpRodBatch", "warp_model_source"]
+    # ------------------------------------------------------------------ readouts of a state (the backend's, per world)
+    # The C rod backend's readouts (:class:`~magsoft_env.sim.planar.PlanarRod`: pose, angles, rates, orientation)
+    # vectorized over the worlds of a :meth:`state`; they need the ``backend``.
+    def _chain(self):
+        b = self.backend
+        if b is None:
+            raise ValueError("the readouts of a WarpRodBatch need its backend: WarpRodBatch(..., "
+                             "backend=sim.backend).")
+        if not hasattr(self, "_omega_map"):
+            bodies = np.asarray(self.rod.body_ids)
+            self._omega_map = b._angles[0][:, bodies - b.b0]  # (nq = nv, pieces): piece angle about y per qvel
+            self._mass = np.asarray(self.rod.disc.mass, dtype=float)
+            w = np.diff(b.arc_length())
+            self._piece_w, self._piece_total = w, float(w.sum())
+            self._base_angle = float(b.options.clamp_angle)
+            self._base_qpos = int(self.rod.base_qpos[2]) if self.rod.base_qpos.size else -1
+            self._tip_hinges = np.asarray(self.rod.hinge_qpos)[b.options.base_piece:]
+        return b
+
+    def centreline(self, s: dict) -> np.ndarray:
+        """Every world's centreline (m), ``(nworld, N + 2, 3)``: the base end, every hinge, the tip (the pose's)."""
+        self._chain()
+        p, R = s["xpos"], s["xmat"].reshape(self.nworld, -1, 9)
+        tip = p[:, -1] + self._tip_len * R[:, -1][:, [0, 3, 6]]
+        return np.concatenate([p, tip[:, None]], axis=1)
+
+    def angles(self, s: dict) -> np.ndarray:
+        """Tangent angle of every world's pieces from +x toward +z (rad), ``(nworld, N + 1)``."""
+        R = s["xmat"].reshape(self.nworld, -1, 9)
+        return np.arctan2(R[:, :, 6], R[:, :, 0])
+
+    def angular_velocities(self, s: dict) -> np.ndarray:
+        """Angular velocity of every world's pieces about -y (rad/s), ``(nworld, N + 1)``."""
+        self._chain()
+        return -(s["qvel"] @ self._omega_map)
+
+    def com(self, s: dict) -> np.ndarray:
+        """Every world's centre of mass (x, z) (m), ``(nworld, 2)``."""
+        self._chain()
+        p, m = s["xipos"], self._mass
+        return np.stack([p[:, :, 0] @ m, p[:, :, 2] @ m], axis=1) / m.sum()
+
+    def orientation(self, s: dict) -> np.ndarray:
+        """Every world's orientation end over end (rad), ``(nworld,)``: the length-weighted mean tangent angle of
+        its pieces, anchored to the tip's continuous angle (:func:`~magsoft_env.sim.readouts.body_orientation`);
+        NaN for a non-finite state."""
+        self._chain()
+        q, angles = s["qpos"], self.angles(s)
+        anchor = self._base_angle + q[:, self._tip_hinges].sum(axis=1)
+        if self._base_qpos >= 0:
+            anchor = anchor + q[:, self._base_qpos]
+        turn = 2.0 * math.pi
+        rel = np.cumsum(np.remainder(np.diff(angles, axis=1) + math.pi, turn) - math.pi, axis=1)
+        first = angles[:, 0]
+        last = first + (rel[:, -1] if rel.shape[1] else 0.0)
+        with np.errstate(invalid="ignore"):
+            first = first + turn * np.round((anchor - last) / turn)
+        out = first + rel @ self._piece_w[1:] / self._piece_total
+        return np.where(np.isfinite(anchor), out, np.nan)
+
+    # ------------------------------------------------------------------ health, per world
+    def failures(self, s: dict, mask, *, nstep, time, substeps, penetration_limit: float, max_penetration,
+                 energy_drift) -> dict[int, SimulationError]:
+        """The first failed check of every world of ``mask`` after a call, as the error the C simulator raises
+        (:mod:`~magsoft_env.sim.health`'s texts and figures): a non-finite state, an MJWarp buffer overflow (one
+        of :data:`BUFFER_OVERFLOWS`), a contact deeper than ``penetration_limit`` (m; at the substep whose start
+        state had it), kinetic energy above :data:`~magsoft_env.sim.health.RUNAWAY_FACTOR` x the energy scale, the
+        end state's centreline below the floor by more than ``penetration_limit`` (tunnelling) and, where the C
+        simulator keeps it, energy the field did not supply (a launch). ``nstep``, ``time``: each world's steps
+        and time (s) now, after its ``substeps`` of this call (``sim_dt`` each); ``max_penetration`` (m),
+        ``energy_drift``: its records (the drift's before this call), quoted in the figures."""
+        b = self._chain()
+        h = b.beam.thickness
+        opts = b.options
+        tc = contact_timeconst(b.beam, opts) if b.has_contact else None
+        energy_on = b.has_contact and b.two_stage
+        fields = self.applied_fields()
+        scale = self._scale.numpy()
+        over = s["overflow"] & BUFFER_OVERFLOWS
+        finite = {name: np.isfinite(s[name]).all(axis=1) for name in ("qpos", "qvel")}
+        lowest = self.centreline(s)[:, :, 2].min(axis=1)
+        depth, ratio = s["depth"], s.get("ke_ratio")
+        drift = s.get("drift")
+        dt = self._dt
+        out: dict[int, SimulationError] = {}
+        for i in np.flatnonzero(mask).tolist():
+            step, t = int(nstep[i]), float(time[i])
+            numerics = setting_text(opts, fields[i])
+
+            def unphysical(cause, reason, hint, figures, value, at=(step, t), i=i, drift_now=energy_drift[i]):
+                return unphysical_error(cause, reason, hint, figures, value, step=at[0], time=at[1],
+                                        setting=setting_text(opts, fields[i], contact_timeconst=tc),
+                                        max_penetration=float(max_penetration[i]), thickness=h,
+                                        drift=float(drift_now))
+
+            if not finite["qpos"][i] or not finite["qvel"][i]:
+                out[i] = nonfinite_error("qpos" if not finite["qpos"][i] else "qvel", step=step, time=t,
+                                         setting=numerics)
+            elif over[i]:
+                out[i] = unstable_error(f"MJWarp buffer overflow (OverflowType bits {int(over[i])})", math.nan,
+                                        OVERFLOW_HINT, step=step, time=t, setting=numerics)
+            elif depth[i] > penetration_limit:
+                # the substep of this call whose start state had the contact: C's check stops after it
+                pen_step = step - int(substeps[i]) + int(s["depth_at"][i])
+                out[i] = unphysical("penetration", penetration_reason(float(depth[i]), thickness=h,
+                                                                      limit=penetration_limit, step=pen_step,
+                                                                      time=pen_step * dt),
+                                    PENETRATION_HINT, penetration_figures(float(depth[i]), h), float(depth[i]),
+                                    at=(step, t) if pen_step + 1 == step else (pen_step + 1, (pen_step + 1) * dt))
+            elif ratio is not None and not ratio[i] <= RUNAWAY_FACTOR:
+                out[i] = runaway_error(float(ratio[i] * scale[i]), float(scale[i]), step=step, time=t,
+                                       setting=numerics)
+            elif lowest[i] < -penetration_limit:
+                out[i] = unphysical("tunnelling", tunnelling_reason(float(lowest[i]), thickness=h,
+                                                                    limit=penetration_limit),
+                                    TUNNELLING_HINT, tunnelling_figures(float(lowest[i]), h), -float(lowest[i]))
+            elif energy_on and drift is not None and drift[i] > ENERGY_DRIFT_LIMIT:
+                excess = float(drift[i] * scale[i])
+                out[i] = unphysical("launch", launch_reason(excess, float(drift[i]), energy_scale=float(scale[i]),
+                                                            weight=b.weight, length=b.beam.length),
+                                    STABILITY_HINT, {"energy_created_J": excess}, excess,
+                                    drift_now=max(float(energy_drift[i]), float(drift[i])))
+        return out
+
+
+__all__ = ["BUFFER_OVERFLOWS", "OVERFLOW_HINT", "TOLERANCE_FLOOR", "WarpRodBatch", "warp_model_source"]
