@@ -324,7 +324,7 @@ class MagSoftSteerEnv(gym.Env):
         """Move the free vertices horizontally by ``U(-reset_noise_scale, reset_noise_scale)`` (m)."""
         sim, cm = self.sim, self.sim.backend.rod
         adr = cm.vertex_qpos[cm.vertex_body > 0][:, :2].ravel()  # slides x, y of each free vertex
-        qpos = sim.data.qpos.copy()
+        qpos, _ = sim.state()
         qpos[adr] += self.np_random.uniform(-self.reset_noise_scale, self.reset_noise_scale, adr.size)
         sim.set_state(qpos=qpos)
 

@@ -144,7 +144,7 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
         sim.reset()
         sim.set_field((0.0, 0.0))
         sim.step(int(round(self.settle_time / proto.sim_dt)))
-        self._qpos_settled = sim.data.qpos.copy()  # a read: the state is written through the simulator only
+        self._qpos_settled = sim.state()[0]
         self._qvel_settled = np.zeros(sim.model.nv)
         # the rest state the reset noise perturbs (a draw of zero width: the rest state itself)
         self._qpos_rest = sim.noisy_rest(np.random.default_rng(0), 0.0)

@@ -279,6 +279,11 @@ class Simulator:
         mujoco.mj_forward(self.model, self.data)
         self._stale = False
 
+    def state(self) -> tuple[np.ndarray, np.ndarray]:
+        """Copies of the joint positions ``(nq,)`` and velocities ``(nv,)``: what :meth:`set_state` and
+        :meth:`reset` take."""
+        return self.data.qpos.copy(), self.data.qvel.copy()
+
     def noisy_rest(self, rng: np.random.Generator, scale: float) -> np.ndarray:
         """The rest ``qpos`` with every bending angle perturbed by ``U(-scale, scale)`` (rad), drawn from ``rng``
         (the rod's own way: the chain's hinges, the strip's interior vertices)."""
