@@ -91,12 +91,15 @@ def _block(adr: np.ndarray):
 
 class CoupleWriter:
     """Writes the magnetic couples of a field into ``mjData`` before a step: :func:`apply_field` with its index
-    arrays and moment columns prepared once (about a third of its per-call cost; the 3D rod calls it every step).
+    arrays, moment columns and sums prepared once (the 3D rod calls it every step; numpy's per-call overhead is
+    most of its cost, so it makes few calls).
 
     The force pair of edge ``i`` is ``(C_i x t_i) / l_i`` with ``C_i = M_i x B`` the couple of its world moment
     ``M_i = m_a t + m_w d1 + m_t d2``; since ``M_i . t_i = m_a``, ``C_i x t_i = m_a B - (B . t_i) M_i``, and the
     twist moment ``C_i . t_i = B . (t_i x M_i)`` with ``t x d1 = d2``, ``t x d2 = -d1``: no cross product of the
-    couples is formed.
+    couples is formed. The transverse part ``m_w d1 + m_t d2 = r (cos psi u + sin psi v)`` with ``psi = theta +
+    atan2(m_t, m_w)`` and ``(u, v = t x u)`` the transported reference frame (:func:`material_frames`; the transport
+    keeps ``u`` a unit vector, so it is not normalized again: a round-off difference).
 
     Parameters
     ----------
@@ -111,82 +114,89 @@ class CoupleWriter:
         self.axial = bool(axial)
         free = cm.vertex_qpos[:, 0] >= 0
         # pinned vertices (a clamp) come first
-        self._f0 = int(np.argmax(free)) if free.any() else len(free)
-        if not free[self._f0:].all():
+        f0 = int(np.argmax(free)) if free.any() else len(free)
+        if not free[f0:].all():
             raise RuntimeError("the strip's pinned vertices must lead")  # guaranteed by build_cable
-        self._vq = _block(cm.vertex_qpos[self._f0:])
-        self._nfree = len(free) - self._f0
+        self._f0 = f0
+        self._vq = _block(cm.vertex_qpos[f0:])
+        self._nfree = len(free) - f0
         self._x = cm.vertex_ref.copy()
-        self._ref = cm.vertex_ref[self._f0:].copy()
+        self._ref = cm.vertex_ref[f0:].copy()
         tw = cm.twist_qpos >= 0
         self._t0 = int(np.argmax(tw)) if tw.any() else len(tw)
         if not tw[self._t0:].all():
             raise RuntimeError("the strip's clamped edge must lead")  # guaranteed by build_cable
         self._tq = _block(cm.twist_qpos[self._t0:])
         self._td = _block(cm.twist_dof[self._t0:])
-        self._theta = np.zeros(len(tw))
-        m = cm.layout.moment
-        self._ma, self._mw, self._mt = (np.ascontiguousarray(m[:, k:k + 1]) for k in range(3))
-        self._mw1, self._mt1 = self._mw[:, 0], self._mt[:, 0]
-        self._body = _block(cm.vertex_body[self._f0:])
         ne = len(tw)
+        self._theta = np.zeros(ne)
+        m = cm.layout.moment
+        self._ma = np.ascontiguousarray(m[:, :1])
+        self._phi0 = np.arctan2(m[:, 2], m[:, 1])
+        self._r = np.hypot(m[:, 1], m[:, 2])
+        self._body = _block(cm.vertex_body[f0:])
         a = int(cm.model.flex_plasticadr[cm.flex])
         self._plastic = slice(a, a + 6 * ne)
         self._rest = np.tile([1.0, 0.0, 0.0, 0.0, 1.0, 0.0], (ne, 1))  # (t_old, u_old) before the first step
-        self._fv = np.zeros((len(free), 3))
+        self._one = np.ones(3)
+        # a x b from the outer product a b^T (row-major, 9 entries): (a b^T).ravel() @ _EPS
+        self._eps = np.zeros((9, 3))
+        for i, j, k in ((1, 2, 0), (2, 0, 1), (0, 1, 2)):
+            self._eps[3 * i + j, k], self._eps[3 * j + i, k] = 1.0, -1.0
+        # edge pairs to vertex forces: +F on the edge's end vertex, -F on its start (the free vertices' rows)
+        d = np.zeros((len(free), ne))
+        d[np.arange(1, ne + 1), np.arange(ne)] = 1.0
+        d[np.arange(ne), np.arange(ne)] = -1.0
+        self._pairs = np.ascontiguousarray(d[f0:])
 
     def write(self, data: mujoco.MjData, field3: np.ndarray, extra: np.ndarray | None = None,
-              net_moment: np.ndarray | None = None) -> None:
-        """Write the couples of the field ``(B_x, B_y, B_z)`` (T) at the state in ``data`` (see :func:`apply_field`)."""
+              net_moment: np.ndarray | None = None, *, clear: bool = True) -> None:
+        """Write the couples of the field ``(B_x, B_y, B_z)`` (T) at the state in ``data`` (see :func:`apply_field`).
+        ``clear`` False: leave the entries it never writes (vertex torques, non-twist dofs of ``qfrc_applied``) as
+        they are, zero since the last clearing write (the 3D rod clears once per call, not every step)."""
         B = field3
+        one = self._one
         x = self._x
         q = data.qpos
         x[self._f0:] = self._ref + q[self._vq].reshape(self._nfree, 3)
         e = x[1:] - x[:-1]
-        inv = 1.0 / np.sqrt(np.einsum("ij,ij->i", e, e))
+        inv = 1.0 / np.sqrt((e * e) @ one)
         t = e * inv[:, None]
         p = data.plastic[self._plastic].reshape(-1, 6)
-        if not p[0].any():
+        if not (p.item(0) or p.item(1) or p.item(2)):  # no reference frame stored yet (before the first step)
             p = self._rest
         t_old, u_old = p[:, :3], p[:, 3:]
-        u = u_old - (np.einsum("ij,ij->i", t, u_old) / (1.0 + np.einsum("ij,ij->i", t_old, t)))[:, None] * (t_old + t)
-        u *= (1.0 / np.sqrt(np.einsum("ij,ij->i", u, u)))[:, None]
-        v = _cross(t, u)
-        theta = self._theta
+        u = u_old - (((t * u_old) @ one) / (1.0 + (t_old * t) @ one))[:, None] * (t_old + t)
+        v = (t[:, :, None] * u[:, None, :]).reshape(-1, 9) @ self._eps
+        theta = self._theta  # a clamped edge's stays 0
         theta[self._t0:] = q[self._tq]
-        c, s = np.cos(theta), np.sin(theta)
-        # the transverse moment in (u, v): M_perp = alpha u + beta v (d1 = c u + s v, d2 = c v - s u)
-        alpha = self._mw1 * c - self._mt1 * s
-        beta = self._mw1 * s + self._mt1 * c
+        psi = theta + self._phi0
+        alpha = self._r * np.cos(psi)
+        beta = self._r * np.sin(psi)
         mperp = alpha[:, None] * u + beta[:, None] * v
-        mw = self._ma * t + mperp
-        if net_moment is not None:
-            net_moment[:] = mw.sum(axis=0)
         bt = t @ B
         # force pair times l: m_a B - (B . t) M; without the axial part: -(B . t) M_perp
-        if self.axial:
-            F = self._ma * B - bt[:, None] * mw
-        else:
-            F = -bt[:, None] * mperp
-        twist = (alpha[:, None] * v - beta[:, None] * u) @ B
+        if self.axial or net_moment is not None:
+            mw = self._ma * t + mperp
+            if net_moment is not None:
+                net_moment[:] = mw.sum(axis=0)
+        F = self._ma * B - bt[:, None] * mw if self.axial else -bt[:, None] * mperp
+        twist = alpha * (v @ B) - beta * (u @ B)
         if extra is not None:
-            F += _cross(extra[:, 3:], t)
-            twist += np.einsum("ij,ij->i", extra[:, 3:], t)
+            F += (extra[:, 3:, None] * t[:, None, :]).reshape(-1, 9) @ self._eps
+            twist += (extra[:, 3:] * t) @ one
         # the pair's lever is the edge's current length: its couple is C whatever the edge's strain
         F *= inv[:, None]
-        fv = self._fv
-        fv[:-1] = -F
-        fv[-1] = 0.0
-        fv[1:] += F
+        fv = self._pairs @ F
         if extra is not None:
-            half = 0.5 * extra[:, :3]
-            fv[1:] += half
-            fv[:-1] += half
+            fv += np.abs(self._pairs) @ (0.5 * extra[:, :3])
         xf = data.xfrc_applied
-        xf[self._body, :3] = fv[self._f0:]
-        xf[self._body, 3:] = 0.0
-        data.qfrc_applied[:] = 0.0
-        data.qfrc_applied[self._td] = twist[self._t0:]
+        xf[self._body, :3] = fv
+        qf = data.qfrc_applied
+        if clear:
+            xf[self._body, 3:] = 0.0
+            qf[:] = 0.0
+        qf[self._td] = twist[self._t0:]
 
 
 def apply_field(cm: CableModel, data: mujoco.MjData, field3, extra: np.ndarray | None = None,
