@@ -33,6 +33,7 @@ own sensors with history buffers whichever way the couples go.
 
 from __future__ import annotations
 
+import contextlib
 import math
 
 import mujoco
@@ -93,21 +94,53 @@ TRANSVERSE_TOL = 1e-12
 #: How the axial poles reach MuJoCo (:data:`~magsoft_env.sim.cable_build.POLE_INPUTS`): three tendon motors
 #: (measured cheaper than a motor per vertex slide; docs/sim.md, "Native couples of the strip").
 POLE_INPUT = "tendon"
+#: The path of a magnetization with both an axial and a transverse part (paper-5a, 5b and 5c). Python: the
+#: transverse part needs the material frame every step anyway, and the poles of the axial part save nothing
+#: measurable beside it (docs/sim.md, "Native couples of the strip"), while they load the edges with their tension.
+MIXED_PATH = "python"
+
+_forced: dict = {"path": None, "poles": None}
+
+
+@contextlib.contextmanager
+def forced_couples(path: str | None = None, *, poles: str | None = None):
+    """Within the ``with`` block every :class:`CableRod` built takes the couple path ``path`` (one of
+    :data:`COUPLE_PATHS`; None: the automatic choice, :func:`couple_path`) and the pole inputs ``poles`` (one of
+    :data:`~magsoft_env.sim.cable_build.POLE_INPUTS`; None: :data:`POLE_INPUT`). How the benchmarks time each path
+    through calls that build their own :class:`~magsoft_env.sim.RodOptions` (``mujoco_equilibrium``,
+    ``run_gait``); not thread-safe. A path the beam's magnetization cannot take is a ValueError when the rod is
+    built (``"native"`` needs an axial magnetization alone, ``"mixed"`` an axial part)."""
+    if path is not None and path not in COUPLE_PATHS:
+        raise ValueError(f"path must be None or one of {COUPLE_PATHS}, got {path!r}.")
+    if poles is not None and poles not in POLE_INPUTS:
+        raise ValueError(f"poles must be None or one of {POLE_INPUTS}, got {poles!r}.")
+    before = dict(_forced)
+    _forced.update(path=path, poles=poles)
+    try:
+        yield
+    finally:
+        _forced.update(before)
+
+
+def magnetization_parts(layout: CableLayout) -> tuple[bool, bool]:
+    """``(axial, transverse)``: whether the beam cut as ``layout`` has an axial magnetization, and a transverse one
+    (width or thickness components above :data:`TRANSVERSE_TOL` of the largest edge moment)."""
+    m = np.abs(layout.moment)
+    scale = float(m.max()) if m.size else 0.0
+    return scale > 0.0 and bool(np.any(m[:, 0] > 0.0)), scale > 0.0 and bool(np.any(m[:, 1:] > TRANSVERSE_TOL * scale))
 
 
 def couple_path(layout: CableLayout, magnetics: str = "native") -> str:
     """How the couples of a beam cut as ``layout`` reach MuJoCo (:data:`COUPLE_PATHS`, module docstring):
-    ``"native"`` for an axial magnetization, ``"mixed"`` for one with a transverse part too, ``"python"`` for a
-    transverse one alone or when ``magnetics="python"`` asks for it (ValueError for another ``magnetics``)."""
+    ``"native"`` for an axial magnetization, :data:`MIXED_PATH` for one with a transverse part too, ``"python"`` for
+    a transverse one alone (or none) or when ``magnetics="python"`` asks for it (ValueError for another
+    ``magnetics``)."""
     if magnetics not in ("native", "python"):
         raise ValueError(f"magnetics must be 'native' or 'python', got {magnetics!r}.")
-    m = np.abs(layout.moment)
-    scale = float(m.max()) if m.size else 0.0
-    axial = scale > 0.0 and bool(np.any(m[:, 0] > 0.0))
-    transverse = scale > 0.0 and bool(np.any(m[:, 1:] > TRANSVERSE_TOL * scale))
+    axial, transverse = magnetization_parts(layout)
     if magnetics == "python" or not axial:
         return "python"
-    return "mixed" if transverse else "native"
+    return MIXED_PATH if transverse else "native"
 
 
 def cable_gait_numerics(segments: int, timestep: float) -> tuple[int, float]:
@@ -199,8 +232,13 @@ class CableRod:
         self.check_options(options)
         lay = cable_layout(beam, options.segments, options.grading)
         #: how the couples reach MuJoCo: ``"native"``, ``"mixed"`` or ``"python"`` (module docstring)
-        self.couples = couple_path(lay, options.magnetics)
-        poles = POLE_INPUT if self.couples != "python" else None
+        self.couples = couple_path(lay, options.magnetics) if _forced["path"] is None else _forced["path"]
+        axial, transverse = magnetization_parts(lay)
+        if self.couples == "native" and not (axial and not transverse) or self.couples == "mixed" and not axial:
+            raise ValueError(f"the couple path {self.couples!r} needs an axial magnetization"
+                             f"{' alone' if self.couples == 'native' else ''}: this beam's has "
+                             f"{'an axial and a transverse part' if axial and transverse else 'no axial part'}.")
+        poles = (_forced["poles"] or POLE_INPUT) if self.couples != "python" else None
         cm = build_cable(beam, options, poles=poles, layout=lay)
         self.rod = cm
         self.model = cm.model
@@ -245,7 +283,7 @@ class CableRod:
         self._field = np.zeros(3)
         self._external: np.ndarray | None = None
         #: couples written from Python this call: a transverse magnetization, or an external couple
-        self._per_step = self._native is None
+        self._per_step = self.couples != "native"
         # the axial net moment sum_i m_a,i t_i of recorded positions (the energy balance of native blocks)
         free = cm.vertex_qpos[:, 0] >= 0
         self._ma = np.ascontiguousarray(lay.moment[:, 0])
@@ -295,7 +333,8 @@ class CableRod:
             data.ctrl[:] = self._field[self._ctrl_axes]
             self._native.written(self._field)
         if self._per_step:
-            self._writer.write(data, self._field, self._external, self.moment)
+            # the entries it never writes were cleared by the call's apply_external
+            self._writer.write(data, self._field, self._external, self.moment, clear=False)
 
     def controls(self, fields: np.ndarray) -> np.ndarray:
         """Per-step inputs of the fields ``(k, 3)`` (T): rows of the pole motors' controls for ``mujoco.rollout``
@@ -312,7 +351,7 @@ class CableRod:
         vertex), the couple applied as the magnetic ones are, as a force pair that turns with the edge (written
         with the couples before every step: a call with external couples runs from Python)."""
         self._external = None if wrench is None else np.array(wrench, dtype=float)
-        self._per_step = self._native is None or (wrench is not None and bool(np.any(self._external[:, 3:])))
+        self._per_step = self.couples != "native" or (wrench is not None and bool(np.any(self._external[:, 3:])))
         if self._per_step:
             self._writer.write(data, self._field, self._external, self.moment)
             return
@@ -492,8 +531,9 @@ def cable_equilibrium(beam: Beam, field, **kwargs):
 __all__ = [
     "CABLE_GAIT_MIN_SEGMENTS", "CABLE_GAIT_STEP_SEGMENTS", "CABLE_INTEGRATORS", "CABLE_ROD", "CABLE_SCENES",
     "DEFAULT_FLOOR_CONTACT", "EDGE_SOLIMP", "EDGE_STRAIN_LIMIT", "EDGE_TIMECONST_STEPS", "FLEX_NAME",
-    "FLOOR_CONTACTS", "MODES", "COUPLE_PATHS", "POLE_INPUT", "POLE_INPUTS", "TRANSVERSE_TOL", "CableLayout",
-    "CableModel", "CableRod", "CoupleWriter", "apply_field", "couple_path", "pole_coefficients",
+    "FLOOR_CONTACTS", "MIXED_PATH", "MODES", "COUPLE_PATHS", "POLE_INPUT", "POLE_INPUTS", "TRANSVERSE_TOL",
+    "CableLayout", "CableModel", "CableRod", "CoupleWriter", "apply_field", "couple_path", "forced_couples",
+    "magnetization_parts", "pole_coefficients",
     "build_cable", "cable_equilibrium", "cable_gait_numerics", "cable_layout", "cable_path", "edge_strain",
     "elastic_energy", "free_vibration", "frequencies", "magnetic_energy", "material_frames", "settling_damping",
     "tip_twist", "vertices", "world_moments",
