@@ -341,10 +341,16 @@ class CableRod:
         with :attr:`control_spec`, shape ``(k, nu)``."""
         return np.ascontiguousarray(fields[:, self._ctrl_axes])
 
+    @property
+    def steps(self) -> NativeSteps | PythonSteps:
+        """How the next block runs: inside MuJoCo where every couple is native
+        (:class:`~magsoft_env.sim.stepping.NativeSteps`), else each step with the couples of its start state written
+        first (:class:`~magsoft_env.sim.stepping.PythonSteps`)."""
+        return self._python if self._per_step else self._native
+
     def advance(self, data: mujoco.MjData, field3: np.ndarray, fields: np.ndarray | None, k: int, health) -> None:
-        """``k`` steps: inside MuJoCo where every couple is native (:class:`~magsoft_env.sim.stepping.NativeSteps`),
-        else each with the couples of its start state written first (:class:`~magsoft_env.sim.stepping.PythonSteps`)."""
-        (self._python if self._per_step else self._native).advance(data, field3, fields, k, health)
+        """``k`` steps under the held ``field3`` or per-step ``fields`` ``(k, 3)`` (T), run as :attr:`steps` says."""
+        self.steps.advance(data, field3, fields, k, health)
 
     def apply_external(self, data: mujoco.MjData, wrench: np.ndarray | None) -> None:
         """A constant world-frame wrench per edge ``(N + 1, 6)``: the force at the edge's middle (half to each
