@@ -65,21 +65,26 @@ def test_the_couples_path_is_chosen_from_the_magnetization(beam, magnetics, path
 
 
 def test_forced_paths_and_their_refusals():
-    with C.forced_couples("mixed"):
+    with C.overrides("mixed"):
         rod = Simulator(MIXED, _opts()).backend
     assert rod.couples == "mixed" and rod.model.nu == 3 and not rod._writer.axial
     assert Simulator(MIXED, _opts()).backend.couples == C.MIXED_PATH  # the block's choice is gone after it
-    with C.forced_couples("native"), pytest.raises(ValueError, match="axial magnetization alone"):
+    with C.overrides("native"), pytest.raises(ValueError, match="axial magnetization alone"):
         Simulator(MIXED, _opts())
-    with C.forced_couples("mixed"), pytest.raises(ValueError, match="no axial part"):
+    with C.overrides("mixed"), pytest.raises(ValueError, match="no axial part"):
         Simulator(WIDTH, _opts())
-    with pytest.raises(ValueError, match="path must be"):
-        with C.forced_couples("poles"):
+    with pytest.raises(ValueError, match="couples must be"):
+        with C.overrides("poles"):
             pass
     with pytest.raises(ValueError, match="magnetics"):
         C.couple_path(C.cable_layout(BEAM, 4), "c")
     with pytest.raises(ValueError, match="poles must be"):
         C.build_cable(BEAM, _opts(), poles="site")
+    with pytest.raises(ValueError, match="floor_contact must be"):
+        with C.overrides(floor_contact="capsule"):
+            pass
+    with C.overrides(floor_contact="vertex"):
+        assert Simulator(BEAM, _opts()).model.geom_type[0] == mujoco.mjtGeom.mjGEOM_PLANE
     with pytest.raises(ValueError, match="layout"):
         C.build_cable(BEAM, _opts(), layout=C.cable_layout(BEAM, 5))
 
@@ -89,7 +94,7 @@ def test_forced_paths_and_their_refusals():
 def test_poles_are_the_axial_couples(poles):
     """The pole motors push every vertex with c_v B (both inputs), and the pair of each edge is its axial couple
     (l / l0) m_a t x B: the couple of the Python path's pair, scaled by the edge's stretch."""
-    with C.forced_couples(poles=poles):
+    with C.overrides(poles=poles):
         sim = Simulator(GRADED, _opts("cantilever", segments=8, gravity=0.0))
     rod, cm = sim.backend, sim.backend.rod
     m, d = sim.model, sim.data

@@ -99,27 +99,36 @@ POLE_INPUT = "tendon"
 #: measurable beside it (docs/sim.md, "Native couples of the strip"), while they load the edges with their tension.
 MIXED_PATH = "python"
 
-_forced: dict = {"path": None, "poles": None}
+_overrides: dict = {"couples": None, "poles": None, "floor_contact": None}
 
 
 @contextlib.contextmanager
-def forced_couples(path: str | None = None, *, poles: str | None = None):
-    """Within the ``with`` block every :class:`CableRod` built takes the couple path ``path`` (one of
-    :data:`COUPLE_PATHS`; None: the automatic choice, :func:`couple_path`) and the pole inputs ``poles`` (one of
-    :data:`~magsoft_env.sim.cable_build.POLE_INPUTS`; None: :data:`POLE_INPUT`). How the benchmarks time each path
-    through calls that build their own :class:`~magsoft_env.sim.RodOptions` (``mujoco_equilibrium``,
-    ``run_gait``); not thread-safe. A path the beam's magnetization cannot take is a ValueError when the rod is
-    built (``"native"`` needs an axial magnetization alone, ``"mixed"`` an axial part)."""
-    if path is not None and path not in COUPLE_PATHS:
-        raise ValueError(f"path must be None or one of {COUPLE_PATHS}, got {path!r}.")
-    if poles is not None and poles not in POLE_INPUTS:
-        raise ValueError(f"poles must be None or one of {POLE_INPUTS}, got {poles!r}.")
-    before = dict(_forced)
-    _forced.update(path=path, poles=poles)
+def overrides(couples: str | None = None, *, poles: str | None = None, floor_contact: str | None = None):
+    """Within the ``with`` block every :class:`CableRod` built takes the couple path ``couples`` (one of
+    :data:`COUPLE_PATHS`; None: the automatic choice, :func:`couple_path`), the pole inputs ``poles`` (one of
+    :data:`~magsoft_env.sim.cable_build.POLE_INPUTS`; None: :data:`POLE_INPUT`) and the floor contact
+    ``floor_contact`` (one of :data:`~magsoft_env.sim.cable_build.FLOOR_CONTACTS`; None: the default). How the
+    benchmarks measure the alternatives through calls that build their own :class:`~magsoft_env.sim.RodOptions`
+    (``mujoco_equilibrium``, ``run_gait``); not thread-safe. A path the beam's magnetization cannot take is a
+    ValueError when the rod is built (``"native"`` needs an axial magnetization alone, ``"mixed"`` an axial part).
+
+    >>> from magsoft_env import Beam
+    >>> from magsoft_env.sim import RodOptions, Simulator
+    >>> with overrides("python"):
+    ...     sim = Simulator(Beam(length=25e-3, width=5e-3, thickness=1.13e-3), RodOptions(rod="cable"))
+    >>> sim.backend.couples
+    'python'
+    """
+    for name, value, allowed in (("couples", couples, COUPLE_PATHS), ("poles", poles, POLE_INPUTS),
+                                 ("floor_contact", floor_contact, FLOOR_CONTACTS)):
+        if value is not None and value not in allowed:
+            raise ValueError(f"{name} must be None or one of {allowed}, got {value!r}.")
+    before = dict(_overrides)
+    _overrides.update(couples=couples, poles=poles, floor_contact=floor_contact)
     try:
         yield
     finally:
-        _forced.update(before)
+        _overrides.update(before)
 
 
 def magnetization_parts(layout: CableLayout) -> tuple[bool, bool]:
@@ -232,14 +241,14 @@ class CableRod:
         self.check_options(options)
         lay = cable_layout(beam, options.segments, options.grading)
         #: how the couples reach MuJoCo: ``"native"``, ``"mixed"`` or ``"python"`` (module docstring)
-        self.couples = couple_path(lay, options.magnetics) if _forced["path"] is None else _forced["path"]
+        self.couples = _overrides["couples"] or couple_path(lay, options.magnetics)
         axial, transverse = magnetization_parts(lay)
         if self.couples == "native" and not (axial and not transverse) or self.couples == "mixed" and not axial:
             raise ValueError(f"the couple path {self.couples!r} needs an axial magnetization"
                              f"{' alone' if self.couples == 'native' else ''}: this beam's has "
                              f"{'an axial and a transverse part' if axial and transverse else 'no axial part'}.")
-        poles = (_forced["poles"] or POLE_INPUT) if self.couples != "python" else None
-        cm = build_cable(beam, options, poles=poles, layout=lay)
+        poles = (_overrides["poles"] or POLE_INPUT) if self.couples != "python" else None
+        cm = build_cable(beam, options, poles=poles, layout=lay, floor_contact=_overrides["floor_contact"])
         self.rod = cm
         self.model = cm.model
         self.beam = beam
@@ -538,7 +547,7 @@ __all__ = [
     "CABLE_GAIT_MIN_SEGMENTS", "CABLE_GAIT_STEP_SEGMENTS", "CABLE_INTEGRATORS", "CABLE_ROD", "CABLE_SCENES",
     "DEFAULT_FLOOR_CONTACT", "EDGE_SOLIMP", "EDGE_STRAIN_LIMIT", "EDGE_TIMECONST_STEPS", "FLEX_NAME",
     "FLOOR_CONTACTS", "MIXED_PATH", "MODES", "COUPLE_PATHS", "POLE_INPUT", "POLE_INPUTS", "TRANSVERSE_TOL",
-    "CableLayout", "CableModel", "CableRod", "CoupleWriter", "apply_field", "couple_path", "forced_couples",
+    "CableLayout", "CableModel", "CableRod", "CoupleWriter", "apply_field", "couple_path", "overrides",
     "magnetization_parts", "pole_coefficients",
     "build_cable", "cable_equilibrium", "cable_gait_numerics", "cable_layout", "cable_path", "edge_strain",
     "elastic_energy", "free_vibration", "frequencies", "magnetic_energy", "material_frames", "settling_damping",
