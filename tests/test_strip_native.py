@@ -191,7 +191,7 @@ def test_native_blocks_are_mj_step_k_and_rollouts(monkeypatch):
     assert calls == [1] * 30
 
 
-def test_rollouts_are_the_per_step_loop_bit_for_bit():
+def test_rollouts_are_the_from_python_loop_bit_for_bit():
     """Fields that change every step run as one rollout per block: what setting the pole motors' controls before each
     single mj_step gives, to the last bit (the history buffers included)."""
     sim = Simulator(BEAM, _opts(), field=(0.0, 0.0, 1e-3))
@@ -310,13 +310,13 @@ def test_an_external_couple_runs_from_python():
     rod = sim.backend
     sim.external_wrench[3, 2] = 1e-6
     sim.step(20)
-    assert not rod._per_step and np.any(sim.data.xfrc_applied[:, 2])
+    assert not rod._from_python and np.any(sim.data.xfrc_applied[:, 2])
     sim.external_wrench[3, 3] = 1e-9  # about x, nearly along the edge: a twist moment
     sim.step(20)
-    assert rod._per_step and not rod._writer.axial and np.any(sim.data.qfrc_applied)
+    assert rod._from_python and not rod._writer.axial and np.any(sim.data.qfrc_applied)
     sim.external_wrench[:] = 0.0
     sim.step(20)
-    assert not rod._per_step and not np.any(sim.data.xfrc_applied) and not np.any(sim.data.qfrc_applied)
+    assert not rod._from_python and not np.any(sim.data.xfrc_applied) and not np.any(sim.data.qfrc_applied)
 
 
 def test_statics_and_the_buckled_branch_with_native_couples():

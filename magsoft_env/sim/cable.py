@@ -292,7 +292,7 @@ class CableRod:
         self._field = np.zeros(3)
         self._external: np.ndarray | None = None
         #: couples written from Python this call: a transverse magnetization, or an external couple
-        self._per_step = self.couples != "native"
+        self._from_python = self.couples != "native"
         # the axial net moment sum_i m_a,i t_i of recorded positions (the energy balance of native blocks)
         free = cm.vertex_qpos[:, 0] >= 0
         self._ma = np.ascontiguousarray(lay.moment[:, 0])
@@ -341,7 +341,7 @@ class CableRod:
         if self._native is not None:
             data.ctrl[:] = self._field[self._ctrl_axes]
             self._native.written(self._field)
-        if self._per_step:
+        if self._from_python:
             # the entries it never writes were cleared by the call's apply_external
             self._writer.write(data, self._field, self._external, self.moment, clear=False)
 
@@ -355,7 +355,7 @@ class CableRod:
         """How the next block runs: inside MuJoCo where every couple is native
         (:class:`~magsoft_env.sim.stepping.NativeSteps`), else each step with the couples of its start state written
         first (:class:`~magsoft_env.sim.stepping.PythonSteps`)."""
-        return self._python if self._per_step else self._native
+        return self._python if self._from_python else self._native
 
     def advance(self, data: mujoco.MjData, field3: np.ndarray, fields: np.ndarray | None, k: int, health) -> None:
         """``k`` steps under the held ``field3`` or per-step ``fields`` ``(k, 3)`` (T), run as :attr:`steps` says."""
@@ -366,8 +366,8 @@ class CableRod:
         vertex), the couple applied as the magnetic ones are, as a force pair that turns with the edge (written
         with the couples before every step: a call with external couples runs from Python)."""
         self._external = None if wrench is None else np.array(wrench, dtype=float)
-        self._per_step = self.couples != "native" or (wrench is not None and bool(np.any(self._external[:, 3:])))
-        if self._per_step:
+        self._from_python = self.couples != "native" or (wrench is not None and bool(np.any(self._external[:, 3:])))
+        if self._from_python:
             self._writer.write(data, self._field, self._external, self.moment)
             return
         # native couples: constant forces only (or none); the poles are the motors'
