@@ -22,9 +22,10 @@ timestep, with both crawl speeds and the strip's difference from the chain.
 
 ``n`` **native couples**: the crawl by couple path (:attr:`~magsoft_env.sim.cable.CableRod.couples`), each strip run
 beside the others and the planar chain at the same numerics: CPU and wall time per simulated second, crawl speed,
-and the largest centreline difference from the strip's Python-couple run (``"python"``, the couples written from
+the largest centreline difference from the strip's Python-couple run (``"python"``, the couples written from
 Python every step, the strip's only way before the poles) as a fraction of L, over the first second and over the
-run. Cases: paper-5c (its programmed magnetization has thickness components, so the automatic path is Python; the
+run, and the largest edge stretch (the native couples' relative error: their lever is the current edge length).
+Cases: paper-5c (its programmed magnetization has thickness components, so the automatic path is Python; the
 ``"mixed"`` path puts its axial part in MuJoCo's poles) at the strip's gait numerics and at 30 segments and 0.2 ms;
 ``axial-5a``, paper-5a's beam and drive with the magnetization along the strip (the automatic path is native:
 every couple MuJoCo's, blocks of steps in C).
@@ -172,6 +173,9 @@ def run_crawl(name: str, seconds: float, segments: int, timestep: float, *, rod:
     pose = sim.pose()
     tracker.track(pose)
     ts, xs, lines, roll, flipped = [0.0], [float(pose.com[0])], [pose.centreline], pose.roll, False
+    # the couples' relative error on the native path: the edges' stretch (0 for the chain's rigid links)
+    strain = (lambda: C.edge_strain(sim.backend.rod, sim.data)) if rod == "cable" else (lambda: 0.0)
+    max_strain = strain()
     ok, msg, done = True, "ok", 0
     cpu0, wall0 = time.process_time(), time.perf_counter()
     while done < nsteps:
@@ -187,6 +191,7 @@ def run_crawl(name: str, seconds: float, segments: int, timestep: float, *, rod:
         xs.append(float(pose.com[0]))
         lines.append(pose.centreline)
         roll = max(roll, pose.roll)
+        max_strain = max(max_strain, strain())
         flipped = flipped or is_flipped(tracker.track(pose))
     cpu, wall = time.process_time() - cpu0, time.perf_counter() - wall0
     t, x = np.array(ts), np.array(xs)
@@ -194,7 +199,7 @@ def run_crawl(name: str, seconds: float, segments: int, timestep: float, *, rod:
     speed = math.nan if flipped or t[i1] <= t[i0] else (x[i1] - x[i0]) / (t[i1] - t[i0])
     return {"cpu_s": cpu, "wall_s": wall, "speed": speed, "t": t, "centrelines": np.array(lines), "ok": ok,
             "message": msg, "penetration_h": sim.max_penetration / r.beam.thickness, "roll_deg": math.degrees(roll),
-            "seconds": float(t[-1]), "flipped": flipped}
+            "seconds": float(t[-1]), "flipped": flipped, "edge_strain": max_strain}
 
 
 def _difference(a: dict, b: dict, length: float, until: float) -> float:
@@ -222,7 +227,8 @@ def couple_paths(cases, seconds: float) -> list[dict]:
                          "speedup": ref["cpu_s"] / r["cpu_s"],
                          "diff_1s_L": _difference(r, ref, L, 1.0) if strip else math.nan,
                          "diff_end_L": _difference(r, ref, L, seconds) if strip else math.nan,
-                         "penetration_h": r["penetration_h"], "roll_deg": r["roll_deg"]})
+                         "penetration_h": r["penetration_h"], "roll_deg": r["roll_deg"],
+                         "edge_strain": r["edge_strain"]})
     return rows
 
 
@@ -377,7 +383,8 @@ def main(argv=None) -> int:
                                    ("speedup", "speed-up (cpu)", ".2f"), ("speed_mm_s", "mm/s", "+.4f"),
                                    ("vs_chain", "vs chain", "+.1%"), ("diff_1s_L", "max diff 1 s / L", ".1e"),
                                    ("diff_end_L", "max diff / L", ".1e"), ("penetration_h", "pen. h", ".3f"),
-                                   ("roll_deg", "roll deg", ".2f")]), "\n", flush=True)
+                                   ("roll_deg", "roll deg", ".2f"), ("edge_strain", "edge strain", ".1e")]), "\n",
+              flush=True)
     if "v" in args.only:
         n, dt = QUICK["variants"] if quick else (40, 1e-4)
         variants = floor_variants(path_seconds, n, dt)

@@ -21,11 +21,13 @@ Which way they reach MuJoCo is chosen per beam (:attr:`CableRod.couples`):
   Blocks of steps run inside MuJoCo (:class:`~magsoft_env.sim.stepping.NativeSteps`): ``mj_step(m, d, k)`` under a
   held field, one ``mujoco.rollout`` with control rows under fields that change, as the planar chain's. Exact up to
   the edges' strain (the poles' lever is the edge's current length over its reference length).
-- ``"mixed"``, a magnetization with an axial and a transverse (width, thickness) part: the axial part as poles,
-  the transverse part, which turns with the material frame, written from Python before every step
-  (:class:`~magsoft_env.sim.stepping.PythonSteps`, :class:`~magsoft_env.sim.cable_frames.CoupleWriter`).
-- ``"python"``, a transverse magnetization alone, or ``RodOptions.magnetics="python"``: every couple from Python
-  before every step (the strip's only way before the poles).
+- ``"python"``, a magnetization with a transverse part (width or thickness components, which turn with the
+  material frame: the paper's programmed robots), or ``RodOptions.magnetics="python"``: every couple written from
+  Python before every step (:class:`~magsoft_env.sim.stepping.PythonSteps`,
+  :class:`~magsoft_env.sim.cable_frames.CoupleWriter`), the strip's only way before the poles.
+- ``"mixed"``, on request (:func:`overrides`; :data:`MIXED_PATH`): a magnetization's axial part as poles, its
+  transverse part from Python before every step. Measured no cheaper than ``"python"`` (the material frames are
+  needed anyway), so a mixed magnetization takes ``"python"`` unless asked.
 
 The histories every block is checked from (the deepest floor contact, the centreline of every step) are MuJoCo's
 own sensors with history buffers whichever way the couples go.
