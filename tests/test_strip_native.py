@@ -116,19 +116,22 @@ def test_poles_are_the_axial_couples(poles):
     assert np.array_equal(rod.controls(np.array([B, 2 * B])), np.array([B, 2 * B])[:, rod._ctrl_axes])
 
 
-def test_couple_writer_is_the_frame_formula():
+@pytest.mark.parametrize("scene", ["floor", "cantilever"])
+def test_couple_writer_is_the_frame_formula(scene):
     """The Python couples (CoupleWriter, every path's transverse part) equal the force pairs (C x t) / l and twist
-    moments C . t of C = (R m) x B from the material frames, in a bent, twisted free strip with all three
-    components of magnetization and an external wrench; without the axial part they are the rest."""
+    moments C . t of C = (R m) x B from the material frames, in a bent, twisted strip (free, or clamped: the clamped
+    edge's couple goes to the clamp) with all three components of magnetization and an external wrench; without the
+    axial part they are the rest."""
     beam = ms.Beam(length=25e-3, width=5e-3, thickness=1.13e-3,
                    magnetization=(lambda s: 1.0 + 0 * s, lambda s: 0.6 - 30.0 * s, 0.8))
-    cm = C.build_cable(beam, _opts(segments=8))
+    cm = C.build_cable(beam, _opts(scene, segments=8))
     m, d = cm.model, mujoco.MjData(cm.model)
     rng = np.random.default_rng(2)
     B = np.array([2e-3, -1.5e-3, 3e-3])
     for _ in range(30):  # bend and twist it, with reference frames MuJoCo has stored
         d.qfrc_applied[:] = rng.normal(0.0, 1e-6, m.nv)
         mujoco.mj_step(m, d)
+    assert np.abs(C.tip_twist(cm, d)) > 1e-4
     extra = rng.normal(0.0, 1e-6, (9, 6))
     x = C.vertices(cm, d)
     t, d1, d2 = C.material_frames(cm, d, x)
@@ -144,8 +147,9 @@ def test_couple_writer_is_the_frame_formula():
         net = np.zeros(3)
         C.CoupleWriter(cm, axial=axial).write(d, B, extra, net)
         scale = np.abs(fv).max()
-        np.testing.assert_allclose(d.xfrc_applied[cm.vertex_body, :3], fv, rtol=0, atol=1e-12 * scale)
-        np.testing.assert_allclose(d.qfrc_applied[cm.twist_dof], np.einsum("ij,ij->i", Cp, t), rtol=0,
+        body, tw = cm.vertex_body > 0, cm.twist_dof >= 0
+        np.testing.assert_allclose(d.xfrc_applied[cm.vertex_body[body], :3], fv[body], rtol=0, atol=1e-12 * scale)
+        np.testing.assert_allclose(d.qfrc_applied[cm.twist_dof[tw]], np.einsum("ij,ij->i", Cp, t)[tw], rtol=0,
                                    atol=1e-12 * np.abs(Cp).max())
         np.testing.assert_allclose(net, mw.sum(axis=0), rtol=1e-12)
 
