@@ -186,7 +186,9 @@ def test_planar_field_with_gravity_matches_the_elastica():
     assert eq.success and eq.centreline.shape == (22, 3)
     assert _err(eq, ref) < 4e-3
     assert abs(eq.tip_position[1]) < 1e-12 and abs(eq.tip_twist) < 1e-9
-    assert eq.edge_strain < 1e-3
+    # the axial magnetization's poles load the edges with their own tension (m_a / l0) (B . t): 1.4e-3 at this 1 ms
+    # step (4.3e-4 with the couples written from Python; docs/sim.md)
+    assert eq.edge_strain < 2e-3
 
 
 def test_planar_pair_keeps_its_planar_meaning():
@@ -315,9 +317,10 @@ class _Rotating(Waveform):
 
 
 def test_changing_3d_field_is_the_per_step_loop():
-    """A waveform in three components: the engine's steps are those of writing the couples of each step's field
-    before ``mj_step``, bit for bit."""
-    opts = RodOptions(rod="cable", segments=8, timestep=1e-4, gravity=9.81)
+    """A waveform in three components, the couples written from Python (``magnetics="python"``; an axial beam's are
+    otherwise native, tests/test_strip_native.py): the engine's steps are those of writing the couples of each
+    step's field before ``mj_step``, bit for bit."""
+    opts = RodOptions(rod="cable", segments=8, timestep=1e-4, gravity=9.81, magnetics="python")
     sim = Simulator(BEAM, opts)
     sim.set_waveform(_Rotating())
     sim.step(400)

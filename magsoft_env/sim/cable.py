@@ -11,12 +11,31 @@ the edge, across the width, through the thickness). Its world moment is ``R_i m_
 with the edge's material frame; the couple ``C = (R_i m_i) x B`` is applied exactly as the force pair
 ``+-(C x t) / l_i`` (``l_i`` its current length) on the edge's end / start vertex bodies (``xfrc_applied``: its
 couple is the part of ``C`` across the edge) and ``C . t`` on the edge's twist hinge (``qfrc_applied``). Torques
-on vertex bodies would do nothing (they are points on slide joints). They depend on the material frames, so the
-backend writes them from Python before every step (:class:`~magsoft_env.sim.stepping.PythonSteps`).
+on vertex bodies would do nothing (they are points on slide joints).
+
+Which way they reach MuJoCo is chosen per beam (:attr:`CableRod.couples`):
+
+- ``"native"``, an axial magnetization (along the strip; ``RodOptions.magnetics="native"``, the default): the
+  couples are constant world forces at the vertices, poles, which MuJoCo applies itself
+  (:func:`~magsoft_env.sim.cable_build.build_cable`'s ``poles``: three tendon motors, ``ctrl = (B_x, B_y, B_z)``).
+  Blocks of steps run inside MuJoCo (:class:`~magsoft_env.sim.stepping.NativeSteps`): ``mj_step(m, d, k)`` under a
+  held field, one ``mujoco.rollout`` with control rows under fields that change, as the planar chain's. Exact up to
+  the edges' strain (the poles' lever is the edge's current length over its reference length).
+- ``"python"``, a magnetization with a transverse part (width or thickness components, which turn with the
+  material frame: the paper's programmed robots), or ``RodOptions.magnetics="python"``: every couple written from
+  Python before every step (:class:`~magsoft_env.sim.stepping.PythonSteps`,
+  :class:`~magsoft_env.sim.cable_frames.CoupleWriter`), the strip's only way before the poles.
+- ``"mixed"``, on request (:func:`overrides`; :data:`MIXED_PATH`): a magnetization's axial part as poles, its
+  transverse part from Python before every step. Measured no cheaper than ``"python"`` (the material frames are
+  needed anyway), so a mixed magnetization takes ``"python"`` unless asked.
+
+The histories every block is checked from (the deepest floor contact, the centreline of every step) are MuJoCo's
+own sensors with history buffers whichever way the couples go.
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
 
 import mujoco
@@ -33,15 +52,18 @@ from .cable_build import (
     EDGE_TIMECONST_STEPS,
     FLEX_NAME,
     FLOOR_CONTACTS,
+    POLE_INPUTS,
     CableLayout,
     CableModel,
     build_cable,
     cable_layout,
     frequencies,
+    pole_coefficients,
     settling_damping,
 )
 from .cable_frames import (
     EDGE_STRAIN_LIMIT,
+    CoupleWriter,
     apply_field,
     edge_strain,
     elastic_energy,
@@ -52,9 +74,11 @@ from .cable_frames import (
     world_moments,
 )
 from .cable_vibration import MODES, free_vibration
-from .histories import Ring
+from .health import MAX_STEPS
+from .histories import PointsHistory, SensorHistory
+from .model import CONTACT_HISTORY, CONTACT_SENSOR, NODE_SENSOR
 from .readouts import PitchTracker
-from .stepping import PythonSteps
+from .stepping import NativeSteps, PythonSteps
 
 #: The strip's floor numerics when a gait runs at its robot's own (no ``segments``, ``timestep`` or ``fidelity``
 #: given): at least this many segments ...
@@ -64,8 +88,70 @@ CABLE_GAIT_MIN_SEGMENTS = 40
 #: numerics for paper-5a, 5b and 5c (at 20 segments 10-14 % slower for 5c; at 80 segments and 0.1 ms 6-8 % off).
 CABLE_GAIT_STEP_SEGMENTS = 4e-3
 
-#: The deepest floor contact of the last steps (a :class:`~magsoft_env.sim.histories.Ring` of scalars).
-ContactRecord = Ring
+#: The ways the magnetic couples reach MuJoCo (:attr:`CableRod.couples`; module docstring).
+COUPLE_PATHS = ("native", "mixed", "python")
+#: A magnetization's width and thickness components below this fraction of its largest edge moment count as none
+#: (the couples they would add are dropped: relative error below this).
+TRANSVERSE_TOL = 1e-12
+#: How the axial poles reach MuJoCo (:data:`~magsoft_env.sim.cable_build.POLE_INPUTS`): three tendon motors
+#: (measured cheaper than a motor per vertex slide; docs/sim.md, "Native couples of the strip").
+POLE_INPUT = "tendon"
+#: The path of a magnetization with both an axial and a transverse part (paper-5a, 5b and 5c). Python: the
+#: transverse part needs the material frame every step anyway, and the poles of the axial part save nothing
+#: measurable beside it (docs/sim.md, "Native couples of the strip"), while they load the edges with their tension.
+MIXED_PATH = "python"
+
+_overrides: dict = {"couples": None, "poles": None, "floor_contact": None}
+
+
+@contextlib.contextmanager
+def overrides(couples: str | None = None, *, poles: str | None = None, floor_contact: str | None = None):
+    """Within the ``with`` block every :class:`CableRod` built takes the couple path ``couples`` (one of
+    :data:`COUPLE_PATHS`; None: the automatic choice, :func:`couple_path`), the pole inputs ``poles`` (one of
+    :data:`~magsoft_env.sim.cable_build.POLE_INPUTS`; None: :data:`POLE_INPUT`) and the floor contact
+    ``floor_contact`` (one of :data:`~magsoft_env.sim.cable_build.FLOOR_CONTACTS`; None: the default). How the
+    benchmarks measure the alternatives through calls that build their own :class:`~magsoft_env.sim.RodOptions`
+    (``mujoco_equilibrium``, ``run_gait``); not thread-safe. A path the beam's magnetization cannot take is a
+    ValueError when the rod is built (``"native"`` needs an axial magnetization alone, ``"mixed"`` an axial part).
+
+    >>> from magsoft_env import Beam
+    >>> from magsoft_env.sim import RodOptions, Simulator
+    >>> with overrides("python"):
+    ...     sim = Simulator(Beam(length=25e-3, width=5e-3, thickness=1.13e-3), RodOptions(rod="cable"))
+    >>> sim.backend.couples
+    'python'
+    """
+    for name, value, allowed in (("couples", couples, COUPLE_PATHS), ("poles", poles, POLE_INPUTS),
+                                 ("floor_contact", floor_contact, FLOOR_CONTACTS)):
+        if value is not None and value not in allowed:
+            raise ValueError(f"{name} must be None or one of {allowed}, got {value!r}.")
+    before = dict(_overrides)
+    _overrides.update(couples=couples, poles=poles, floor_contact=floor_contact)
+    try:
+        yield
+    finally:
+        _overrides.update(before)
+
+
+def magnetization_parts(layout: CableLayout) -> tuple[bool, bool]:
+    """``(axial, transverse)``: whether the beam cut as ``layout`` has an axial magnetization, and a transverse one
+    (width or thickness components above :data:`TRANSVERSE_TOL` of the largest edge moment)."""
+    m = np.abs(layout.moment)
+    scale = float(m.max()) if m.size else 0.0
+    return scale > 0.0 and bool(np.any(m[:, 0] > 0.0)), scale > 0.0 and bool(np.any(m[:, 1:] > TRANSVERSE_TOL * scale))
+
+
+def couple_path(layout: CableLayout, magnetics: str = "native") -> str:
+    """How the couples of a beam cut as ``layout`` reach MuJoCo (:data:`COUPLE_PATHS`, module docstring):
+    ``"native"`` for an axial magnetization, :data:`MIXED_PATH` for one with a transverse part too, ``"python"`` for
+    a transverse one alone (or none) or when ``magnetics="python"`` asks for it (ValueError for another
+    ``magnetics``)."""
+    if magnetics not in ("native", "python"):
+        raise ValueError(f"magnetics must be 'native' or 'python', got {magnetics!r}.")
+    axial, transverse = magnetization_parts(layout)
+    if magnetics == "python" or not axial:
+        return "python"
+    return MIXED_PATH if transverse else "native"
 
 
 def cable_gait_numerics(segments: int, timestep: float) -> tuple[int, float]:
@@ -84,11 +170,15 @@ class CableRod:
     :class:`~magsoft_env.sim.Simulator` steps for ``RodOptions(rod="cable")``, clamped (``scene="cantilever"``)
     or free on the floor (``scene="floor"``).
 
-    The magnetic couples depend on the edges' material frames, so every step runs from Python
-    (:class:`~magsoft_env.sim.stepping.PythonSteps`): :meth:`write_field` writes the couples of the state the step
-    starts from and leaves their net moment in :attr:`moment` (the field's work is booked with it);
-    :meth:`before_step` records the centreline and :meth:`after_step` the deepest floor contact the step found (the
-    histories the planar chain's sensors keep). The pieces are the edges (``N + 1``, clamp first);
+    The couples reach MuJoCo as :attr:`couples` says (module docstring, chosen from the beam's magnetization):
+    natively (poles; blocks of steps inside MuJoCo, :class:`~magsoft_env.sim.stepping.NativeSteps`), or with the
+    transverse part (or all of it) written from Python before every step
+    (:class:`~magsoft_env.sim.stepping.PythonSteps`): then :meth:`write_field` writes the couples of the state the
+    step starts from and leaves their net moment in :attr:`moment`, with which the field's work is booked. An
+    external wrench with couples (:meth:`apply_external`) also runs from Python (its force pairs turn with the
+    edges). The deepest floor contact and the centreline of every step are MuJoCo's sensors' history buffers (the
+    planar chain's, :data:`~magsoft_env.sim.model.CONTACT_SENSOR`, :data:`~magsoft_env.sim.model.NODE_SENSOR`) on
+    every path. The pieces are the edges (``N + 1``, clamp first);
     :attr:`hinge_dof` are all dofs (vertex slides and twist hinges), with :attr:`stiffness` the whole strip's
     stiffness against each: ``3 E I_w / L^2`` for a vertex (a force ``Q`` moves a cantilever's tip by at most
     ``Q L^3 / (3 E I_w)``) and ``G J / L`` for a twist hinge, so that the static residual ``max |Q| / k`` bounds how
@@ -108,14 +198,16 @@ class CableRod:
     #: step) and a residual of 1e-6 (fraction of L, or rad).
     static_timestep = 1e-3
     static_tol = 1e-6
+    #: ``mujoco.rollout`` control spec of :meth:`controls` rows: the pole motors' controls.
+    control_spec = int(mujoco.mjtState.mjSTATE_CTRL)
     has_feature = False
-    contact_adr = 0
     feature_adr = 0
 
     # ------------------------------------------------------------------ what it takes (before building)
     @classmethod
     def check_options(cls, options) -> None:
-        """ValueError for a scene, integrator or clamp angle the strip does not build."""
+        """ValueError for a scene, integrator or clamp angle the strip does not build (``magnetics``: ``"native"``
+        chooses the couples' path from the magnetization, ``"python"`` writes them all from Python)."""
         if options.scene not in CABLE_SCENES:
             raise ValueError(f"RodOptions(rod='cable') builds the scenes {CABLE_SCENES}, got {options.scene!r}.")
         if options.integrator not in CABLE_INTEGRATORS:
@@ -148,26 +240,44 @@ class CableRod:
         return {"segments": segments, "timestep": timestep}
 
     def __init__(self, beam: Beam, options):
-        from .model import CONTACT_HISTORY
-
         self.check_options(options)
-        cm = build_cable(beam, options)
+        lay = cable_layout(beam, options.segments, options.grading)
+        #: how the couples reach MuJoCo: ``"native"``, ``"mixed"`` or ``"python"`` (module docstring)
+        self.couples = _overrides["couples"] or couple_path(lay, options.magnetics)
+        axial, transverse = magnetization_parts(lay)
+        if self.couples == "native" and not (axial and not transverse) or self.couples == "mixed" and not axial:
+            raise ValueError(f"the couple path {self.couples!r} needs an axial magnetization"
+                             f"{' alone' if self.couples == 'native' else ''}: this beam's has "
+                             f"{'an axial and a transverse part' if axial and transverse else 'no axial part'}.")
+        poles = (_overrides["poles"] or POLE_INPUT) if self.couples != "python" else None
+        cm = build_cable(beam, options, poles=poles, layout=lay, floor_contact=_overrides["floor_contact"])
         self.rod = cm
         self.model = cm.model
         self.beam = beam
         self.options = options
         self.has_contact = not cm.clamped
-        #: histories of the last block's steps (the strip is stepped one step at a time, so every block is)
-        self.block_limit = CONTACT_HISTORY
-        self._contact_record = Ring(CONTACT_HISTORY) if self.has_contact else None
-        self._points: Ring | None = None  # the centreline history, kept once a reader asks for it
-        self._steps = PythonSteps(self.model, self)
-        self._sd = np.zeros(1)
-        floor = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, "floor")
-        self._floor_geom = int(floor)
+        #: the longest block: the sensors' history buffers (every step of a block is checked from them); the clamped
+        #: strip keeps none
+        self.block_limit = CONTACT_HISTORY if self.has_contact else MAX_STEPS
+        if self.has_contact:
+            sid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SENSOR, CONTACT_SENSOR)
+            self._contact_sensor = int(sid)
+            #: index into :meth:`contact_data` (``sensordata``) of the deepest floor contact
+            self.contact_adr = int(self.model.sensor_adr[sid])
+        else:
+            self._contact_sensor = -1
+            self.contact_adr = 0
+        self._floor_geom = int(mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, "floor"))
+        # the pole motors' controls are the field's components (tendons x, y, z; or each slide's axis)
+        m = self.model
+        self._ctrl_axes = np.array([int(np.argmax(np.abs(m.jnt_axis[m.actuator_trnid[a, 0]])))
+                                    if m.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT else a for a in range(m.nu)],
+                                   dtype=int)
+        self._writer = CoupleWriter(cm, axial=poles is None)
+        self._native = NativeSteps(self.model, self.control_spec, self.controls) if poles is not None else None
+        self._python = PythonSteps(self.model, self, records=False)
         #: net magnetic moment of the state :meth:`write_field` last wrote the couples of (A m^2)
         self.moment = np.zeros(3)
-        lay = cm.layout
         self.npieces = len(lay.edge_length)
         self.two_stage = options.integrator != "rk4"
         free_v = cm.vertex_body > 0
@@ -183,29 +293,39 @@ class CableRod:
         self.weight = float(lay.vertex_mass.sum()) * float(options.gravity)
         self._field = np.zeros(3)
         self._external: np.ndarray | None = None
+        #: couples written from Python this call: a transverse magnetization, or an external couple
+        self._from_python = self.couples != "native"
+        # the axial net moment sum_i m_a,i t_i of recorded positions (the energy balance of native blocks)
+        free = cm.vertex_qpos[:, 0] >= 0
+        self._ma = np.ascontiguousarray(lay.moment[:, 0])
+        self._vq_free = cm.vertex_qpos[free]
+        self._ref_free = cm.vertex_ref[free]
+        self._pinned = cm.vertex_ref[~free]
         mags = float(np.linalg.norm(lay.moment, axis=1).sum())
         self._scale_terms = (2.0 * mags, 2.0 * self.weight * beam.length + 0.5 * float(lay.stiffness[:, 0].sum())
                              * math.pi**2)
 
     # ------------------------------------------------------------------ histories
     def contact_histories(self, data):
-        return self._contact_record, None
+        """Reader of the floor contact sensor's history buffer (None without a floor) and None (no feature)."""
+        if not self.has_contact:
+            return None, None
+        return SensorHistory(self.model, self._contact_sensor, data.history), None
 
     def contact_data(self, data) -> np.ndarray:
-        """The array :attr:`contact_adr` indexes: the deepest floor contact of the last step (m)."""
-        return self._sd
+        """The array :attr:`contact_adr` indexes: MuJoCo's ``sensordata`` (the last step's deepest floor contact, m)."""
+        return data.sensordata
 
-    def centreline_history(self, data) -> Ring:
-        """The vertices at the start of every step from now on (floor scenes; kept from the first call: the steps
-        of a block are recorded only for a reader), ``last(k)`` ``(N + 2, k, 3)``."""
+    def centreline_history(self, data) -> PointsHistory:
+        """Reader of the vertices at the start of every step of the last block (floor scenes; the ``framepos``
+        sensors' history buffers), ``last(k)`` ``(N + 2, k, 3)``."""
         if not self.has_contact:
             raise ValueError("the clamped strip keeps no centreline history: a contact scene (floor) does.")
-        if self._points is None:
-            self._points = Ring(self.block_limit, (len(self.rod.layout.s), 3), step_axis=1)
-        return self._points
+        return PointsHistory(self.model, data, NODE_SENSOR)
 
     def deepest_contact(self, data: mujoco.MjData) -> float:
-        """The most negative ``dist`` (m) of the floor contacts in ``data`` (0 when there is none)."""
+        """The most negative ``dist`` (m) of the floor contacts in ``data`` (0 when there is none), read from
+        ``mjData.contact`` in Python: what the floor contact sensor reports (tests/test_strip_native.py)."""
         n = data.ncon
         if not n:
             return 0.0
@@ -214,34 +334,55 @@ class CableRod:
         on = (c.geom[:n] == self._floor_geom).any(axis=1)
         return float(min(dist[on].min(), 0.0)) if on.any() else 0.0
 
-    def before_step(self, data: mujoco.MjData) -> None:
-        """Before a step: record the centreline of the state it starts from (floor scenes)."""
-        if self._points is not None:
-            self._points.push(vertices(self.rod, data))
-
-    def after_step(self, data: mujoco.MjData) -> None:
-        """After a step: record its deepest floor contact (the contacts of the state it started from)."""
-        if self._contact_record is not None:
-            v = self.deepest_contact(data)
-            self._sd[0] = v
-            self._contact_record.push(v)
-
     # ------------------------------------------------------------------ inputs and stepping
     def write_field(self, data: mujoco.MjData, field3: np.ndarray) -> None:
-        """The couples of the field ``(B_x, B_y, B_z)`` (T) at the state in ``data``, plus the external wrench,
-        into ``xfrc_applied`` / ``qfrc_applied`` (before every step, and whenever the field is set)."""
+        """The inputs of the field ``(B_x, B_y, B_z)`` (T): the pole motors' controls, and where couples go from
+        Python (:attr:`couples`, an external couple) the couples of the state in ``data`` plus the external
+        wrench into ``xfrc_applied`` / ``qfrc_applied`` (before every step, and whenever the field is set)."""
         self._field[:] = field3
-        apply_field(self.rod, data, self._field, extra=self._external, net_moment=self.moment)
+        if self._native is not None:
+            data.ctrl[:] = self._field[self._ctrl_axes]
+            self._native.written(self._field)
+        if self._from_python:
+            # the entries it never writes were cleared by the call's apply_external
+            self._writer.write(data, self._field, self._external, self.moment, clear=False)
+
+    def controls(self, fields: np.ndarray) -> np.ndarray:
+        """Per-step inputs of the fields ``(k, 3)`` (T): rows of the pole motors' controls for ``mujoco.rollout``
+        with :attr:`control_spec`, shape ``(k, nu)``."""
+        return np.ascontiguousarray(fields[:, self._ctrl_axes])
+
+    @property
+    def steps(self) -> NativeSteps | PythonSteps:
+        """How the next block runs: inside MuJoCo where every couple is native
+        (:class:`~magsoft_env.sim.stepping.NativeSteps`), else each step with the couples of its start state written
+        first (:class:`~magsoft_env.sim.stepping.PythonSteps`)."""
+        return self._python if self._from_python else self._native
 
     def advance(self, data: mujoco.MjData, field3: np.ndarray, fields: np.ndarray | None, k: int, health) -> None:
-        """``k`` steps, each with the couples of its start state (:class:`~magsoft_env.sim.stepping.PythonSteps`)."""
-        self._steps.advance(data, field3, fields, k, health)
+        """``k`` steps under the held ``field3`` or per-step ``fields`` ``(k, 3)`` (T), run as :attr:`steps` says."""
+        self.steps.advance(data, field3, fields, k, health)
 
     def apply_external(self, data: mujoco.MjData, wrench: np.ndarray | None) -> None:
         """A constant world-frame wrench per edge ``(N + 1, 6)``: the force at the edge's middle (half to each
-        vertex), the couple applied as the magnetic ones are; written with the couples before every step."""
+        vertex), the couple applied as the magnetic ones are, as a force pair that turns with the edge (written
+        with the couples before every step: a call with external couples runs from Python)."""
         self._external = None if wrench is None else np.array(wrench, dtype=float)
-        apply_field(self.rod, data, self._field, extra=self._external, net_moment=self.moment)
+        self._from_python = self.couples != "native" or (wrench is not None and bool(np.any(self._external[:, 3:])))
+        if self._from_python:
+            self._writer.write(data, self._field, self._external, self.moment)
+            return
+        # native couples: constant forces only (or none); the poles are the motors'
+        cm = self.rod
+        fv = np.zeros((len(cm.vertex_body), 3))
+        if wrench is not None:
+            half = 0.5 * self._external[:, :3]
+            fv[1:] += half
+            fv[:-1] += half
+        body = cm.vertex_body
+        data.xfrc_applied[:] = 0.0
+        data.xfrc_applied[body[body > 0], :3] = fv[body > 0]
+        data.qfrc_applied[:] = 0.0
 
     def settle_damping(self, retardation: float) -> tuple[np.ndarray, np.ndarray]:
         """``(all dofs, mass-proportional damping)``: every mode decays at the first weak-bending rate
@@ -271,11 +412,25 @@ class CableRod:
 
     # ------------------------------------------------------------------ energies
     def net_moment(self, data: mujoco.MjData) -> np.ndarray:
-        """Net magnetic moment (world x, y, z; A m^2)."""
+        """Net magnetic moment ``sum R_i m_i`` (world x, y, z; A m^2)."""
+        if self.couples == "native":
+            return self.net_moments(data.qpos[None])[0]
         return world_moments(self.rod, data).sum(axis=0)
 
     def net_moments(self, qpos: np.ndarray) -> np.ndarray:
-        """Net magnetic moments of recorded positions ``(k, nq)`` (reference frames of the present state)."""
+        """Net magnetic moments of recorded positions ``(k, nq)``, shape ``(k, 3)`` (A m^2): for an axial
+        magnetization ``sum_i m_a,i t_i`` from the vertices alone, vectorized over the records; else with the
+        reference frames of the present state."""
+        qpos = np.atleast_2d(qpos)
+        if self.couples == "native":
+            k = qpos.shape[0]
+            x = np.empty((k, len(self.rod.vertex_ref), 3))
+            npin = len(self._pinned)
+            x[:, :npin] = self._pinned
+            x[:, npin:] = self._ref_free + qpos[:, self._vq_free]
+            e = x[:, 1:] - x[:, :-1]
+            w = self._ma / np.sqrt(np.einsum("kij,kij->ki", e, e))
+            return np.einsum("ki,kij->kj", w, e)
         scratch = mujoco.MjData(self.model)
         out = np.empty((len(qpos), 3))
         for i, q in enumerate(qpos):
@@ -393,7 +548,9 @@ def cable_equilibrium(beam: Beam, field, **kwargs):
 __all__ = [
     "CABLE_GAIT_MIN_SEGMENTS", "CABLE_GAIT_STEP_SEGMENTS", "CABLE_INTEGRATORS", "CABLE_ROD", "CABLE_SCENES",
     "DEFAULT_FLOOR_CONTACT", "EDGE_SOLIMP", "EDGE_STRAIN_LIMIT", "EDGE_TIMECONST_STEPS", "FLEX_NAME",
-    "FLOOR_CONTACTS", "MODES", "CableLayout", "CableModel", "CableRod", "ContactRecord", "apply_field",
+    "FLOOR_CONTACTS", "MIXED_PATH", "MODES", "COUPLE_PATHS", "POLE_INPUT", "POLE_INPUTS", "TRANSVERSE_TOL",
+    "CableLayout", "CableModel", "CableRod", "CoupleWriter", "apply_field", "couple_path", "overrides",
+    "magnetization_parts", "pole_coefficients",
     "build_cable", "cable_equilibrium", "cable_gait_numerics", "cable_layout", "cable_path", "edge_strain",
     "elastic_energy", "free_vibration", "frequencies", "magnetic_energy", "material_frames", "settling_damping",
     "tip_twist", "vertices", "world_moments",

@@ -55,6 +55,24 @@ box of the section: four bottom corners per edge lying flat, each moving with it
 rotation and its twist; tested), the planar chain's capsule or box layout. ``floor_contact="vertex"`` keeps the
 plane.
 
+Native axial couples (``poles`` of :func:`build_cable`). An axial magnetization (along the edges) is exactly a set
+of constant world forces at the vertices: edge ``i`` with axial moment ``m_a,i`` and reference length ``l0_i`` is the
+pair of poles ``+-(m_a,i / l0_i) B`` on its end / start vertex, whose couple is ``(l_i t_i) x (m_a,i / l0_i) B =
+(l_i / l0_i) m_a,i t_i x B``: the axial couple exactly, up to the edge's strain ``l_i / l0_i - 1`` (what the edge
+constraint lets through, 1e-5 to 1e-3 of the couple; docs/sim.md). Summed per vertex the force is ``c_v B`` with a
+constant ``c_v`` (:func:`pole_coefficients`, A m), which the builder gives MuJoCo as three fixed tendons (x, y, z)
+over the vertex slides with coefficients ``c_v`` and a motor on each (``ctrl = (B_x, B_y, B_z)``; ``"tendon"``, the
+default), or as one motor per vertex slide with gear ``c_v`` (``"joint"``; ``ctrl`` the field component of its axis).
+Then MuJoCo applies the axial couples itself: a held field runs as ``mj_step(m, d, k)`` and fields that change as one
+``mujoco.rollout`` with control rows, as the planar chain's. A transverse magnetization (width or thickness
+components) turns with the material frame, which only Python knows here: its couples stay in :func:`apply_field`.
+
+Sensors (floor scene). MuJoCo reports every step's deepest floor contact and centreline itself, in history buffers
+of :data:`~magsoft_env.sim.model.CONTACT_HISTORY` steps: a ``contact`` sensor on the floor geom (``reduce =
+mindist``, ``data = dist``; it matches the flex's element and vertex contacts through the floor geom, bit for bit the
+most negative ``dist`` of ``mjData.contact`` with the floor) named :data:`~magsoft_env.sim.model.CONTACT_SENSOR`, and
+a ``framepos`` sensor on every vertex body, :data:`~magsoft_env.sim.model.NODE_SENSOR` + index, clamp end first.
+
 Limitations: no varying width or thickness (the Beam has none); scenes ``cantilever`` (clamped) and ``floor``
 (free, on the floor) only; MuJoCo's ``discrete``, ``euler`` or ``rk4`` integrator (its rod
 elasticity has no implicit variant); the couples of a transverse magnetization need the material frame every
@@ -71,6 +89,7 @@ import numpy as np
 
 from ..spec import Beam
 from .discretize import _integrate, cell_edges
+from .model import CONTACT_HISTORY, CONTACT_SENSOR, NODE_SENSOR, contact_timeconst
 
 #: What messages call the rod this module builds.
 CABLE_ROD = "the MuJoCo flexcomp rod"
@@ -89,6 +108,12 @@ CABLE_INTEGRATORS = ("discrete", "euler", "rk4")
 FLOOR_CONTACTS = ("element", "vertex")
 #: The strip's floor contact unless asked otherwise.
 DEFAULT_FLOOR_CONTACT = "element"
+#: How the poles of an axial magnetization reach MuJoCo (:func:`build_cable`'s ``poles``): ``tendon``, three fixed
+#: tendons over the vertex slides (coefficients :func:`pole_coefficients`) with a motor each, ``ctrl = (B_x, B_y,
+#: B_z)``; ``joint``, a motor on every vertex slide with gear ``c_v``, ``ctrl`` its axis's field component.
+POLE_INPUTS = ("tendon", "joint")
+#: Names of the pole tendons (x, y, z).
+POLE_TENDONS = ("strip_poles_x", "strip_poles_y", "strip_poles_z")
 
 
 @dataclass(frozen=True)
@@ -173,6 +198,67 @@ def _xml(beam: Beam, lay: CableLayout, clamped: bool, z0: float) -> str:
     )
 
 
+def pole_coefficients(layout: CableLayout) -> np.ndarray:
+    """The axial magnetization as poles: ``c_v`` (A m) of every vertex, shape ``(N + 2,)``, such that the constant
+    world forces ``c_v B`` at the vertices are the axial couples (module docstring): ``c_v = m_a,v-1 / l0_v-1 -
+    m_a,v / l0_v`` (edge ``v - 1`` ends at vertex ``v``, edge ``v`` starts there).
+
+    >>> lay = cable_layout(Beam(length=25e-3, width=5e-3, thickness=1.13e-3), 4)
+    >>> c = pole_coefficients(lay)
+    >>> c.shape, float(abs(c.sum())) < 1e-15 * float(abs(c).max())   # the poles of each edge cancel
+    ((6,), True)
+    """
+    q = layout.moment[:, 0] / layout.edge_length
+    c = np.zeros(len(layout.s))
+    c[1:] += q
+    c[:-1] -= q
+    return c
+
+
+def _add_poles(spec: mujoco.MjSpec, lay: CableLayout, clamped: bool, poles: str) -> None:
+    """The axial poles as MuJoCo actuators (module docstring); the pinned vertices of a clamp get none (their
+    forces would go to the world)."""
+    c = pole_coefficients(lay)
+    free = [i for i in range(len(lay.s)) if not (clamped and i < 2)]
+    joints = {}
+    for i in free:
+        for j in spec.body(f"{FLEX_NAME}_{i}").joints:
+            axis = int(np.argmax(np.abs(j.axis)))
+            j.name = f"{FLEX_NAME}_{i}_{'xyz'[axis]}"
+            joints[i, axis] = j.name
+    motor = {"gaintype": mujoco.mjtGain.mjGAIN_FIXED, "biastype": mujoco.mjtBias.mjBIAS_NONE, "ctrllimited": 0,
+             "forcelimited": 0}
+    if poles == "tendon":
+        for axis, name in enumerate(POLE_TENDONS):
+            t = spec.add_tendon(name=name)
+            for i in free:
+                if c[i] != 0.0:
+                    t.wrap_joint(joints[i, axis], float(c[i]))
+            spec.add_actuator(name=name, trntype=mujoco.mjtTrn.mjTRN_TENDON, target=name,
+                              gainprm=[1.0] + [0.0] * 9, **motor)
+    else:
+        for axis in range(3):
+            for i in free:
+                if c[i] == 0.0:  # a uniform magnetization has poles at its ends only
+                    continue
+                spec.add_actuator(name=f"{joints[i, axis]}_pole", trntype=mujoco.mjtTrn.mjTRN_JOINT,
+                                  target=joints[i, axis], gear=[float(c[i]), 0, 0, 0, 0, 0],
+                                  gainprm=[1.0] + [0.0] * 9, **motor)
+
+
+def _add_sensors(spec: mujoco.MjSpec, lay: CableLayout) -> None:
+    """The floor scene's history sensors (module docstring): the deepest floor contact, then the vertices in order
+    (consecutive 3-vectors with equal buffers, as :class:`~magsoft_env.sim.histories.PointsHistory` reads them)."""
+    s = spec.add_sensor(name=CONTACT_SENSOR, type=mujoco.mjtSensor.mjSENS_CONTACT, objtype=mujoco.mjtObj.mjOBJ_GEOM,
+                        objname="floor")
+    s.intprm = [1 << int(mujoco.mjtConDataField.mjCONDATA_DIST), 1, 1]  # dist; reduce mindist; one contact
+    s.nsample = CONTACT_HISTORY
+    for i in range(len(lay.s)):
+        s = spec.add_sensor(name=f"{NODE_SENSOR}{i}", type=mujoco.mjtSensor.mjSENS_FRAMEPOS,
+                            objtype=mujoco.mjtObj.mjOBJ_XBODY, objname=f"{FLEX_NAME}_{i}")
+        s.nsample = CONTACT_HISTORY
+
+
 @dataclass(frozen=True)
 class CableModel:
     """A compiled flexcomp strip and the addresses its readouts need.
@@ -196,6 +282,8 @@ class CableModel:
         The twist hinge of each edge (-1 for a clamped edge).
     flex : int
         Flex id.
+    poles : str or None
+        How the axial poles reach MuJoCo (:data:`POLE_INPUTS`), or None: the model has no actuators.
     """
 
     model: mujoco.MjModel
@@ -210,15 +298,22 @@ class CableModel:
     twist_dof: np.ndarray
     twist_qpos: np.ndarray
     flex: int
+    poles: str | None = None
 
 
-def build_cable(beam: Beam, options, *, floor_contact: str | None = None) -> CableModel:
+def build_cable(beam: Beam, options, *, floor_contact: str | None = None, poles: str | None = None,
+                layout: CableLayout | None = None) -> CableModel:
     """Compile ``beam`` as a flexcomp strip with ``options`` (a :class:`~magsoft_env.sim.model.RodOptions`:
     ``segments``, ``scene`` (``cantilever``: clamped; ``floor``: free on the floor), ``timestep``, ``integrator``,
     ``gravity``, ``grading``, ``retardation_time``, ``friction``).
 
     ``floor_contact`` (floor scene; None: :data:`DEFAULT_FLOOR_CONTACT`): ``element``, a box floor that MuJoCo
     collides with each edge's box; ``vertex``, a plane that it collides with the vertices (module docstring).
+
+    ``poles`` (None: none): the axial magnetization's couples as MuJoCo actuators (:data:`POLE_INPUTS`: three
+    tendon motors with ``ctrl = (B_x, B_y, B_z)``, or a motor per vertex slide), module docstring. The floor scene
+    always carries the history sensors of the deepest floor contact and the vertices. ``layout``: the beam's
+    :func:`cable_layout` at ``options.segments`` and ``options.grading``, where the caller has it (None: computed here).
 
     Every MuJoCo default the module docstring lists is replaced by the beam's own values.
     """
@@ -232,7 +327,15 @@ def build_cable(beam: Beam, options, *, floor_contact: str | None = None) -> Cab
     floor_contact = DEFAULT_FLOOR_CONTACT if floor_contact is None else floor_contact
     if floor_contact not in FLOOR_CONTACTS:
         raise ValueError(f"floor_contact must be one of {FLOOR_CONTACTS}, got {floor_contact!r}.")
-    lay = cable_layout(beam, options.segments, options.grading)
+    if poles is not None and poles not in POLE_INPUTS:
+        raise ValueError(f"poles must be None or one of {POLE_INPUTS}, got {poles!r}.")
+    if layout is None:
+        lay = cable_layout(beam, options.segments, options.grading)
+    elif not isinstance(layout, CableLayout) or layout.segments != options.segments:
+        raise ValueError(f"layout must be the CableLayout of the beam at {options.segments} segments, got "
+                         f"{getattr(layout, 'segments', layout)!r} segments.")
+    else:
+        lay = layout
     clamped = options.scene == "cantilever"
     z0 = 0.0 if clamped else 0.5 * beam.thickness
     spec = mujoco.MjSpec.from_string(_xml(beam, lay, clamped, z0))
@@ -263,6 +366,10 @@ def build_cable(beam: Beam, options, *, floor_contact: str | None = None) -> Cab
         big = 10 * beam.length
         spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_BOX, size=[big, big, beam.length],
                                 pos=[0.0, 0.0, -beam.length])
+    if poles is not None:
+        _add_poles(spec, lay, clamped, poles)
+    if not clamped:
+        _add_sensors(spec, lay)
     model = spec.compile()
     n = options.segments
     nv = n + 2
@@ -320,8 +427,6 @@ def build_cable(beam: Beam, options, *, floor_contact: str | None = None) -> Cab
     model.eq_solimp[:] = EDGE_SOLIMP
     if not clamped:
         # the planar rod's contact: friction, solref time constant and damping ratio, solimp
-        from .model import contact_timeconst
-
         model.flex_friction[f, 0] = float(options.friction)
         # the flex's contact parameters alone (a higher priority than the floor's): with equal priorities MuJoCo
         # would mix its solref with the floor geom's default 20 ms (a contact ten to a hundred times softer, 1 h
@@ -337,7 +442,8 @@ def build_cable(beam: Beam, options, *, floor_contact: str | None = None) -> Cab
     ref = np.zeros((nv, 3))
     ref[:, 0], ref[:, 2] = lay.s, z0
     return CableModel(model=model, beam=beam, options=options, layout=lay, clamped=clamped, vertex_body=body,
-                      vertex_ref=ref, vertex_qpos=vq, vertex_dof=vdof, twist_dof=tdof, twist_qpos=tq, flex=f)
+                      vertex_ref=ref, vertex_qpos=vq, vertex_dof=vdof, twist_dof=tdof, twist_qpos=tq, flex=f,
+                      poles=poles)
 
 
 def frequencies(beam: Beam) -> dict[str, float]:
@@ -370,5 +476,5 @@ def settling_damping(cm: CableModel) -> np.ndarray:
 
 
 __all__ = ["CABLE_INTEGRATORS", "CABLE_ROD", "CABLE_SCENES", "DEFAULT_FLOOR_CONTACT", "EDGE_SOLIMP",
-           "EDGE_TIMECONST_STEPS", "FLEX_NAME", "FLOOR_CONTACTS", "CableLayout", "CableModel", "build_cable",
-           "cable_layout", "frequencies", "settling_damping"]
+           "EDGE_TIMECONST_STEPS", "FLEX_NAME", "FLOOR_CONTACTS", "POLE_INPUTS", "POLE_TENDONS", "CableLayout",
+           "CableModel", "build_cable", "cable_layout", "frequencies", "pole_coefficients", "settling_damping"]

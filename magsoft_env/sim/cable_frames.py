@@ -81,41 +81,135 @@ def magnetic_energy(cm: CableModel, data: mujoco.MjData, field3) -> float:
     return -float(np.sum(world_moments(cm, data) @ np.asarray(field3, dtype=float)))
 
 
+def _block(adr: np.ndarray):
+    """``adr`` (ints) as a slice where they are consecutive (a view of ``qpos`` instead of a gather), else as is."""
+    adr = np.asarray(adr).ravel()
+    if adr.size and np.array_equal(adr, np.arange(adr[0], adr[0] + adr.size)):
+        return slice(int(adr[0]), int(adr[0]) + adr.size)
+    return adr
+
+
+class CoupleWriter:
+    """Writes the magnetic couples of a field into ``mjData`` before a step: :func:`apply_field` with its index
+    arrays, moment columns and sums prepared once (the 3D rod calls it every step; numpy's per-call overhead is
+    most of its cost, so it makes few calls).
+
+    The force pair of edge ``i`` is ``(C_i x t_i) / l_i`` with ``C_i = M_i x B`` the couple of its world moment
+    ``M_i = m_a t + m_w d1 + m_t d2``; since ``M_i . t_i = m_a``, ``C_i x t_i = m_a B - (B . t_i) M_i``, and the
+    twist moment ``C_i . t_i = B . (t_i x M_i)`` with ``t x d1 = d2``, ``t x d2 = -d1``: no cross product of the
+    couples is formed. The transverse part ``m_w d1 + m_t d2 = r (cos psi u + sin psi v)`` with ``psi = theta +
+    atan2(m_t, m_w)`` and ``(u, v = t x u)`` the transported reference frame (:func:`material_frames`; the transport
+    keeps ``u`` a unit vector, so it is not normalized again: a round-off difference).
+
+    Parameters
+    ----------
+    cm : CableModel
+    axial : bool
+        Apply the axial magnetization's couples too (False: MuJoCo applies them, the poles of
+        :func:`~magsoft_env.sim.cable_build.build_cable`; they still count in the net moment).
+    """
+
+    def __init__(self, cm: CableModel, *, axial: bool = True):
+        self.cm = cm
+        self.axial = bool(axial)
+        free = cm.vertex_qpos[:, 0] >= 0
+        # pinned vertices (a clamp) come first
+        f0 = int(np.argmax(free)) if free.any() else len(free)
+        if not free[f0:].all():
+            raise RuntimeError("the strip's pinned vertices must lead")  # guaranteed by build_cable
+        self._f0 = f0
+        self._vq = _block(cm.vertex_qpos[f0:])
+        self._nfree = len(free) - f0
+        self._x = cm.vertex_ref.copy()
+        self._ref = cm.vertex_ref[f0:].copy()
+        tw = cm.twist_qpos >= 0
+        self._t0 = int(np.argmax(tw)) if tw.any() else len(tw)
+        if not tw[self._t0:].all():
+            raise RuntimeError("the strip's clamped edge must lead")  # guaranteed by build_cable
+        self._tq = _block(cm.twist_qpos[self._t0:])
+        self._td = _block(cm.twist_dof[self._t0:])
+        ne = len(tw)
+        self._theta = np.zeros(ne)
+        m = cm.layout.moment
+        self._ma = np.ascontiguousarray(m[:, :1])
+        self._phi0 = np.arctan2(m[:, 2], m[:, 1])
+        self._r = np.hypot(m[:, 1], m[:, 2])
+        self._body = _block(cm.vertex_body[f0:])
+        a = int(cm.model.flex_plasticadr[cm.flex])
+        self._plastic = slice(a, a + 6 * ne)
+        self._rest = np.tile([1.0, 0.0, 0.0, 0.0, 1.0, 0.0], (ne, 1))  # (t_old, u_old) before the first step
+        self._one = np.ones(3)
+        # a x b from the outer product a b^T (row-major, 9 entries): (a b^T).ravel() @ _EPS
+        self._eps = np.zeros((9, 3))
+        for i, j, k in ((1, 2, 0), (2, 0, 1), (0, 1, 2)):
+            self._eps[3 * i + j, k], self._eps[3 * j + i, k] = 1.0, -1.0
+        # edge pairs to vertex forces: +F on the edge's end vertex, -F on its start (the free vertices' rows)
+        d = np.zeros((len(free), ne))
+        d[np.arange(1, ne + 1), np.arange(ne)] = 1.0
+        d[np.arange(ne), np.arange(ne)] = -1.0
+        self._pairs = np.ascontiguousarray(d[f0:])
+
+    def write(self, data: mujoco.MjData, field3: np.ndarray, extra: np.ndarray | None = None,
+              net_moment: np.ndarray | None = None, *, clear: bool = True) -> None:
+        """Write the couples of the field ``(B_x, B_y, B_z)`` (T) at the state in ``data`` (see :func:`apply_field`).
+        ``clear`` False: leave the entries it never writes (vertex torques, non-twist dofs of ``qfrc_applied``) as
+        they are, zero since the last clearing write (the 3D rod clears once per call, not every step)."""
+        B = field3
+        one = self._one
+        x = self._x
+        q = data.qpos
+        x[self._f0:] = self._ref + q[self._vq].reshape(self._nfree, 3)
+        e = x[1:] - x[:-1]
+        inv = 1.0 / np.sqrt((e * e) @ one)
+        t = e * inv[:, None]
+        p = data.plastic[self._plastic].reshape(-1, 6)
+        if not (p.item(0) or p.item(1) or p.item(2)):  # no reference frame stored yet (before the first step)
+            p = self._rest
+        t_old, u_old = p[:, :3], p[:, 3:]
+        u = u_old - (((t * u_old) @ one) / (1.0 + (t_old * t) @ one))[:, None] * (t_old + t)
+        v = (t[:, :, None] * u[:, None, :]).reshape(-1, 9) @ self._eps
+        theta = self._theta  # a clamped edge's stays 0
+        theta[self._t0:] = q[self._tq]
+        psi = theta + self._phi0
+        alpha = self._r * np.cos(psi)
+        beta = self._r * np.sin(psi)
+        mperp = alpha[:, None] * u + beta[:, None] * v
+        bt = t @ B
+        # force pair times l: m_a B - (B . t) M; without the axial part: -(B . t) M_perp
+        if self.axial or net_moment is not None:
+            mw = self._ma * t + mperp
+            if net_moment is not None:
+                net_moment[:] = mw.sum(axis=0)
+        F = self._ma * B - bt[:, None] * mw if self.axial else -bt[:, None] * mperp
+        twist = alpha * (v @ B) - beta * (u @ B)
+        if extra is not None:
+            F += (extra[:, 3:, None] * t[:, None, :]).reshape(-1, 9) @ self._eps
+            twist += (extra[:, 3:] * t) @ one
+        # the pair's lever is the edge's current length: its couple is C whatever the edge's strain
+        F *= inv[:, None]
+        fv = self._pairs @ F
+        if extra is not None:
+            fv += np.abs(self._pairs) @ (0.5 * extra[:, :3])
+        xf = data.xfrc_applied
+        xf[self._body, :3] = fv
+        qf = data.qfrc_applied
+        if clear:
+            xf[self._body, 3:] = 0.0
+            qf[:] = 0.0
+        qf[self._td] = twist[self._t0:]
+
+
 def apply_field(cm: CableModel, data: mujoco.MjData, field3, extra: np.ndarray | None = None,
-                net_moment: np.ndarray | None = None) -> np.ndarray:
+                net_moment: np.ndarray | None = None, *, axial: bool = True) -> None:
     """Write the magnetic couples of the field ``(B_x, B_y, B_z)`` (T) into ``data``: the force pair of each
     edge into ``xfrc_applied`` (rows of the vertex bodies, overwritten), the along-edge part into
-    ``qfrc_applied`` (the twist dofs, overwritten; other dofs zeroed). Returns the couples ``(N + 1, 3)`` (N m).
-    A clamped edge's couple goes to the clamp (nothing applied). ``extra``: a world wrench per edge ``(N + 1, 6)``
-    added (force at the edge's middle, half to each vertex; couple as the magnetic ones). ``net_moment``: a
-    ``(3,)`` array that receives the net magnetic moment ``sum R_i m_i`` of the state (A m^2)."""
-    B = np.asarray(field3, dtype=float)
-    x = vertices(cm, data)
-    t, d1, d2 = material_frames(cm, data, x)
-    m = cm.layout.moment
-    mw = m[:, :1] * t + m[:, 1:2] * d1 + m[:, 2:3] * d2
-    if net_moment is not None:
-        net_moment[:] = mw.sum(axis=0)
-    # m x B for every row: m @ [B]x
-    C = mw @ np.array([[0.0, -B[2], B[1]], [B[2], 0.0, -B[0]], [-B[1], B[0], 0.0]])
-    if extra is not None:
-        C = C + extra[:, 3:]
-    # the pair's lever is the edge's current length: its couple is C whatever the edge's strain
-    e = np.diff(x, axis=0)
-    F = _cross(C, t) / np.sqrt(_dot(e, e))[:, None]
-    fv = np.zeros((len(x), 3))
-    fv[1:] += F
-    fv[:-1] -= F
-    if extra is not None:
-        fv[1:] += 0.5 * extra[:, :3]
-        fv[:-1] += 0.5 * extra[:, :3]
-    body = cm.vertex_body
-    data.xfrc_applied[body[body > 0], :3] = fv[body > 0]
-    data.xfrc_applied[body[body > 0], 3:] = 0.0
-    data.qfrc_applied[:] = 0.0
-    free = cm.twist_dof >= 0
-    data.qfrc_applied[cm.twist_dof[free]] = _dot(C, t)[free]
-    return C
+    ``qfrc_applied`` (the twist dofs, overwritten; other dofs zeroed). A clamped edge's couple goes to the clamp
+    (nothing applied). ``extra``: a world wrench per edge ``(N + 1, 6)`` added (force at the edge's middle, half
+    to each vertex; couple as the magnetic ones). ``net_moment``: a ``(3,)`` array that receives the net magnetic
+    moment ``sum R_i m_i`` of the state (A m^2). ``axial`` False: leave the axial magnetization's couples to
+    MuJoCo's poles (:func:`~magsoft_env.sim.cable_build.build_cable`). The same as :class:`CoupleWriter`, which
+    the 3D rod keeps to write them every step."""
+    CoupleWriter(cm, axial=axial).write(data, np.asarray(field3, dtype=float), extra, net_moment)
 
 
 # ---------------------------------------------------------------------------------------------- readouts
@@ -161,5 +255,5 @@ def elastic_energy(cm: CableModel, data: mujoco.MjData) -> float:
 EDGE_STRAIN_LIMIT = 0.05
 
 
-__all__ = ["EDGE_STRAIN_LIMIT", "apply_field", "edge_strain", "elastic_energy", "magnetic_energy", "material_frames",
-           "tip_twist", "vertices", "world_moments"]
+__all__ = ["EDGE_STRAIN_LIMIT", "CoupleWriter", "apply_field", "edge_strain", "elastic_energy", "magnetic_energy",
+           "material_frames", "tip_twist", "vertices", "world_moments"]

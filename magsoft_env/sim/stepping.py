@@ -88,11 +88,15 @@ class PythonSteps:
         Its ``write_field(data, field3)`` writes the couples of the state in ``data`` and leaves their net moment in
         ``backend.moment``; ``before_step(data)`` and ``after_step(data)`` record what its readouts and checks read
         (the state a step starts from; the contacts that step found).
+    records : bool
+        Call ``before_step`` and ``after_step``. False for a backend whose readouts are MuJoCo's own sensors with
+        history buffers (:mod:`~magsoft_env.sim.histories`), which every step fills in C whoever steps it.
     """
 
-    def __init__(self, model: mujoco.MjModel, backend):
+    def __init__(self, model: mujoco.MjModel, backend, *, records: bool = True):
         self.model = model
         self.backend = backend
+        self.records = bool(records)
 
     def written(self, field3: np.ndarray) -> None:
         """Nothing to remember: the couples are written before every step."""
@@ -100,13 +104,16 @@ class PythonSteps:
     def advance(self, data: mujoco.MjData, field3: np.ndarray, fields: np.ndarray | None, k: int, health) -> None:
         """``k`` steps under the held ``field3`` or the per-step ``fields`` ``(k, 3)`` (T)."""
         m, backend = self.model, self.backend
+        write, book, moment, records = backend.write_field, health.book_step, backend.moment, self.records
         for i in range(k):
             b = field3 if fields is None else fields[i]
-            backend.write_field(data, b)
-            health.book_step(backend.moment, b)
-            backend.before_step(data)
+            write(data, b)
+            book(moment, b)
+            if records:
+                backend.before_step(data)
             mujoco.mj_step(m, data)
-            backend.after_step(data)
+            if records:
+                backend.after_step(data)
 
 
 __all__ = ["NativeSteps", "PythonSteps"]
