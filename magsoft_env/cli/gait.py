@@ -84,7 +84,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--rod", choices=rod_names(), default=DEFAULT_ROD,
                    help="planar: the hinge chain in the x-z plane (default); cable: the 3D flexcomp strip on the floor "
                         "(its edges' boxes on the floor, twist free; without --segments/--timestep-ms/--fidelity at "
-                        "least 40 segments and a step of at most 4 ms / segments; 5-8x the chain's wall time at the "
+                        "least 30 segments and a step of at most 6 ms / segments; 5-8x the chain's wall time at the "
                         "same numerics; docs/sim.md)")
     add_rod_option_flag(p)
     add_y_drive_flags(p)

@@ -167,8 +167,9 @@ class StripRenderer:
             raise ValueError(f"StripRenderer draws a magsoft_env.sim.Simulator, got {type(sim).__name__}.")
         if zoom:
             raise ValueError("zoom is the side view's inset of the rod's end; the 3D frames have none.")
-        if opts.scene != "floor":
-            raise ValueError(f"StripRenderer draws the strip on the floor (scene='floor'), got scene={opts.scene!r}.")
+        if not opts.has_contact:
+            raise ValueError(f"StripRenderer draws a rod on the floor (scene 'floor', 'channel' or 'obstacle'), got "
+                             f"scene={opts.scene!r}.")
         if view not in STRIP_VIEWS:
             raise ValueError(f"view must be one of {list(STRIP_VIEWS)} for the 3D strip, got {view!r}.")
         check_frame_args(width, height, minor, major, span, field_scale)
@@ -346,6 +347,15 @@ class StripRenderer:
         big = 40.0 * self.span
         self._add(scn, mujoco.mjtGeom.mjGEOM_BOX, (big, big, 1e-4), (aim[0], aim[1], -1e-4), np.eye(3),
                   _rgba32("floor"))
+
+    def _features(self, scn) -> None:
+        """The scene's boxes (the channel's walls and ceiling, the obstacle), translucent so the rod shows through
+        (the ceiling most)."""
+        from ..sim.model import scene_features
+
+        for name, size, pos in scene_features(self.sim.beam, self.sim.options):
+            alpha = 0.25 if name.endswith("ceiling") else 0.55
+            self._add(scn, mujoco.mjtGeom.mjGEOM_BOX, size, pos, np.eye(3), _rgba32("scene", alpha))
 
     def _strip_boxes(self, scn, x, frames) -> None:
         """One box per edge along its material frame, lengthened into the wedge that opens on the outside of
@@ -732,6 +742,7 @@ class StripRenderer:
         scn.ngeom = 0  # the scene is drawn here, not from the model's geoms (the flex, the floor plane)
         self._lights(scn)
         self._floor(scn, aim)
+        self._features(scn)
         self._strip_boxes(scn, x, frames)
         self._field_arrow(scn, com, b)
         img = r.render()

@@ -76,17 +76,20 @@ from .cable_frames import (
 from .cable_vibration import MODES, free_vibration
 from .health import MAX_STEPS
 from .histories import PointsHistory, SensorHistory
-from .model import CONTACT_HISTORY, CONTACT_SENSOR, NODE_SENSOR
+from .model import CONTACT_HISTORY, CONTACT_SENSOR, FEATURE_SENSOR, NODE_SENSOR
 from .readouts import PitchTracker
 from .stepping import NativeSteps, PythonSteps
 
 #: The strip's floor numerics when a gait runs at its robot's own (no ``segments``, ``timestep`` or ``fidelity``
 #: given): at least this many segments ...
-CABLE_GAIT_MIN_SEGMENTS = 40
-#: ... and a timestep of at most this over the segments (s; 0.1 ms at 40, 0.05 ms at 80). Measured (docs/sim.md,
-#: "Measured: the paper's gaits on the strip"): there the strip crawls within 4 % of the planar chain at the same
-#: numerics for paper-5a, 5b and 5c (at 20 segments 10-14 % slower for 5c; at 80 segments and 0.1 ms 6-8 % off).
-CABLE_GAIT_STEP_SEGMENTS = 4e-3
+CABLE_GAIT_MIN_SEGMENTS = 30
+#: ... and a timestep of at most this over the segments (s; 0.2 ms at 30, 0.075 ms at 80). Measured (docs/sim.md,
+#: "Measured: the paper's gaits on the strip"), 6 s in one process against the planar chain at the same numerics:
+#: paper-5c at 30 segments and 0.2 ms -0.3989 against -0.3977 mm/s (+0.3 %), paper-5a at 80 and 0.075 ms +0.4673
+#: against +0.4783 (-2.3 %), paper-5b at its own 80 and 0.025 ms (unchanged; -0.878 against -0.846, +3.8 %); at 20
+#: segments 10-14 % slower for 5c, at 80 segments and 0.1 ms 6-8 % off. (The rule was 40 segments and 4 ms / N:
+#: paper-5c at 40 and 0.1 ms, within 1.5 % too, at 3x the wall time.)
+CABLE_GAIT_STEP_SEGMENTS = 6e-3
 
 #: The ways the magnetic couples reach MuJoCo (:attr:`CableRod.couples`; module docstring).
 COUPLE_PATHS = ("native", "mixed", "python")
@@ -159,10 +162,10 @@ def cable_gait_numerics(segments: int, timestep: float) -> tuple[int, float]:
     :data:`CABLE_GAIT_MIN_SEGMENTS` segments, a timestep of at most :data:`CABLE_GAIT_STEP_SEGMENTS` / segments.
 
     >>> cable_gait_numerics(20, 2e-4), cable_gait_numerics(80, 1e-4), cable_gait_numerics(80, 2.5e-5)
-    ((40, 0.0001), (80, 5e-05), (80, 2.5e-05))
+    ((30, 0.0002), (80, 7.5e-05), (80, 2.5e-05))
     """
     n = max(int(segments), CABLE_GAIT_MIN_SEGMENTS)
-    return n, min(float(timestep), CABLE_GAIT_STEP_SEGMENTS / n)
+    return n, min(float(timestep), float(f"{CABLE_GAIT_STEP_SEGMENTS / n:.12g}"))  # 0.075 ms, not 7.500...01e-05
 
 
 class CableRod:
@@ -200,8 +203,6 @@ class CableRod:
     static_tol = 1e-6
     #: ``mujoco.rollout`` control spec of :meth:`controls` rows: the pole motors' controls.
     control_spec = int(mujoco.mjtState.mjSTATE_CTRL)
-    has_feature = False
-    feature_adr = 0
 
     # ------------------------------------------------------------------ what it takes (before building)
     @classmethod
@@ -232,9 +233,9 @@ class CableRod:
     @classmethod
     def gait_options(cls, robot, *, scene: str, segments: int, timestep: float, own_numerics: bool) -> dict:
         """The strip's keywords of a robot's :class:`~magsoft_env.sim.RodOptions` on the floor: at the robot's own
-        numerics, :func:`cable_gait_numerics` of them (where the strip crawls within 4 % of the chain)."""
+        numerics, :func:`cable_gait_numerics` of them (where the strip crawls within 2.3 % of the chain)."""
         if scene not in CABLE_SCENES or scene == "cantilever":
-            raise ValueError(f"the 3D rod's gaits run on the floor scene only, got scene={scene!r}.")
+            raise ValueError(f"the 3D rod's gaits run on the floor scenes {CABLE_SCENES[1:]}, got scene={scene!r}.")
         if own_numerics:
             segments, timestep = cable_gait_numerics(segments, timestep)
         return {"segments": segments, "timestep": timestep}
@@ -267,6 +268,12 @@ class CableRod:
         else:
             self._contact_sensor = -1
             self.contact_adr = 0
+        fid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SENSOR, FEATURE_SENSOR)
+        #: the scene has a feature besides the floor (the channel, the obstacle), and the index into
+        #: :meth:`contact_data` of the deepest contact with anything (floor or feature)
+        self.has_feature = fid >= 0
+        self._feature_sensor = int(fid)
+        self.feature_adr = int(self.model.sensor_adr[fid]) if fid >= 0 else 0
         self._floor_geom = int(mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, "floor"))
         # the pole motors' controls are the field's components (tendons x, y, z; or each slide's axis)
         m = self.model
@@ -307,10 +314,11 @@ class CableRod:
 
     # ------------------------------------------------------------------ histories
     def contact_histories(self, data):
-        """Reader of the floor contact sensor's history buffer (None without a floor) and None (no feature)."""
+        """Readers of the floor and scene contact sensors' history buffers (None where a scene has none)."""
         if not self.has_contact:
             return None, None
-        return SensorHistory(self.model, self._contact_sensor, data.history), None
+        scene = SensorHistory(self.model, self._feature_sensor, data.history) if self.has_feature else None
+        return SensorHistory(self.model, self._contact_sensor, data.history), scene
 
     def contact_data(self, data) -> np.ndarray:
         """The array :attr:`contact_adr` indexes: MuJoCo's ``sensordata`` (the last step's deepest floor contact, m)."""

@@ -89,7 +89,7 @@ import numpy as np
 
 from ..spec import Beam
 from .discretize import _integrate, cell_edges
-from .model import CONTACT_HISTORY, CONTACT_SENSOR, NODE_SENSOR, contact_timeconst
+from .model import CONTACT_HISTORY, CONTACT_SENSOR, FEATURE_SENSOR, NODE_SENSOR, contact_timeconst, scene_features
 
 #: What messages call the rod this module builds.
 CABLE_ROD = "the MuJoCo flexcomp rod"
@@ -100,7 +100,7 @@ EDGE_SOLIMP = (0.99, 0.999, 1e-6, 0.5, 2.0)
 #: Edge-constraint ``solref`` time constant in timesteps (with MuJoCo's ``refsafe`` off, which would raise it to 2).
 EDGE_TIMECONST_STEPS = 1.0
 #: Scenes the cable rod builds.
-CABLE_SCENES = ("cantilever", "floor")
+CABLE_SCENES = ("cantilever", "floor", "channel", "obstacle")
 #: Integrators MuJoCo's rod elasticity supports.
 CABLE_INTEGRATORS = ("discrete", "euler", "rk4")
 #: How the strip meets the floor (:func:`build_cable`): ``element``, each edge's box against a box floor (the
@@ -246,13 +246,19 @@ def _add_poles(spec: mujoco.MjSpec, lay: CableLayout, clamped: bool, poles: str)
                                   gainprm=[1.0] + [0.0] * 9, **motor)
 
 
-def _add_sensors(spec: mujoco.MjSpec, lay: CableLayout) -> None:
-    """The floor scene's history sensors (module docstring): the deepest floor contact, then the vertices in order
-    (consecutive 3-vectors with equal buffers, as :class:`~magsoft_env.sim.histories.PointsHistory` reads them)."""
+def _add_sensors(spec: mujoco.MjSpec, lay: CableLayout, features: bool) -> None:
+    """The contact scenes' history sensors (module docstring): the deepest floor contact, with ``features`` (the
+    channel, the obstacle) the deepest contact of all (the strip touches only the scene: its floor and its boxes,
+    as the planar chain's scene sensor sees them), then the vertices in order (consecutive 3-vectors with equal
+    buffers, as :class:`~magsoft_env.sim.histories.PointsHistory` reads them)."""
     s = spec.add_sensor(name=CONTACT_SENSOR, type=mujoco.mjtSensor.mjSENS_CONTACT, objtype=mujoco.mjtObj.mjOBJ_GEOM,
                         objname="floor")
     s.intprm = [1 << int(mujoco.mjtConDataField.mjCONDATA_DIST), 1, 1]  # dist; reduce mindist; one contact
     s.nsample = CONTACT_HISTORY
+    if features:
+        s = spec.add_sensor(name=FEATURE_SENSOR, type=mujoco.mjtSensor.mjSENS_CONTACT)  # every contact
+        s.intprm = [1 << int(mujoco.mjtConDataField.mjCONDATA_DIST), 1, 1]
+        s.nsample = CONTACT_HISTORY
     for i in range(len(lay.s)):
         s = spec.add_sensor(name=f"{NODE_SENSOR}{i}", type=mujoco.mjtSensor.mjSENS_FRAMEPOS,
                             objtype=mujoco.mjtObj.mjOBJ_XBODY, objname=f"{FLEX_NAME}_{i}")
@@ -366,10 +372,13 @@ def build_cable(beam: Beam, options, *, floor_contact: str | None = None, poles:
         big = 10 * beam.length
         spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_BOX, size=[big, big, beam.length],
                                 pos=[0.0, 0.0, -beam.length])
+    features = scene_features(beam, options)  # the channel's ceiling and walls, the obstacle: the chain's boxes
+    for name, size, pos in features:
+        spec.worldbody.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_BOX, size=size, pos=pos)
     if poles is not None:
         _add_poles(spec, lay, clamped, poles)
     if not clamped:
-        _add_sensors(spec, lay)
+        _add_sensors(spec, lay, bool(features))
     model = spec.compile()
     n = options.segments
     nv = n + 2

@@ -293,6 +293,7 @@ def mujoco_path(
     imperfection: float = 0.0,
     stability: bool = True,
     branch: int = 1,
+    rod_options: dict | None = None,
 ) -> list[SimEquilibrium]:
     """Settle the clamped MuJoCo rod along a loading path: gravity first, then each field in turn.
 
@@ -340,6 +341,9 @@ def mujoco_path(
         Test every returned state (about ``2 nv`` MuJoCo evaluations) and leave unstable ones.
     branch : {1, -1}
         Which side of a bifurcation an unstable state leaves to (see :func:`_leave_along`).
+    rod_options : dict or None
+        More :class:`RodOptions` keywords for the rod (e.g. ``{"magnetics": "python"}``, solver settings); the
+        ones above win.
 
     Every argument is checked before any work, and so is the work: a path segment (from one
     field to the next) may take at most :data:`~magsoft_env.sim.health.MAX_STEPS` steps in the
@@ -368,10 +372,11 @@ def mujoco_path(
         raise ValueError(f"stability must be a bool, got {stability!r}.")
     if branch not in (1, -1) or isinstance(branch, (bool, np.bool_)):
         raise ValueError(f"branch must be +1 or -1 (which side of a bifurcation), got {branch!r}.")
-    opts = RodOptions(
-        rod=rod, segments=segments, scene="cantilever", integrator=integrator, timestep=timestep, gravity=gravity,
-        clamp_angle=clamp_angle, grading=grading, retardation_time=retardation_time,
-    )
+    opts = RodOptions(**{
+        **(rod_options or {}), "rod": rod, "segments": segments, "scene": "cantilever", "integrator": integrator,
+        "timestep": timestep, "gravity": gravity, "clamp_angle": clamp_angle, "grading": grading,
+        "retardation_time": retardation_time,
+    })
     # the worst-case work, before any: every settle may use its whole budget
     budget = math.ceil(check_steps(f"max_time / timestep = {max_time:g} s / {opts.timestep:g} s per settle",
                                    max_time / opts.timestep, "Use a larger timestep or a shorter max_time."))

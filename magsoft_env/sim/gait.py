@@ -281,8 +281,8 @@ def run_gait(
         The rod (``RodOptions.rod``): the planar hinge chain (``"planar"``, default) or the 3D flexcomp strip on the
         floor (``"cable"``, :func:`gait_rod_options`; it takes drives with a y component,
         ``Waveparams(amplitude_y=...)``). The strip at the robot's own numerics runs
-        :func:`~magsoft_env.sim.cable.cable_gait_numerics` of them (paper-5a 80 segments at 0.05 ms, 5b 80 at
-        0.025 ms, 5c 40 at 0.1 ms), where it crawls within 4 % of the chain at the same numerics. Every result
+        :func:`~magsoft_env.sim.cable.cable_gait_numerics` of them (paper-5a 80 segments at 0.075 ms, 5b 80 at
+        0.025 ms, 5c 30 at 0.2 ms), where it crawls within 4 % of the chain at the same numerics. Every result
         reports the sideways travel, the heading and the roll (0 for the chain).
     rod_options : dict or None
         More :class:`~magsoft_env.sim.RodOptions` keywords for the rod (contact and solver settings, e.g.

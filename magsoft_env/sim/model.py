@@ -180,13 +180,15 @@ class RodOptions:
         writes them into ``qfrc_applied`` (the model has no actuators).
 
         .. versionadded:: 0.4
-    rod : {"planar", "cable"}
-        ``planar`` (default): the hinge chain in the x-z plane (everything above applies). ``cable``: the 3D rod,
-        a MuJoCo 1D flexcomp strip with a box section (:func:`~magsoft_env.sim.cable.build_cable`), built from
-        ``segments``, ``scene`` (``cantilever`` or ``floor``), ``integrator`` (``discrete``, ``euler`` or
-        ``rk4``), ``timestep``, ``gravity``, ``grading``, ``retardation_time`` (MuJoCo's rod damping),
-        ``friction`` and the solver settings; its magnetic couples are applied from Python each step (the
-        ``magnetics`` option does not apply), and ``clamp_angle`` must be 0. Statics:
+    rod : str
+        The rod backend, by its registered name (:mod:`magsoft_env.rods`; the backend checks the rest of the
+        options it cannot build). ``planar`` (default): the hinge chain in the x-z plane (everything above
+        applies). ``cable``: the 3D rod, a MuJoCo 1D flexcomp strip with a box section
+        (:func:`~magsoft_env.sim.cable.build_cable`), built from ``segments``, ``scene`` (``cantilever`` or
+        ``floor``), ``integrator`` (``discrete``, ``euler`` or ``rk4``), ``timestep``, ``gravity``, ``grading``,
+        ``retardation_time`` (MuJoCo's rod damping), ``friction`` and the solver settings, ``clamp_angle`` 0; an
+        axial magnetization's couples are MuJoCo's own forces (``magnetics="native"``), any other's are written
+        from Python each step (and every one with ``magnetics="python"``). Statics:
         :func:`~magsoft_env.sim.mujoco_equilibrium` with ``rod="cable"``; the
         :class:`~magsoft_env.sim.Simulator` steps it clamped or on the floor
         (:class:`~magsoft_env.sim.cable.CableRod`).
