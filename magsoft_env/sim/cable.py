@@ -57,6 +57,7 @@ from .cable_build import (
     CableModel,
     build_cable,
     cable_layout,
+    check_cable_options,
     frequencies,
     pole_coefficients,
     settling_damping,
@@ -209,14 +210,7 @@ class CableRod:
     def check_options(cls, options) -> None:
         """ValueError for a scene, integrator or clamp angle the strip does not build (``magnetics``: ``"native"``
         chooses the couples' path from the magnetization, ``"python"`` writes them all from Python)."""
-        if options.scene not in CABLE_SCENES:
-            raise ValueError(f"RodOptions(rod='cable') builds the scenes {CABLE_SCENES}, got {options.scene!r}.")
-        if options.integrator not in CABLE_INTEGRATORS:
-            raise ValueError(f"RodOptions(rod='cable') runs with the integrators {CABLE_INTEGRATORS} (MuJoCo's "
-                             f"rod elasticity has no implicit variant), got {options.integrator!r}.")
-        if options.clamp_angle != 0.0:
-            raise ValueError(f"RodOptions(rod='cable') is clamped along +x (clamp_angle = 0), got "
-                             f"{options.clamp_angle!r}.")
+        check_cable_options(options)
 
     @classmethod
     def check_beam(cls, beam: Beam, what: str | None = None) -> None:

@@ -32,15 +32,8 @@ the force pair ``+-(C x t) / l_i`` (``l_i`` its current length) on the edge's en
 (``xfrc_applied``: its couple is the part of ``C`` across the edge) and ``C . t`` on the edge's twist hinge
 (``qfrc_applied``). Torques on vertex bodies would do nothing (they are points on slide joints).
 
-Material frame from the MuJoCo state: MuJoCo keeps, per edge, a time-parallel reference frame ``(t_old, u_old)``
-in ``mjData.plastic`` (the tangent and director when it last computed the rod's forces). The reference
-director at the current state is ``u_old`` parallel-transported from ``t_old`` to the current tangent ``t``
-(the rotation about ``t_old x t``); the material frame turns it by the edge's twist angle ``theta`` (its hinge
-``qpos``) about ``t``: ``d1 = cos(theta) u + sin(theta) t x u``, ``d2 = t x d1``. At rest ``u = +y``: ``d1`` is the
-width axis and ``d2 = +z`` the thickness axis of a strip lying flat. The sign of ``theta`` was checked against
-MuJoCo's own elastic forces (a bend in a skewed plane pulls the weak axis toward the bending binormal through
-``qfrc_passive``, tests/test_cable.py). Before the first step (``plastic`` all zero) the reference is the
-rest director ``+y`` transported from the rest tangent ``+x``.
+Material frame from the MuJoCo state: MuJoCo's time-parallel reference frames in ``mjData.plastic``, transported to
+the current tangents and turned by the twist hinges (:mod:`~magsoft_env.sim.cable_frames`).
 
 The :class:`~magsoft_env.sim.Simulator` steps the strip, clamped or on the floor, through :class:`CableRod`, its
 rod backend. On the floor the flex's contact parameters (the planar rod's friction, ``solref``, ``solimp``) win
@@ -307,6 +300,18 @@ class CableModel:
     poles: str | None = None
 
 
+def check_cable_options(options) -> None:
+    """ValueError for a scene, integrator or clamp angle the strip does not build (before any work)."""
+    if options.scene not in CABLE_SCENES:
+        raise ValueError(f"RodOptions(rod='cable') builds the scenes {CABLE_SCENES}, got {options.scene!r}.")
+    if options.integrator not in CABLE_INTEGRATORS:
+        raise ValueError(f"RodOptions(rod='cable') runs with the integrators {CABLE_INTEGRATORS} (MuJoCo's "
+                         f"rod elasticity has no implicit variant), got {options.integrator!r}.")
+    if options.clamp_angle != 0.0:
+        raise ValueError(f"RodOptions(rod='cable') is clamped along +x (clamp_angle = 0), got "
+                         f"{options.clamp_angle!r}.")
+
+
 def build_cable(beam: Beam, options, *, floor_contact: str | None = None, poles: str | None = None,
                 layout: CableLayout | None = None) -> CableModel:
     """Compile ``beam`` as a flexcomp strip with ``options`` (a :class:`~magsoft_env.sim.model.RodOptions`:
@@ -323,13 +328,7 @@ def build_cable(beam: Beam, options, *, floor_contact: str | None = None, poles:
 
     Every MuJoCo default the module docstring lists is replaced by the beam's own values.
     """
-    if options.scene not in CABLE_SCENES:
-        raise ValueError(f"{CABLE_ROD} builds the scenes {CABLE_SCENES}, got scene={options.scene!r}.")
-    if options.integrator not in CABLE_INTEGRATORS:
-        raise ValueError(f"{CABLE_ROD} runs with the integrators {CABLE_INTEGRATORS} (MuJoCo's rod elasticity has "
-                         f"no implicit variant), got integrator={options.integrator!r}.")
-    if options.clamp_angle != 0.0:
-        raise ValueError(f"{CABLE_ROD} is clamped along +x (clamp_angle = 0), got {options.clamp_angle!r}.")
+    check_cable_options(options)
     floor_contact = DEFAULT_FLOOR_CONTACT if floor_contact is None else floor_contact
     if floor_contact not in FLOOR_CONTACTS:
         raise ValueError(f"floor_contact must be one of {FLOOR_CONTACTS}, got {floor_contact!r}.")
@@ -484,6 +483,7 @@ def settling_damping(cm: CableModel) -> np.ndarray:
     return c
 
 
-__all__ = ["CABLE_INTEGRATORS", "CABLE_ROD", "CABLE_SCENES", "DEFAULT_FLOOR_CONTACT", "EDGE_SOLIMP",
-           "EDGE_TIMECONST_STEPS", "FLEX_NAME", "FLOOR_CONTACTS", "POLE_INPUTS", "POLE_TENDONS", "CableLayout",
-           "CableModel", "build_cable", "cable_layout", "frequencies", "pole_coefficients", "settling_damping"]
+__all__ = ["build_cable", "CABLE_INTEGRATORS", "cable_layout", "CABLE_ROD", "CABLE_SCENES", "CableLayout",
+           "CableModel", "check_cable_options", "DEFAULT_FLOOR_CONTACT", "EDGE_SOLIMP", "EDGE_TIMECONST_STEPS",
+           "FLEX_NAME", "FLOOR_CONTACTS", "frequencies", "pole_coefficients", "POLE_INPUTS", "POLE_TENDONS",
+           "settling_damping"]

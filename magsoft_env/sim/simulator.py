@@ -259,19 +259,17 @@ class Simulator:
         self._write_inputs()  # mj_resetData zeroed the field's inputs
         self.nstep = 0
         self._wf_t0 = 0.0
-        if qpos is not None:
-            self.data.qpos[:] = qpos
-        if qvel is not None:
-            self.data.qvel[:] = qvel
-        mujoco.mj_forward(self.model, self.data)
-        self._stale = False
+        self._write_state(qpos, qvel)
         self._health.reset(self._B3.copy())
 
     def set_state(self, qpos=None, qvel=None) -> None:
         """Write joint positions ``qpos`` ``(nq,)`` and velocities ``qvel`` ``(nv,)`` (either None: unchanged) and
         recompute the derived quantities, as Gymnasium's MuJoCo environments do; the time and the records go on
         (the energy balance restarts from this state at the next step)."""
-        qpos, qvel = self._state_args(qpos, qvel)
+        self._write_state(*self._state_args(qpos, qvel))
+
+    def _write_state(self, qpos, qvel) -> None:
+        """Write checked ``qpos`` / ``qvel`` (None: unchanged) and recompute the derived quantities."""
         if qpos is not None:
             self.data.qpos[:] = qpos
         if qvel is not None:
