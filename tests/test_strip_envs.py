@@ -79,7 +79,7 @@ def test_the_warp_batch_refuses_the_strip_naming_what_runs():
 @pytest.mark.slow
 def test_paper_5c_crawls_on_the_strip_within_5_percent_of_the_chain():
     """Open-loop paper-5c for 6 s in MagSoftCrawl-v1, the strip at its gait numerics against the chain at the same
-    numerics (30 segments, 0.2 ms), in one process."""
+    numerics (30 segments, 0.2 ms), in one process (measured: -0.3663 against -0.3756 mm/s, -2.5 %)."""
     speeds = {}
     for rod in ("cable", "planar"):
         kw = {} if rod == "cable" else {"segments": 30, "sim_dt": 2e-4}
