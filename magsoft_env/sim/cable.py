@@ -372,7 +372,9 @@ class CableRod:
         self._external = None if wrench is None else np.array(wrench, dtype=float)
         self._from_python = self.couples != "native" or (wrench is not None and bool(np.any(self._external[:, 3:])))
         if self._from_python:
-            self._writer.write(data, self._field, self._external, self.moment)
+            # cleared here; the couples of each step's start state are written before it (and by write_field)
+            data.xfrc_applied[:] = 0.0
+            data.qfrc_applied[:] = 0.0
             return
         # native couples: constant forces only (or none); the poles are the motors'
         cm = self.rod
