@@ -57,7 +57,11 @@ def test_warp_examples_are_found():
     assert "magsoft_env.envs.warp_vector" in WARP_MODULES
 
 
-@pytest.mark.parametrize("name", [pytest.param(name, marks=pytest.mark.slow) if name in WARP_MODULES else name
+# under pytest-xdist (--dist loadgroup) the Warp examples run on the worker that runs tests/test_warp.py
+WARP_MARKS = [pytest.mark.slow, pytest.mark.xdist_group("warp")]
+
+
+@pytest.mark.parametrize("name", [pytest.param(name, marks=WARP_MARKS) if name in WARP_MODULES else name
                                   for name in MODULES])
 def test_docstring_examples(name):
     try:

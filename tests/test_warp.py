@@ -20,6 +20,10 @@ needs_warp = pytest.mark.skipif(not warp_available(), reason=f"the optional extr
                                 f"{INSTALL_HINT}")
 
 
+# one pytest-xdist worker runs this module (``--dist loadgroup``): the kernels are compiled once, not in every worker
+pytestmark = pytest.mark.xdist_group("warp")
+
+
 def builds_kernels(test):
     """A test that runs MuJoCo Warp: slow, since on a fresh machine (an empty Warp kernel cache) its first such test
     compiles the solver's kernels, about half a minute of CPU on Warp's CPU device; the refusals above build none."""
