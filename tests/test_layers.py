@@ -10,6 +10,7 @@ a layer that must not load it, or a module in no known unit fails the test.
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 import pytest
@@ -73,11 +74,17 @@ def module_name(path: Path, root: Path = PACKAGE) -> str:
     return ".".join(parts)
 
 
+@functools.cache
+def _import_nodes(source: str) -> tuple:
+    """The import statements of a source text (parsed once: the package copies below share their sources)."""
+    return tuple(node for node in ast.walk(ast.parse(source)) if isinstance(node, (ast.Import, ast.ImportFrom)))
+
+
 def imports(path: Path, root: Path = PACKAGE):
     """(line, imported module, imported names) for every import in ``path``, relative ones resolved."""
     mod = module_name(path, root)
     pkg = mod if path.name == "__init__.py" else mod.rsplit(".", 1)[0]
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+    for node in _import_nodes(path.read_text(encoding="utf-8")):
         if isinstance(node, ast.Import):
             for a in node.names:
                 yield node.lineno, a.name, []

@@ -30,6 +30,8 @@ from magsoft_env.parallel import (
 )
 
 ROOT = Path(__file__).resolve().parents[1]
+#: the tests that start a Ray, on one pytest-xdist worker (``--dist loadgroup``), as tests/test_parallel_cluster.py
+ray_group = pytest.mark.xdist_group("ray")
 
 CASES = [
     *({"kind": "equilibrium", "robot": "paper-5c", "field_mT": [0.0, b]} for b in (1.0, 4.0, 7.0)),
@@ -72,6 +74,7 @@ def test_local_pool_gives_the_serial_results(serial_rows, tmp_path):
     assert _comparable(read_results(out)) == _comparable(serial_rows)  # the file, in the cases' order
 
 
+@ray_group
 def test_in_process_ray_gives_the_serial_results(serial_rows, tmp_path):
     pytest.importorskip("ray")
     res = run_batch(CASES, tmp_path / "r.jsonl", engine="ray", workers=2)
@@ -81,6 +84,7 @@ def test_in_process_ray_gives_the_serial_results(serial_rows, tmp_path):
     assert not ray.is_initialized()  # the private Ray ended with the batch
 
 
+@ray_group
 def test_a_case_past_its_timeout_is_a_failure_row_and_the_rest_run(tmp_path):
     # generous limits: the other tests may load the cores (a Ray start then takes tens of seconds)
     cases = [{"kind": "sleep", "seconds": 300}, {"kind": "sleep", "seconds": 0.01}, {"kind": "sleep"}]

@@ -20,7 +20,8 @@ import pytest
 
 from magsoft_env.parallel import comparable, run_batch
 
-pytestmark = pytest.mark.slow
+# one pytest-xdist worker (--dist loadgroup) starts the Ray clusters of this module and tests/test_parallel.py
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("ray")]
 
 CASES = [
     *({"kind": "equilibrium", "robot": "paper-5c", "field_mT": [0.0, b]} for b in (1.0, 3.0, 5.0, 7.0)),

@@ -18,6 +18,18 @@ from magsoft_env.sim.warp_extra import INSTALL_HINT, warp_available
 
 needs_warp = pytest.mark.skipif(not warp_available(), reason=f"the optional extra 'warp' is not installed: "
                                 f"{INSTALL_HINT}")
+
+
+# one pytest-xdist worker runs this module (``--dist loadgroup``): the kernels are compiled once, not in every worker
+pytestmark = pytest.mark.xdist_group("warp")
+
+
+def builds_kernels(test):
+    """A test that runs MuJoCo Warp: slow, since on a fresh machine (an empty Warp kernel cache) its first such test
+    compiles the solver's kernels, about half a minute of CPU on Warp's CPU device; the refusals above build none."""
+    return pytest.mark.slow(needs_warp(test))
+
+
 BEAM = Beam(length=25e-3, width=5e-3, thickness=1.13e-3)
 
 
@@ -83,7 +95,7 @@ def _step_c(sim, datas, fields, k):
 FIELDS = np.array([[1e-3, 1e-3], [-1.5e-3, 0.5e-3], [0.0, 2e-3], [0.0, 0.0]])
 
 
-@needs_warp
+@builds_kernels
 @pytest.mark.parametrize("scene", ["cantilever", "floor"])
 def test_rod_batch_matches_c_to_1e6_rad_over_200_steps(scene):
     """The cantilever and the soft floor (2 ms contact), started from a state settled in C: every world within
@@ -111,7 +123,7 @@ def test_rod_batch_matches_c_to_1e6_rad_over_200_steps(scene):
     assert worst <= 1e-6, worst
 
 
-@needs_warp
+@builds_kernels
 def test_graph_replay_equals_plain_launches():
     from magsoft_env.sim import Simulator
     from magsoft_env.sim.model import RodOptions
@@ -134,7 +146,7 @@ def test_graph_replay_equals_plain_launches():
 WAVES = np.array([[1e-3, 1e-3, 4.0, 0.5], [-1.5e-3, 0.5e-3, 3.0, -1.0], [0.0, 2e-3, 3.7, 0.0]])
 
 
-@needs_warp
+@builds_kernels
 def test_waveform_periods_match_c_to_1e6_rad_on_the_soft_floor():
     """Three worlds play their own waveform periods (1250, 1667 and 1351 substeps, phase from the step counter) on
     the soft floor (2 ms contact) for two periods: every world within 1e-6 rad of C's ``set_waveform`` run, and the
@@ -209,7 +221,7 @@ def warp_envs():
     envs.close()
 
 
-@needs_warp
+@builds_kernels
 def test_env_contract_and_agreement_with_the_cpu_batch(warp_envs):
     envs = warp_envs
     cpu = gym.make_vec("MagSoftCrawl-v1", num_envs=3)
@@ -246,7 +258,7 @@ def test_env_contract_and_agreement_with_the_cpu_batch(warp_envs):
     cpu.close()
 
 
-@needs_warp
+@builds_kernels
 def test_waveform_env_matches_the_cpu_batch_and_autoresets_as_it():
     """``MagSoftCrawlWaveform-v1`` on Warp against the CPU batch from the same start: gentle periods (0.3 mT or less,
     the beam stays on the floor) of 3-4 Hz with their own lengths per world; observations, rewards, terminations,
@@ -307,8 +319,7 @@ def _c_twins(envs, n, **kw):
     return cpu
 
 
-@needs_warp
-@pytest.mark.slow
+@builds_kernels
 def test_crawl_violations_terminate_as_in_c_with_the_same_texts():
     """10 mT along z lifts the ends past the 7.6 mm ceiling within a step (height mode): every world terminates at
     the step C does, with the same text (the same substep; the height within float32's 0.02 mm)."""
@@ -329,8 +340,7 @@ def test_crawl_violations_terminate_as_in_c_with_the_same_texts():
     cpu.close()
 
 
-@needs_warp
-@pytest.mark.slow
+@builds_kernels
 def test_an_unphysical_world_reads_as_the_c_simulator():
     """100 mT pressed straight down at 1 ms (docs/envs.md): world 0 penetrates the floor in its fourth substep. Its
     truncation, ``info["unphysical"]``, ``instability`` and figures are the single C env's, from the same functions
@@ -356,7 +366,7 @@ def test_an_unphysical_world_reads_as_the_c_simulator():
     cpu.close()
 
 
-@needs_warp
+@builds_kernels
 def test_the_device_crawl_limits_are_the_task_functions(warp_envs):
     """The substep kernel (sim/warp_batch.py) against :func:`crawl_task.crawl_limits` on the same states: a call of
     no substeps records the present state alone."""
@@ -377,7 +387,7 @@ def test_the_device_crawl_limits_are_the_task_functions(warp_envs):
     envs.reset(seed=8)
 
 
-@needs_warp
+@builds_kernels
 def test_friction_and_field_scale_per_world():
     """``friction`` and ``field_scale`` one per world: a world equals the world of a batch built with its values
     (round-off apart: the worlds' contacts are gathered together); the friction changes the crawl."""
@@ -412,7 +422,7 @@ def test_friction_and_field_scale_per_world():
         e.close()
 
 
-@needs_warp
+@builds_kernels
 def test_a_non_finite_world_truncates_and_resets_alone(warp_envs):
     """World 1 goes non-finite: it truncates and restarts at its next step; worlds 0 and 2 step on exactly as in a
     twin batch where nothing happened (bit for bit)."""
@@ -445,7 +455,7 @@ def test_a_non_finite_world_truncates_and_resets_alone(warp_envs):
     twin.close()
 
 
-@needs_warp
+@builds_kernels
 def test_worlds_made_to_blow_up_truncate_and_reset_alone(warp_envs):
     """World 1 is thrown upward at 300 m/s (kinetic energy above 100 x the energy scale: runaway), world 2 at 2 m/s
     (below it, but 8 % of the energy scale that the field never supplied: a launch, from the device's energy
@@ -483,7 +493,7 @@ def test_worlds_made_to_blow_up_truncate_and_reset_alone(warp_envs):
     twin.close()
 
 
-@needs_warp
+@builds_kernels
 def test_an_mjwarp_buffer_overflow_is_reported_for_its_world_alone(warp_envs):
     """MJWarp's overflow bits are per world (``Data.overflow``): a world that set one (here: the contact buffer's)
     truncates naming nconmax / njmax and restarts with its bits cleared; the solver's iteration caps are not
@@ -507,7 +517,7 @@ def test_an_mjwarp_buffer_overflow_is_reported_for_its_world_alone(warp_envs):
     assert not trunc.any()
 
 
-@needs_warp
+@builds_kernels
 def test_attributes_are_the_shared_prototype_s(warp_envs):
     assert warp_envs.unwrapped.get_attr("field_limit") == (2e-3,) * 3
     assert warp_envs.unwrapped.call("open_loop_action", 0.0)[0].shape == (2,)
@@ -515,7 +525,7 @@ def test_attributes_are_the_shared_prototype_s(warp_envs):
         warp_envs.unwrapped.set_attr("crawl_penalty", [1.0, 2.0, 3.0])
 
 
-@needs_warp
+@builds_kernels
 def test_reset_mask_resets_only_the_masked_worlds(warp_envs):
     envs = warp_envs
     envs.reset(seed=2)
@@ -532,8 +542,7 @@ def test_reset_mask_resets_only_the_masked_worlds(warp_envs):
     np.testing.assert_array_equal(again[1], first[1])  # the same seed, the same start
 
 
-@needs_warp
-@pytest.mark.slow
+@builds_kernels
 def test_crawl_displacement_statistics_match_c():
     """The paper-5c gait at its default (stiff) contact, where lift-off and touchdown amplify round-off: the
     distribution of the displacement over seeds agrees with C's within the scatter."""
@@ -561,8 +570,7 @@ def test_crawl_displacement_statistics_match_c():
     cpu.close()
 
 
-@needs_warp
-@pytest.mark.slow
+@builds_kernels
 def test_ppo_trains_on_the_warp_batch_through_the_sb3_adapter():
     pytest.importorskip("stable_baselines3")
     from stable_baselines3 import PPO
@@ -580,8 +588,7 @@ def test_ppo_trains_on_the_warp_batch_through_the_sb3_adapter():
     venv.close()
 
 
-@needs_warp
-@pytest.mark.slow
+@builds_kernels
 def test_warp_bench_prints_the_table(capsys):
     from magsoft_env.bench import warp_bench
 
@@ -612,8 +619,7 @@ def test_train_refuses_vec_warp_for_what_the_backend_does_not_run(tmp_path, caps
     assert not (tmp_path / "r").exists()
 
 
-@needs_warp
-@pytest.mark.slow
+@builds_kernels
 def test_train_py_runs_rl_zoo_on_the_warp_batch(tmp_path, capsys):
     """``train/train.py --vec warp``: rl-zoo3's PPO (VecNormalize from the block) learns on 4 Warp worlds, evaluates in
     a single C env, and writes the run folder with the Warp worlds' monitor file."""
