@@ -40,6 +40,8 @@ from ..rods import DEFAULT_ROD
 from ..sim.health import FIELD_FLOOR
 from ..sim.warp_batch import WarpRodBatch
 from . import instability_info
+from .batching import count as _count
+from .batching import refuse_warp_rod, reset_arguments
 from .crawl import MagSoftCrawlEnv
 from .crawl_task import (
     AIRBORNE_TOLERANCE,
@@ -57,7 +59,6 @@ from .crawl_task import (
     wave_rows,
     zero_terms,
 )
-from .vector import _count, refuse_warp_rod, reset_arguments
 
 #: Simulated time (s) the straight beam settles on the floor at zero field, in C, before the batch starts from it.
 DEFAULT_SETTLE_TIME = 0.05
