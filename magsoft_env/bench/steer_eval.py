@@ -10,7 +10,9 @@ evaluated one, played in its own env id with its own env arguments, and again at
 differs). Episode ``k`` of every controller
 uses seed ``seed + k``: the same goals for all. Prints one row per controller and env: successes, mean and
 median time to goal over the successes (s), mean final distance (mm), mean return, episodes that ended unstable
-or unphysical, and the deepest floor contact (mm).
+or unphysical, the deepest floor contact (mm), how the strip moved (the mean airborne fraction of the episodes'
+substeps, the highest clearance (mm), and how many episodes crawled, hopped, rolled, tumbled or tumbled with
+flights: ``info["locomotion"]``).
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ def run_controller(env_id: str, act, *, episodes: int, seed: int, env_kwargs: di
     import gymnasium as gym
 
     env = gym.make(env_id, **(env_kwargs or {}))
-    times, finals, returns, broken, depth = [], [], [], 0, 0.0
+    times, finals, returns, broken, depth, airborne, clearance, modes = [], [], [], 0, 0.0, [], 0.0, {}
     t0 = time.perf_counter()
     for k in range(int(episodes)):
         obs, info = env.reset(seed=seed + k)
@@ -48,13 +50,17 @@ def run_controller(env_id: str, act, *, episodes: int, seed: int, env_kwargs: di
         finals.append(float(info["distance"]))
         returns.append(total)
         depth = max(depth, float(info["max_penetration"]))
+        airborne.append(float(info["airborne_fraction"]))
+        clearance = max(clearance, float(info["highest_clearance"]))
+        modes[info["locomotion"]] = modes.get(info["locomotion"], 0) + 1
     env.close()
     return {"controller": name, "env_id": env_id, "sim_dt_ms": (env_kwargs or {}).get("sim_dt", 2e-4) * 1e3,
             "episodes": int(episodes), "successes": len(times),
             "time_to_goal_mean_s": float(np.mean(times)) if times else math.nan,
             "time_to_goal_median_s": float(np.median(times)) if times else math.nan,
             "final_distance_mean_mm": float(np.mean(finals)) * 1e3, "return_mean": float(np.mean(returns)),
-            "unstable": broken, "max_penetration_mm": depth * 1e3, "wall_s": time.perf_counter() - t0}
+            "unstable": broken, "max_penetration_mm": depth * 1e3, "airborne_fraction_mean": float(np.mean(airborne)),
+            "highest_clearance_mm": clearance * 1e3, "locomotion": modes, "wall_s": time.perf_counter() - t0}
 
 
 def _baseline(obs, env):
@@ -111,12 +117,15 @@ def main(argv=None) -> int:
         print(json.dumps(rows, indent=1))
         return 0
     print(f"{'controller':28s} {'env':24s} {'dt ms':>5s} {'reached':>8s} {'t mean':>7s} {'t median':>8s} "
-          f"{'final mm':>8s} {'return':>7s} {'unstable':>8s} {'depth mm':>8s} {'wall s':>7s}")
+          f"{'final mm':>8s} {'return':>7s} {'unstable':>8s} {'depth mm':>8s} {'airborne':>8s} {'clear mm':>8s} "
+          f"{'wall s':>7s}  locomotion")
     for r in rows:
         print(f"{r['controller'][:28]:28s} {r['env_id']:24s} {r['sim_dt_ms']:5.2f} "
               f"{r['successes']:>3d}/{r['episodes']:<4d} {r['time_to_goal_mean_s']:7.2f} "
               f"{r['time_to_goal_median_s']:8.2f} {r['final_distance_mean_mm']:8.1f} {r['return_mean']:7.1f} "
-              f"{r['unstable']:8d} {r['max_penetration_mm']:8.3f} {r['wall_s']:7.1f}")
+              f"{r['unstable']:8d} {r['max_penetration_mm']:8.3f} {r['airborne_fraction_mean']:8.3f} "
+              f"{r['highest_clearance_mm']:8.2f} {r['wall_s']:7.1f}  "
+              + ", ".join(f"{k} {v}" for k, v in sorted(r["locomotion"].items())))
     return 0
 
 

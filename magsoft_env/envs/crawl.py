@@ -352,6 +352,7 @@ class MagSoftCrawlEnv(gym.Env):
         self.sim = Simulator(self.gait.beam, options, check_every=every)
         self.segments = options.segments
         self._nodes = self.sim.centreline_history()
+        self._floor = self.sim.floor_contact_history()
         pose = self.sim.pose()
         self._half_thickness = 0.5 * self.gait.beam.thickness
         self._inv_piece_length = 1.0 / pose.lengths
@@ -416,11 +417,12 @@ class MagSoftCrawlEnv(gym.Env):
         return observation(self.sim.angles()[None], self.sim.angular_velocities()[None], rec.com_velocity, tail,
                            self._high)[0]
 
-    def _limits(self, points: np.ndarray) -> np.ndarray:
+    def _limits(self, points: np.ndarray, contact) -> np.ndarray:
         """The crawl limits (:func:`~magsoft_env.envs.crawl_task.crawl_limits`) of centreline states ``points``
-        ``(N + 2, k, 3)``, the pieces' angles from the body's heading now: shape ``(1, 3, k)``."""
+        ``(N + 2, k, 3)`` with their floor contacts ``(k,)``, the pieces' angles from the body's heading now:
+        shape ``(1, 3, k)``."""
         return crawl_limits(points[None], [self._tracker.heading], half_thickness=self._half_thickness,
-                            inv_piece_length=self._inv_piece_length)
+                            inv_piece_length=self._inv_piece_length, floor_contact=contact)
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         """Start an episode (``seed``: reseed the env's random stream). ``options``: ``{"qpos": (nq,), "qvel":
@@ -438,8 +440,8 @@ class MagSoftCrawlEnv(gym.Env):
         sim.reset(qpos=qpos, qvel=qvel)
         self._tracker = sim.orientation_tracker()
         pose = sim.pose()
-        self._records.restart([True], com=pose.com[[0, 2]][None],
-                              start_limits=self._limits(pose.centreline[:, None, :])[:, :, 0])
+        start = self._limits(pose.centreline[:, None, :], [self.sim.floor_depth()])
+        self._records.restart([True], com=pose.com[[0, 2]][None], start_limits=start[:, :, 0])
         self._broken = False
         self._last_obs = self._get_obs()
         return self._last_obs, self._info(pose)
@@ -477,7 +479,7 @@ class MagSoftCrawlEnv(gym.Env):
                                f"{self._nodes.nsample} from the centreline sensors' history (Simulator.stepping "
                                "blocks are at most sim.model.CONTACT_HISTORY steps).")
         if k > 0:
-            self._samples.append(self._limits(self._nodes.last(k)))
+            self._samples.append(self._limits(self._nodes.last(k), self._floor.last(k)))
         return self.sim.nstep
 
     def step(self, action):
@@ -515,12 +517,13 @@ class MagSoftCrawlEnv(gym.Env):
         task, sim, rec = self.task, self.sim, self._records
         pose = sim.pose()
         # every substep's start state (the sensors' history), then the step's end state (now)
-        lim = np.concatenate([*self._samples, self._limits(pose.centreline[:, None, :])], axis=2)
+        end = self._limits(pose.centreline[:, None, :], [self.sim.floor_depth()])
+        lim = np.concatenate([*self._samples, end], axis=2)
         self._samples = []
         clear, cos, airborne = limit_summary(lim)
         k = lim.shape[2] - 1
         rec.book([True], com=pose.com[[0, 2]][None], duration=[n * self.sim_dt], highest_clearance=clear,
-                 lowest_cos=cos, airborne=airborne, substeps=[k])
+                 lowest_cos=cos, airborne=airborne, substeps=[k], roll=[pose.roll])
         column, figures = first_violation(lim, task)
         violated = column >= 0
         reward, terms = crawl_reward(rec.com_velocity[:, 0], [power], violated, rec.episode_forward, task,

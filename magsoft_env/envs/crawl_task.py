@@ -54,6 +54,10 @@ AIRBORNE_TOLERANCE = 1e-5
 OBS_MAX_ANGULAR_VELOCITY = 1e3
 OBS_MAX_VELOCITY = 10.0
 CRAWL_MODES = ("rotation", "height", "none")
+#: How a free robot moved over an episode (``info["locomotion"]``, :func:`locomotion_modes`).
+LOCOMOTION_MODES = ("crawl", "hop", "roll", "tumble", "tumble with flight")
+#: Roll (rad) of a piece about its own axis beyond which the body rolled (its width axis past vertical).
+ROLL_ANGLE = 0.5 * math.pi
 #: ``info`` entries of a step whose observation is not finite (it truncates, as an unstable simulation).
 NONFINITE_OBSERVATION = {"truncation_reason": "non-finite observation", "instability": "observation"}
 
@@ -89,7 +93,7 @@ class CrawlTask:
 
 
 # ---------------------------------------------------------------------- crawl limits
-def crawl_limits(points, heading, *, half_thickness: float, inv_piece_length) -> np.ndarray:
+def crawl_limits(points, heading, *, half_thickness: float, inv_piece_length, floor_contact=None) -> np.ndarray:
     """The crawl limits' figures of centreline points: rows clearance of the lowest point above the floor minus
     ``half_thickness`` (m), highest point (m) and cos of the largest piece angle from the body's ``heading`` on the
     floor toward +z.
@@ -105,6 +109,11 @@ def crawl_limits(points, heading, *, half_thickness: float, inv_piece_length) ->
     inv_piece_length : (N + 1,) array_like
         1 / the pieces' lengths (1/m): the pieces are rigid (or held at length), so the cosine of a piece's angle
         is its extent along the heading over its length.
+    floor_contact : (n, k) array_like or None
+        The deepest floor contact of each state (m, < 0 touching, 0 none: the rod's contact history). A state that
+        touches the floor reads a clearance of at most 0: the centreline's lowest point minus ``half_thickness``
+        is the clearance of a round section (the chain's capsules; never above 0 while they touch), but over-reads
+        a strip turned about its axis (up to (w - h) / 2 standing on edge), which is on the floor all the same.
 
     Returns
     -------
@@ -120,6 +129,9 @@ def crawl_limits(points, heading, *, half_thickness: float, inv_piece_length) ->
     z = p[..., 2]
     out = np.empty((n, 3, k))
     np.subtract(z.min(axis=1), half_thickness, out=out[:, 0])
+    if floor_contact is not None:
+        touching = np.asarray(floor_contact, dtype=float).reshape(n, k) < 0.0
+        out[:, 0] = np.where(touching & (out[:, 0] > 0.0), 0.0, out[:, 0])
     z.max(axis=1, out=out[:, 1])
     h = np.asarray(heading, dtype=float).reshape(n, 1, 1)
     d = p[:, 1:] - p[:, :-1]
@@ -166,14 +178,27 @@ def violation_texts(figures: np.ndarray, when: np.ndarray, task: CrawlTask, mask
         clear, top, cos = figures[i]
         at = f"at t = {when[i]:.4f} s"
         if task.max_clearance is not None and clear > task.max_clearance:
-            out[i] = (f"airborne {at}: the lowest point is {clear * 1e3:.3f} mm above the floor > "
-                      f"{task.max_clearance * 1e3:.3f} mm (the whole beam off the floor: a hop, not a crawl)")
+            got, lim = _apart(clear * 1e3, task.max_clearance * 1e3, 3)
+            out[i] = (f"airborne {at}: the lowest point is {got} mm above the floor > {lim} mm (the whole beam off the "
+                      "floor: a hop, not a crawl)")
         elif task.crawl_mode == "rotation":
             rot = math.acos(max(-1.0, min(1.0, cos)))
-            out[i] = f"link rotation {math.degrees(rot):.1f} deg > {math.degrees(task.max_link_rotation):.1f} deg {at}"
+            got, lim = _apart(math.degrees(rot), math.degrees(task.max_link_rotation), 1)
+            out[i] = f"link rotation {got} deg > {lim} deg {at}"
         else:
-            out[i] = f"height {top * 1e3:.2f} mm > {task.max_height * 1e3:.2f} mm {at}"
+            got, lim = _apart(top * 1e3, task.max_height * 1e3, 2)
+            out[i] = f"height {got} mm > {lim} mm {at}"
     return out
+
+
+def _apart(value: float, limit: float, decimals: int) -> tuple[str, str]:
+    """``value`` and ``limit`` written with ``decimals`` decimals, or with as many more (up to 12) as make them read
+    apart (a value just past its limit does not read "0.010 mm > 0.010 mm")."""
+    for d in range(decimals, 13):
+        a, b = f"{value:.{d}f}", f"{limit:.{d}f}"
+        if a != b:
+            return a, b
+    return a, b
 
 
 # ---------------------------------------------------------------------- reward
@@ -252,6 +277,11 @@ class CrawlRecords:
     lowest_cos: np.ndarray
     airborne: np.ndarray
     substeps: np.ndarray
+    max_roll: np.ndarray | None = None
+
+    def __post_init__(self):
+        if self.max_roll is None:
+            self.max_roll = np.zeros(len(self.airborne))
 
     @classmethod
     def zeros(cls, n: int) -> CrawlRecords:
@@ -259,7 +289,7 @@ class CrawlRecords:
         return cls(com=np.zeros((n, 2)), com_velocity=np.zeros((n, 2)), field=np.zeros((n, 2)),
                    last_action=np.zeros((n, 4)), episode_forward=np.zeros(n), flipped=np.zeros(n, dtype=bool),
                    highest_clearance=np.zeros(n), lowest_cos=np.ones(n), airborne=np.zeros(n, dtype=np.int64),
-                   substeps=np.zeros(n, dtype=np.int64))
+                   substeps=np.zeros(n, dtype=np.int64), max_roll=np.zeros(n))
 
     def restart(self, mask, *, com, start_limits) -> None:
         """The reset's bookkeeping of the robots of ``mask``: an episode starts at rest under zero field from the
@@ -276,10 +306,15 @@ class CrawlRecords:
         self.lowest_cos[m] = start_limits[m, 2]
         self.airborne[m] = 0
         self.substeps[m] = 0
+        self.max_roll[m] = 0.0
 
-    def book(self, mask, *, com, duration, highest_clearance, lowest_cos, airborne, substeps) -> None:
+    def book(self, mask, *, com, duration, highest_clearance, lowest_cos, airborne, substeps, roll=None) -> None:
         """A step's bookkeeping of the robots of ``mask``: the centre of mass now ``(n, 2)`` after ``duration``
-        ``(n,)`` (s), and the step's :func:`limit_summary` over ``substeps`` ``(n,)``."""
+        ``(n,)`` (s), the step's :func:`limit_summary` over ``substeps`` ``(n,)``, and the body's roll at its end
+        ``(n,)`` (rad, the largest of its pieces; None: a rod in the x-z plane, 0)."""
+        if roll is not None:
+            m = np.asarray(mask, dtype=bool)
+            self.max_roll[m] = np.maximum(self.max_roll, np.asarray(roll, dtype=float))[m]
         m = np.asarray(mask, dtype=bool)
         vel = (np.asarray(com) - self.com) / np.asarray(duration, dtype=float)[:, None]
         self.com_velocity[m] = vel[m]
@@ -296,7 +331,8 @@ def crawl_info(records: CrawlRecords, *, orientation, reward, terms: Mapping, ti
     records take this orientation in: past :data:`~magsoft_env.sim.readouts.FLIP_ANGLE` once in the episode),
     the ``reward`` and its ``terms`` (:func:`crawl_reward`), the centre of mass's position and x velocity, the
     field, ``time`` (s), ``is_success``, ``max_penetration`` (m), and the crawl limits' records:
-    ``highest_clearance`` (m), ``airborne_fraction`` and ``largest_piece_angle`` (rad)."""
+    ``highest_clearance`` (m), ``airborne_fraction`` and ``largest_piece_angle`` (rad), ``max_roll`` (rad) and the
+    episode's ``locomotion`` so far (:func:`locomotion_modes`)."""
     r = records
     turn = np.asarray(orientation, dtype=float)
     r.flipped |= np.abs(turn) > FLIP_ANGLE
@@ -310,7 +346,25 @@ def crawl_info(records: CrawlRecords, *, orientation, reward, terms: Mapping, ti
         "is_success": np.asarray(is_success, dtype=bool),
         "max_penetration": np.asarray(max_penetration, dtype=float), "highest_clearance": r.highest_clearance.copy(),
         "airborne_fraction": frac, "largest_piece_angle": np.arccos(np.clip(r.lowest_cos, -1.0, 1.0)),
+        "max_roll": r.max_roll.copy(), "locomotion": locomotion_modes(r.flipped, r.airborne, r.max_roll),
     }
+
+
+def locomotion_modes(flipped, airborne, max_roll) -> np.ndarray:
+    """How each of ``n`` robots moved over its episode so far (:data:`LOCOMOTION_MODES`): ``"tumble"`` once the body
+    has been past vertical end over end (``flipped``), ``"tumble with flight"`` when it was also airborne at a
+    substep (``airborne`` > 0 substeps with the whole beam above the floor), ``"hop"`` airborne without a flip,
+    ``"roll"`` a piece's width axis past vertical (``max_roll`` above :data:`ROLL_ANGLE`) on the floor, else
+    ``"crawl"``: part of the beam on the floor at every substep, right way up. ``(n,)`` object array of str."""
+    flipped = np.asarray(flipped, dtype=bool)
+    flight = np.asarray(airborne) > 0
+    rolled = np.asarray(max_roll, dtype=float) > ROLL_ANGLE
+    out = np.full(flipped.shape, "crawl", dtype=object)
+    out[rolled] = "roll"
+    out[flight] = "hop"
+    out[flipped] = "tumble"
+    out[flipped & flight] = "tumble with flight"
+    return out
 
 
 def zero_terms(n: int) -> dict[str, np.ndarray]:
@@ -324,7 +378,10 @@ def single_info(values: Mapping) -> dict:
     out = {}
     for key, v in values.items():
         v = np.asarray(v)
-        out[key] = v[0].item() if v.ndim == 1 else v[0].copy()
+        if v.dtype == object:  # text (locomotion): as it is
+            out[key] = v[0]
+        else:
+            out[key] = v[0].item() if v.ndim == 1 else v[0].copy()
     return out
 
 
@@ -360,7 +417,8 @@ def stack_infos(infos: Mapping[int, Mapping], n: int) -> dict:
     return out
 
 
-__all__ = ["AIRBORNE_TOLERANCE", "CRAWL_MODES", "NONFINITE_OBSERVATION", "OBS_MAX_ANGULAR_VELOCITY", "OBS_MAX_VELOCITY",
+__all__ = ["AIRBORNE_TOLERANCE", "CRAWL_MODES", "LOCOMOTION_MODES", "ROLL_ANGLE", "locomotion_modes",
+           "NONFINITE_OBSERVATION", "OBS_MAX_ANGULAR_VELOCITY", "OBS_MAX_VELOCITY",
            "CrawlRecords", "CrawlTask", "broken_limits", "clock_tail", "crawl_info", "crawl_limits", "crawl_reward",
            "first_violation", "limit_summary", "observation", "observation_high", "period_substeps", "single_info",
            "stack_infos", "vector_info", "violation_texts", "wave_rows", "zero_terms"]

@@ -18,6 +18,17 @@ from ..sim.readouts import PitchTracker, is_flipped, pitch_orientation
 from ..sim.waveforms import Conical
 from ..validate import choice, finite_array, finite_number, nonnegative, positive
 from . import as_action, instability_info, refuse_unknown_kwargs, run_to_end
+from .crawl import DEFAULT_MAX_CLEARANCE, DEFAULT_MAX_HEIGHT, DEFAULT_MAX_LINK_ROTATION
+from .crawl_task import (
+    CRAWL_MODES,
+    CrawlRecords,
+    CrawlTask,
+    crawl_limits,
+    first_violation,
+    limit_summary,
+    locomotion_modes,
+    violation_texts,
+)
 
 #: Default coil limit per axis (T). A field of 3 mT turning in a vertical plane at 1 Hz tumbles the paper-5c strip
 #: end over end at about 40 mm/s along the plane's horizontal direction (the strip turns into that plane within the
@@ -100,12 +111,14 @@ class MagSoftSteerEnv(gym.Env):
 
     ## Rewards
 
-    ``reward = progress + field_cost + success``, each term in ``info`` (``reward_progress``,
-    ``reward_field``, ``reward_success``):
+    ``reward = progress + field_cost + crawl + success``, each term in ``info`` (``reward_progress``,
+    ``reward_field``, ``reward_crawl``, ``reward_success``):
 
     - ``progress = progress_reward_weight * (d_before - d_after)``: the step's approach to the goal (default
       weight 1000 / m: the term reads in mm, and an episode's sum is the distance covered toward the goal).
     - ``field_cost = -field_cost_weight * |B|^2 / field_limit^2`` (waveform mode: ``A^2 / field_limit^2``).
+    - ``crawl = -crawl_penalty`` on the step that breaks a crawl limit (``crawl_mode`` other than ``"none"``); that
+      step's progress is 0.
     - ``success = success_reward`` on the step that reaches the goal.
 
     ## Starting State
@@ -117,8 +130,12 @@ class MagSoftSteerEnv(gym.Env):
 
     ## Episode End
 
-    - Termination: the goal reached (``info["is_success"]``, ``info["time_to_goal"]``), or the centre of mass
-      farther than ``max_distance`` from it (``info["lost"]``).
+    - Termination: the goal reached (``info["is_success"]``, ``info["time_to_goal"]``), the centre of mass
+      farther than ``max_distance`` from it (``info["lost"]``), or, with ``crawl_mode`` other than ``"none"`` (the
+      default: a tumble with flights is this task's fastest locomotion), a crawl limit of the crawl env broken at
+      any substep (``info["crawl_violation"]``: the whole strip more than ``max_clearance`` above the floor, or a
+      piece turned more than ``max_link_rotation`` from the floor toward +z, or (``"height"``) higher than
+      ``max_height``).
     - Truncation: the time limit (``max_episode_steps`` of the registered id: 250 steps = 5 s), or an unstable
       or unphysical simulation (``info["truncation_reason"]``, and ``info["unphysical"]`` with its figures, as
       in the crawl envs; docs/sim.md, "Physical checks").
@@ -128,7 +145,11 @@ class MagSoftSteerEnv(gym.Env):
     ``flipped`` (it has been past vertical this episode: it tumbled), ``turned`` (rad, how far it turned on
     the floor this episode), the goal, the centre of mass (``x_position``, ``y_position``, ``z_position``), the
     ``heading`` (rad, of the second end from the first, on the floor), ``distance`` (= ``position_error``), the
-    ``field`` (T, three components), ``time`` and ``max_penetration`` (m).
+    ``field`` (T, three components), ``time`` and ``max_penetration`` (m), and how the strip moves, read at every
+    substep as the crawl envs read it (``envs.crawl_task``): ``highest_clearance`` (m, the lowest vertex's height
+    minus h/2, highest over the episode), ``airborne_fraction`` (substeps with the whole strip more than 0.01 mm
+    above the floor), ``largest_piece_angle`` (rad, from the floor toward +z), ``max_roll`` (rad) and
+    ``locomotion`` (``"crawl"``, ``"hop"``, ``"roll"``, ``"tumble"``, ``"tumble with flight"``).
 
     ## Arguments
 
@@ -151,12 +172,20 @@ class MagSoftSteerEnv(gym.Env):
     | ``clock_frequency`` | 1 | clock observed as sin/cos in field mode (Hz); the hand controller's frequency |
     | ``frequency_range`` | (0.25, 2) | waveform-mode frequencies (Hz) |
     | ``reset_noise_scale`` | 1e-5 | initial vertex noise (m) |
+    | ``crawl_mode`` | ``"none"`` | ``"none"``, or the crawl env's limits: ``"rotation"`` or ``"height"`` |
+    | ``max_clearance`` | 1e-5 | crawl modes: the episode ends when the whole strip is higher above the floor (m) |
+    | ``max_link_rotation`` | 2 pi / 3 | crawl mode ``"rotation"`` (rad) |
+    | ``max_height`` | 7.6e-3 | crawl mode ``"height"`` (m) |
+    | ``crawl_penalty`` | 10 | reward lost when a crawl limit is broken |
     | ``render_mode`` | None | ``"rgb_array"`` |
     | ``width``, ``height`` | 960, 540 | frame size (pixels) |
 
     ## Version History
 
     - v0: initial version (``MagSoftSteer-v0``, ``MagSoftSteerWaveform-v0``).
+    - v0, magsoft_env 0.4: ``info`` reports how the strip moves (``highest_clearance``, ``airborne_fraction``,
+      ``largest_piece_angle``, ``max_roll``, ``locomotion``, ``reward_crawl``); ``crawl_mode`` and the crawl limits
+      as an option (default ``"none"``: the same episodes as before).
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 50}
@@ -179,6 +208,11 @@ class MagSoftSteerEnv(gym.Env):
         clock_frequency: float = 1.0,
         frequency_range: tuple[float, float] = DEFAULT_FREQUENCY_RANGE,
         reset_noise_scale: float = 1e-5,
+        crawl_mode: str = "none",
+        max_clearance: float | None = DEFAULT_MAX_CLEARANCE,
+        max_link_rotation: float = DEFAULT_MAX_LINK_ROTATION,
+        max_height: float = DEFAULT_MAX_HEIGHT,
+        crawl_penalty: float = 10.0,
         render_mode: str | None = None,
         width: int = 960,
         height: int = 540,
@@ -216,6 +250,13 @@ class MagSoftSteerEnv(gym.Env):
         self.clock_frequency = positive("clock_frequency", clock_frequency, unit="Hz")
         self.frequency_range = _range("frequency_range", frequency_range, unit="Hz")
         self.reset_noise_scale = nonnegative("reset_noise_scale", reset_noise_scale, unit="m")
+        self.crawl_mode = choice("crawl_mode", crawl_mode, CRAWL_MODES)
+        self.max_clearance = None if max_clearance is None else positive("max_clearance", max_clearance, unit="m")
+        self.max_link_rotation = positive("max_link_rotation", max_link_rotation, unit="rad")
+        if self.max_link_rotation > math.pi:
+            raise ValueError(f"max_link_rotation must lie in (0, pi] rad, got {max_link_rotation!r}.")
+        self.max_height = positive("max_height", max_height, unit="m")
+        self.crawl_penalty = nonnegative("crawl_penalty", crawl_penalty)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
                 f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}.")
@@ -230,6 +271,13 @@ class MagSoftSteerEnv(gym.Env):
         self.sim = Simulator(self.gait.beam, options, field=(0.0, 0.0, 0.0), check_every=max(50, self.n_substeps))
         self.segments = options.segments
         self._npoints = len(self.sim.centerline()[0])
+        # the strip's centreline at every substep (MuJoCo's sensor histories) and its pieces' lengths: the crawl
+        # limits' figures, as the crawl envs read them
+        self._nodes = self.sim.centreline_history()
+        self._floor = self.sim.floor_contact_history()
+        self._inv_piece_length = 1.0 / self.sim.pose().lengths
+        self._records = CrawlRecords.zeros(1)
+        self._samples: list = []
         self.metadata = {**self.metadata, "render_fps": int(round(1.0 / (self.n_substeps * self.sim_dt)))}
         self.action_space = spaces.Box(-1.0, 1.0, (3 if self.action_mode == "field" else 4,), np.float32)
         p = self._npoints
@@ -314,6 +362,8 @@ class MagSoftSteerEnv(gym.Env):
         self._pitch = PitchTracker()
         pitch_orientation(sim, self._pitch)  # its reference heading: the strip's at the start
         self._heading0 = self._pitch.heading
+        start = self._limits(sim.pose().centreline[:, None, :], [sim.floor_depth()])
+        self._records.restart([True], com=self._com[None, [0, 2]], start_limits=start[:, :, 0])
         self._flipped = False
         self._broken = False
         self._success = False
@@ -382,6 +432,30 @@ class MagSoftSteerEnv(gym.Env):
     def step(self, action):
         return run_to_end(self._stepping(action))
 
+    @property
+    def task(self) -> CrawlTask:
+        """The crawl limits as the crawl task's parameters (:class:`~magsoft_env.envs.crawl_task.CrawlTask`; its
+        reward weights are not this env's)."""
+        return CrawlTask(crawl_mode=self.crawl_mode, max_clearance=self.max_clearance,
+                         max_link_rotation=self.max_link_rotation, max_height=self.max_height,
+                         forward_reward_weight=0.0, target_direction=1, field_cost_weight=self.field_cost_weight,
+                         crawl_penalty=self.crawl_penalty, field_limit=self.field_limit,
+                         clock_frequency=self.clock_frequency)
+
+    def _limits(self, points, contact) -> np.ndarray:
+        """:func:`~magsoft_env.envs.crawl_task.crawl_limits` of centreline points ``(N + 2, k, 3)`` with their floor
+        contacts ``(k,)``, from the strip's heading on the floor: ``(1, 3, k)``."""
+        return crawl_limits(points[None], [self._pitch.heading], half_thickness=0.5 * self.gait.beam.thickness,
+                            inv_piece_length=self._inv_piece_length, floor_contact=contact)
+
+    def _read_block(self, start: int) -> int:
+        """Keep the crawl limits' figures of the substeps since step count ``start`` (before the next block
+        overwrites the sensors' history); returns the present step count."""
+        k = self.sim.nstep - start
+        if k > 0:
+            self._samples.append(self._limits(self._nodes.last(k), self._floor.last(k)))
+        return self.sim.nstep
+
     def _stepping(self, action, block: int | None = None):
         """:meth:`step` as a generator that yields between the physics' native blocks (the batched envs
         interleave their robots with it) and returns ``(obs, reward, terminated, truncated, info)``."""
@@ -389,23 +463,44 @@ class MagSoftSteerEnv(gym.Env):
             raise RuntimeError("step() called after the simulation became unstable; call reset() first.")
         action = as_action(self.action_space, action)
         n, power = self._apply(action)
+        sim = self.sim
+        self._samples = []
+        done = sim.nstep
         try:
-            yield from self.sim.stepping(n, block=block)
+            for _ in sim.stepping(n, block=block):
+                done = self._read_block(done)
+                yield
+            self._read_block(done)
         except SimulationError as err:
             self._broken = True
+            self._samples = []
             info = instability_info(self._info(0.0), err)
             return self._last_obs.copy(), 0.0, False, True, info
         com = self.com_position()
         self._com_vel = (com - self._com) / (self.n_substeps * self.sim_dt)
         self._com = com
+        # every substep's start state, then the step's end: clearance, highest point, piece angles from the floor
+        pose = sim.pose()
+        end = self._limits(pose.centreline[:, None, :], [self.sim.floor_depth()])
+        lim = np.concatenate([*self._samples, end], axis=2)
+        self._samples = []
+        clear, cos, airborne = limit_summary(lim)
+        k = lim.shape[2] - 1
+        rec = self._records
+        rec.book([True], com=self._com[None, [0, 2]], duration=[n * self.sim_dt], highest_clearance=clear,
+                 lowest_cos=cos, airborne=airborne, substeps=[k], roll=[pose.roll])
+        task = self.task
+        column, figures = first_violation(lim, task)
+        violated = bool(column[0] >= 0)
         before, self._distance = self._distance, self._horizontal_distance()
-        progress = self.progress_reward_weight * (before - self._distance)
+        progress = 0.0 if violated else self.progress_reward_weight * (before - self._distance)
+        crawl = -self.crawl_penalty if violated else 0.0
         self._field = self.sim.field.vector()
         field_cost = -self.field_cost_weight * power
-        reached = self._distance <= self.goal_radius
+        reached = self._distance <= self.goal_radius and not violated
         success = self.success_reward if reached else 0.0
         self._success = reached
-        reward = progress + field_cost + success
+        reward = progress + field_cost + crawl + success
         obs = self._get_obs()
         if not np.all(np.isfinite(obs)):
             self._broken = True
@@ -413,28 +508,44 @@ class MagSoftSteerEnv(gym.Env):
             info.update(truncation_reason="non-finite observation", instability="observation")
             return self._last_obs.copy(), 0.0, False, True, info
         self._last_obs = obs
-        info = self._info(float(reward), progress=progress, field=field_cost, success=success)
+        info = self._info(float(reward), progress=progress, field=field_cost, crawl=crawl, success=success)
+        if violated:
+            when = sim.time - (k - column) * self.sim_dt  # column j: j substeps into the step
+            info["crawl_violation"] = violation_texts(figures, when, task, column >= 0)[0]
         lost = self._distance > self.max_distance
         if lost:
             info["lost"] = True
-        return obs, float(reward), bool(reached or lost), False, info
+        return obs, float(reward), bool(reached or lost or violated), False, info
 
-    def _info(self, reward: float, *, progress: float = 0.0, field: float = 0.0, success: float = 0.0) -> dict:
+    def _info(self, reward: float, *, progress: float = 0.0, field: float = 0.0, crawl: float = 0.0,
+              success: float = 0.0) -> dict:
         # end over end (continuous, +-pi per flip) and turns on the floor, apart (sim.readouts.PitchTracker)
         turn = pitch_orientation(self.sim, self._pitch)
         self._flipped = self._flipped or is_flipped(turn)
         info = {
             "orientation": turn, "flipped": self._flipped, "turned": self._pitch.heading - self._heading0,
-            "reward_progress": float(progress), "reward_field": float(field), "reward_success": float(success),
+            "reward_progress": float(progress), "reward_field": float(field), "reward_crawl": float(crawl),
+            "reward_success": float(success),
             "reward": float(reward), "goal": self._goal.copy(), "distance": self._distance,
             "x_position": float(self._com[0]), "y_position": float(self._com[1]),
             "z_position": float(self._com[2]), "heading": self.heading(), "field": self._field.copy(),
             "time": self.sim.time, "is_success": self._success, "max_penetration": self.sim.max_penetration,
             "position_error": self._distance,
+            **self._motion(),
         }
         if self._success:
             info["time_to_goal"] = self.sim.time
         return info
+
+    def _motion(self) -> dict:
+        """How the strip has moved this episode (module docstring, ``info``): from the crawl task's records."""
+        r = self._records
+        n = int(r.substeps[0])
+        return {"highest_clearance": float(r.highest_clearance[0]),
+                "airborne_fraction": float(r.airborne[0]) / n if n else 0.0,
+                "largest_piece_angle": float(np.arccos(np.clip(r.lowest_cos[0], -1.0, 1.0))),
+                "max_roll": float(r.max_roll[0]),
+                "locomotion": locomotion_modes([self._flipped], r.airborne, r.max_roll)[0]}
 
     # ------------------------------------------------------------------ rendering
     def render(self):

@@ -619,6 +619,23 @@ class Simulator:
         ``(n, k, 3)`` (m), ``nsample`` (the longest block it covers)."""
         return self.backend.centreline_history(self.data)
 
+    def floor_contact_history(self):
+        """Reader of the deepest floor contact at the start of every step of the last block (contact scenes):
+        ``last(k)`` ``(k,)`` (m, < 0 touching, 0 none)."""
+        return self.backend.contact_histories(self.data)[0]
+
+    def floor_depth(self) -> float:
+        """The deepest floor contact of the state now (m, < 0 touching, 0 none), from MuJoCo's contacts."""
+        self._sync()
+        m, d = self.model, self.data
+        floor = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")
+        n = d.ncon
+        if floor < 0 or not n:
+            return 0.0
+        c = d.contact
+        on = (c.geom[:n] == floor).any(axis=1)
+        return float(min(c.dist[:n][on].min(), 0.0)) if on.any() else 0.0
+
     def centerline(self) -> tuple[np.ndarray, ...]:
         """Centerline points (m) in the rod's own components: ``(x, z)`` for a rod in the x-z plane (the base
         end, every hinge, the tip; shape ``(N + 2,)`` each; hinge ``j`` at ``s = (j + 1/2) L / N``), ``(x, y, z)``
