@@ -169,8 +169,12 @@ class MagSoftCrawlEnv(gym.Env):
       ``highest_clearance`` (m), the highest the lowest point of the beam has been above the floor at any
       substep of the episode so far (minus the contact depth while it touches), ``airborne_fraction``, the
       fraction of the episode's substeps that started with the whole beam more than :data:`AIRBORNE_TOLERANCE`
-      (0.01 mm) above the floor, and ``largest_piece_angle`` (rad), the largest angle of any piece from the
-      floor at any substep.
+      (0.01 mm) above the floor (a state touching the floor, by the rod's contact history, counts as on it:
+      a strip on its edge), ``largest_piece_angle`` (rad), the largest angle of any piece from the floor at any
+      substep, ``max_roll`` (rad, the largest roll of a piece about its own axis at the end of a step; 0 for the
+      planar chain) and ``locomotion``: ``"crawl"`` (on the floor at every substep, right way up), ``"hop"``
+      (airborne at a substep), ``"roll"``, ``"tumble"`` or ``"tumble with flight"`` (flipped end over end;
+      :func:`~magsoft_env.envs.crawl_task.locomotion_modes`).
 
     ## Arguments
 
