@@ -7,6 +7,8 @@
 ``--optimize`` searches hyperparameters instead (rl-zoo3's ``-optimize``, Optuna; magsoft_env.rl.tune): workers
 started with the same ``--storage`` (a database URL, or a journal file ``*.log``) and ``--study-name`` share one
 study and its ``--max-total-trials`` budget; the env's kwargs score the trials too (``--eval-env-kwargs``).
+``--seed`` is each trial's training seed; the sampler's seed is ``--seed`` in a study of one worker (no
+``--storage``), else drawn for each worker (printed, kept in tune.json; ``--sampler-seed`` sets it).
 ``--fail-stale-trials`` marks FAIL the trials a killed worker left RUNNING (docs/training.md, "Tuning on a
 shared study").
 
@@ -57,7 +59,7 @@ def main(argv=None) -> int:
                    help="rl-zoo hyperparameter file (default: train/hyperparams.yml for ppo, hyperparams_sac.yml)")
     p.add_argument("--timesteps", type=int, default=None, help="override n_timesteps")
     p.add_argument("--n-envs", type=int, default=None, help="override n_envs")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="training seed (of each trial with --optimize; default 0)")
     p.add_argument("--vec", default="threads", choices=list(VEC_CHOICES),
                    help="vector env: threads (default; rl-zoo's DummyVecEnv with the envs stepped on threads, the same "
                         "results in less time), dummy or subproc (rl-zoo's), warp (the n_envs robots as one MuJoCo "
@@ -94,6 +96,9 @@ def main(argv=None) -> int:
     tune.add_argument("--n-startup-trials", type=int, default=None, help="random trials before the sampler's own")
     tune.add_argument("--n-evaluations", type=int, default=None, help="evaluations per trial (for pruning)")
     tune.add_argument("--sampler", default="tpe", choices=["random", "tpe", "skopt"], help="Optuna sampler")
+    tune.add_argument("--sampler-seed", type=int, default=None,
+                      help="seed of the Optuna sampler (default: --seed without --storage; with --storage, one "
+                           "drawn for this worker, printed and kept in tune.json)")
     tune.add_argument("--pruner", default="median", choices=["halving", "median", "none"], help="Optuna pruner")
     tune.add_argument("--fail-stale-trials", type=float, default=None, metavar="MINUTES",
                       help="mark FAIL the study's trials RUNNING for longer than MINUTES (a killed worker's), and exit")
@@ -108,7 +113,7 @@ def main(argv=None) -> int:
         print(json.dumps({"study_name": args.study_name, "failed_trials": failed}))
         return 0
     searching = [f for f in ("storage", "study_name", "n_trials", "max_total_trials", "n_startup_trials",
-                             "n_evaluations") if getattr(args, f) is not None]
+                             "n_evaluations", "sampler_seed") if getattr(args, f) is not None]
     if searching and not args.optimize:
         print(f"train.py: error: --{searching[0].replace('_', '-')} goes with --optimize.", file=sys.stderr)
         return 2
@@ -156,7 +161,8 @@ def main(argv=None) -> int:
             out = tune_run(block, args.env, run_dir, algo=args.algo, seed=args.seed, storage=args.storage,
                            study_name=args.study_name, n_trials=args.n_trials, max_total_trials=args.max_total_trials,
                            n_startup_trials=args.n_startup_trials, n_evaluations=args.n_evaluations,
-                           sampler=args.sampler, pruner=args.pruner, eval_episodes=args.eval_episodes, vec=args.vec)
+                           sampler=args.sampler, pruner=args.pruner, eval_episodes=args.eval_episodes, vec=args.vec,
+                           sampler_seed=args.sampler_seed)
         except ValueError as err:
             print(f"train.py: error: {err}", file=sys.stderr)
             return 2
