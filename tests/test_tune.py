@@ -1,6 +1,7 @@
 """Hyperparameter search on a shared Optuna study (train/train.py --optimize, rl-zoo3 -optimize): two workers,
 one study, its trial budget finished together, each drawing its own trials; a single worker reproduced by its
-seed; a dead worker's RUNNING trial marked FAIL."""
+seed; a dead worker's RUNNING trial marked FAIL by the documented command, which refuses a storage or study that
+is not there."""
 
 from __future__ import annotations
 
@@ -69,14 +70,6 @@ def test_two_workers_sample_their_own_trials_of_one_study(tmp_path):
         assert f"tune: sampler seed {w['sampler_seed']} (drawn;" in outs[i]
     assert "--eval-env-kwargs segments:6" in (tmp_path / "runs" / "w0" / "zoo_command.txt").read_text()
 
-    # a worker killed mid-trial leaves it RUNNING (counted against the budget) until marked FAIL
-    from magsoft_env.rl import fail_stale_trials
-
-    stale = study.ask()
-    assert fail_stale_trials(storage, "crawl", older_than_s=3600) == []
-    assert fail_stale_trials(storage, "crawl", older_than_s=0) == [stale.number]
-    assert study.get_trials()[-1].state == optuna.trial.TrialState.FAIL
-
 
 def _train_module():
     sys.path.insert(0, str(ROOT / "train"))
@@ -96,7 +89,65 @@ def test_search_flags_go_with_optimize(tmp_path, capsys):
     assert "--sampler-seed goes with --optimize" in capsys.readouterr().err
     assert train.main([*args, "--fail-stale-trials", "30"]) == 2
     assert "needs --storage and --study-name" in capsys.readouterr().err
+    assert train.main(["--runs", str(tmp_path), "--run-id", "r", "--optimize"]) == 2
+    assert "--env is required" in capsys.readouterr().err
     assert not (tmp_path / "r").exists()
+
+
+def _study_left_by_a_killed_worker(storage: str):
+    """A study of one complete trial and one RUNNING trial (its worker killed)."""
+    import optuna
+
+    study = optuna.create_study(study_name="crawl", storage=optuna_storage(storage), direction="maximize")
+    done = study.ask()
+    done.suggest_float("learning_rate", 1e-4, 1e-2, log=True)
+    study.tell(done, 1.0)
+    study.ask().suggest_float("learning_rate", 1e-4, 1e-2, log=True)
+    return study
+
+
+@pytest.mark.parametrize("kind", ["journal", "sqlite"])
+def test_fail_stale_trials_command_marks_a_killed_workers_trial_fail(tmp_path, kind):
+    import optuna
+
+    storage = str(tmp_path / "study.log") if kind == "journal" else f"sqlite:///{tmp_path / 'study.db'}"
+    study = _study_left_by_a_killed_worker(storage)
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+
+    def command(minutes):  # as documented: no --env
+        return subprocess.run([sys.executable, str(ROOT / "train" / "train.py"), "--fail-stale-trials", minutes,
+                               "--storage", storage, "--study-name", "crawl"], env=env, capture_output=True,
+                              text=True, timeout=120)
+
+    young = command("60")
+    assert young.returncode == 0, young.stderr
+    assert young.stdout.strip().splitlines()[-1] == "study 'crawl': 0 trials RUNNING for 60 min or more marked FAIL"
+    assert [t.state for t in study.get_trials()][-1] == optuna.trial.TrialState.RUNNING
+    stale = command("0")
+    assert stale.returncode == 0, stale.stderr
+    assert stale.stdout.strip().splitlines()[-1] == \
+        "study 'crawl': 1 trial RUNNING for 0 min or more marked FAIL (number 1)"
+    assert [t.state for t in study.get_trials()] == [optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.FAIL]
+
+
+@pytest.mark.parametrize("storage, message", [
+    ("STUDY_LOG", "has no study 'crawll'; its studies: 'crawl'. Did you mean 'crawl'?"),
+    ("missing.log", "journal file 'TMP/missing.log' does not exist"),
+    ("sqlite:///TMP/missing.db", "SQLite file 'TMP/missing.db' of 'sqlite:///TMP/missing.db' does not exist"),
+    ("nosuchdb://user:secret@host/db", "cannot open the study storage 'nosuchdb://user:***@host/db'"),
+])
+def test_fail_stale_trials_refuses_a_storage_or_study_that_is_not_there(tmp_path, capsys, storage, message):
+    train = _train_module()
+    _study_left_by_a_killed_worker(str(tmp_path / "study.log"))
+    storage = storage.replace("STUDY_LOG", str(tmp_path / "study.log")).replace("TMP", str(tmp_path))
+    if storage == "missing.log":
+        storage = str(tmp_path / storage)
+    name = "crawll" if storage.endswith("study.log") else "crawl"
+    assert train.main(["--fail-stale-trials", "0", "--storage", storage, "--study-name", name]) == 2
+    err = capsys.readouterr().err
+    assert message.replace("TMP", str(tmp_path)) in err
+    assert "secret" not in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["study.log"]  # nothing created
 
 
 def _tiny_search(monkeypatch, tmp_path, run_id, *extra):

@@ -508,26 +508,74 @@ def ensure_study(storage: str, study_name: str, *, attempts: int = 8) -> None:
             time.sleep(0.2 + random.random())
 
 
+def _shown(storage: str) -> str:
+    """``storage`` as it may be printed: a database URL's password hidden."""
+    if storage.endswith(".log"):
+        return repr(storage)
+    try:
+        from sqlalchemy.engine import make_url
+
+        return repr(make_url(storage).render_as_string(hide_password=True))
+    except Exception:  # noqa: BLE001  not a URL sqlalchemy reads: shown as given (no password to hide)
+        return repr(storage)
+
+
+def open_study(storage: str, study_name: str):
+    """The existing study ``study_name`` of ``storage`` (a database URL or a journal file ``*.log``, as
+    :func:`optuna_storage` reads it), or a ValueError saying why not: a journal or SQLite file that does not exist
+    (nothing is created), a URL that cannot be opened, a study that is not there (the storage's studies listed,
+    the closest name suggested)."""
+    import optuna
+
+    from .hyperparams import _suggest
+
+    if not isinstance(storage, str) or not storage:
+        raise ValueError(f"storage must be a database URL or a journal file *.log, got {storage!r}.")
+    if storage.endswith(".log"):
+        if not Path(storage).is_file():
+            raise ValueError(f"journal file {storage!r} does not exist: give the --storage the workers were "
+                             "given.")
+    elif storage.startswith("sqlite:///"):
+        path = storage[len("sqlite:///"):].split("?", 1)[0]
+        if path and path != ":memory:" and not Path(path).is_file():
+            raise ValueError(f"SQLite file {path!r} of {storage!r} does not exist: give the --storage the workers "
+                             "were given (sqlite:///relative/path.db, sqlite:////absolute/path.db).")
+    try:
+        names = optuna.get_all_study_names(optuna_storage(storage))
+    except Exception as exc:  # noqa: BLE001  sqlalchemy's URL and connection errors, a missing database driver
+        raise ValueError(f"cannot open the study storage {_shown(storage)}: {type(exc).__name__}: {exc} "
+                         "(a database URL such as sqlite:///study.db or postgresql://user:pass@host/db, or a "
+                         "journal file study.log).") from exc
+    if study_name not in names:
+        held = f"its studies: {', '.join(map(repr, sorted(names)))}.{_suggest(study_name, names)}" if names \
+            else "it holds none."
+        raise ValueError(f"the storage {_shown(storage)} has no study {study_name!r}; {held}")
+    return optuna.load_study(study_name=study_name, storage=optuna_storage(storage))
+
+
 def fail_stale_trials(storage: str, study_name: str, older_than_s: float = 3600.0) -> list[int]:
     """Mark FAIL the trials of a shared study still RUNNING ``older_than_s`` seconds after they started: the
     trials of workers that were killed (rl-zoo3 gives Optuna its storage as a string, so no heartbeat can find
     them). A RUNNING trial counts against ``max_total_trials``; once failed, another worker runs one in its place.
-    Returns their numbers. Give a time longer than any live trial takes."""
+    Returns their numbers. Give a time longer than any live trial takes. The study must exist
+    (:func:`open_study`: a ValueError otherwise)."""
     import datetime
 
     import optuna
 
-    if not (isinstance(older_than_s, int | float) and older_than_s >= 0):
+    if isinstance(older_than_s, bool) or not (isinstance(older_than_s, int | float) and older_than_s >= 0):
         raise ValueError(f"older_than_s must be a number of seconds >= 0, got {older_than_s!r}.")
-    study = optuna.load_study(study_name=study_name, storage=optuna_storage(storage))
-    now = datetime.datetime.now()
+    study = open_study(storage, study_name)
+    now = datetime.datetime.now()  # Optuna's start times are naive local times too
     failed = []
     for t in study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.RUNNING,)):
         if t.datetime_start is not None and (now - t.datetime_start).total_seconds() >= older_than_s:
-            study._storage.set_trial_state_values(t._trial_id, optuna.trial.TrialState.FAIL)
-            failed.append(t.number)
+            # a trial that finished meanwhile is left as it is
+            if study.tell(t.number, state=optuna.trial.TrialState.FAIL, skip_if_finished=True).state \
+                    == optuna.trial.TrialState.FAIL:
+                failed.append(t.number)
     return failed
 
 
 __all__ = ["GYM_PACKAGE", "draw_sampler_seed", "ensure_study", "evaluate_run", "fail_stale_trials", "learning_curve",
-           "optuna_storage", "run_zoo", "seeded_sampler", "summarize_run", "train", "tune", "zoo_argv"]
+           "open_study", "optuna_storage", "run_zoo", "seeded_sampler", "summarize_run", "train", "tune", "zoo_argv"]
