@@ -7,8 +7,10 @@
 ``--optimize`` searches hyperparameters instead (rl-zoo3's ``-optimize``, Optuna; magsoft_env.rl.tune): workers
 started with the same ``--storage`` (a database URL, or a journal file ``*.log``) and ``--study-name`` share one
 study and its ``--max-total-trials`` budget; the env's kwargs score the trials too (``--eval-env-kwargs``).
-``--fail-stale-trials`` marks FAIL the trials a killed worker left RUNNING (docs/training.md, "Tuning on a
-shared study").
+``--seed`` is each trial's training seed; the sampler's seed is ``--seed`` in a study of one worker (no
+``--storage``), else drawn for each worker (printed, kept in tune.json; ``--sampler-seed`` sets it).
+``--fail-stale-trials`` marks FAIL the trials a killed worker left RUNNING, prints how many, and exits
+(docs/training.md, "Tuning on a shared study").
 
 The same as ``python -m rl_zoo3.train --algo ALGO --env ID --gym-packages magsoft_env -conf
 train/hyperparams.yml`` (printed, and kept in zoo_command.txt), plus: the run folder is refused if it
@@ -47,17 +49,38 @@ def _key_values(items, option: str) -> dict:
     return out
 
 
+def _fail_stale(args) -> int:
+    """--fail-stale-trials: one line saying how many trials were marked FAIL (magsoft_env.rl.fail_stale_trials)."""
+    if not (args.storage and args.study_name):
+        print("train.py: error: --fail-stale-trials needs --storage and --study-name.", file=sys.stderr)
+        return 2
+    from magsoft_env.rl import fail_stale_trials
+
+    try:
+        if not args.fail_stale_trials >= 0:
+            raise ValueError(f"--fail-stale-trials must be a number of minutes >= 0, got {args.fail_stale_trials}.")
+        failed = fail_stale_trials(args.storage, args.study_name, 60.0 * args.fail_stale_trials)
+    except ValueError as err:
+        print(f"train.py: error: {err}", file=sys.stderr)
+        return 2
+    numbers = f" (number{'s' if len(failed) > 1 else ''} {', '.join(map(str, failed))})" if failed else ""
+    print(f"study {args.study_name!r}: {len(failed)} trial{'' if len(failed) == 1 else 's'} RUNNING for "
+          f"{args.fail_stale_trials:g} min or more marked FAIL{numbers}")
+    return 0
+
+
 def main(argv=None) -> int:
     from magsoft_env.rl.training import VEC_CHOICES
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--env", required=True, help="environment id, e.g. MagSoftCrawl-v1")
+    p.add_argument("--env", default=None, help="environment id, e.g. MagSoftCrawl-v1 (required, except with "
+                   "--fail-stale-trials)")
     p.add_argument("--algo", default="ppo", choices=sorted(CONF))
     p.add_argument("--hyperparams", type=Path, default=None,
                    help="rl-zoo hyperparameter file (default: train/hyperparams.yml for ppo, hyperparams_sac.yml)")
     p.add_argument("--timesteps", type=int, default=None, help="override n_timesteps")
     p.add_argument("--n-envs", type=int, default=None, help="override n_envs")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="training seed (of each trial with --optimize; default 0)")
     p.add_argument("--vec", default="threads", choices=list(VEC_CHOICES),
                    help="vector env: threads (default; rl-zoo's DummyVecEnv with the envs stepped on threads, the same "
                         "results in less time), dummy or subproc (rl-zoo's), warp (the n_envs robots as one MuJoCo "
@@ -94,21 +117,21 @@ def main(argv=None) -> int:
     tune.add_argument("--n-startup-trials", type=int, default=None, help="random trials before the sampler's own")
     tune.add_argument("--n-evaluations", type=int, default=None, help="evaluations per trial (for pruning)")
     tune.add_argument("--sampler", default="tpe", choices=["random", "tpe", "skopt"], help="Optuna sampler")
+    tune.add_argument("--sampler-seed", type=int, default=None,
+                      help="seed of the Optuna sampler (default: --seed without --storage; with --storage, one "
+                           "drawn for this worker, printed and kept in tune.json)")
     tune.add_argument("--pruner", default="median", choices=["halving", "median", "none"], help="Optuna pruner")
     tune.add_argument("--fail-stale-trials", type=float, default=None, metavar="MINUTES",
                       help="mark FAIL the study's trials RUNNING for longer than MINUTES (a killed worker's), and exit")
     args = p.parse_args(argv)
     if args.fail_stale_trials is not None:
-        if not (args.storage and args.study_name):
-            print("train.py: error: --fail-stale-trials needs --storage and --study-name.", file=sys.stderr)
-            return 2
-        from magsoft_env.rl import fail_stale_trials
-
-        failed = fail_stale_trials(args.storage, args.study_name, 60.0 * args.fail_stale_trials)
-        print(json.dumps({"study_name": args.study_name, "failed_trials": failed}))
-        return 0
+        return _fail_stale(args)
+    if args.env is None:
+        print("train.py: error: --env is required (e.g. --env MagSoftCrawl-v1), except with --fail-stale-trials.",
+              file=sys.stderr)
+        return 2
     searching = [f for f in ("storage", "study_name", "n_trials", "max_total_trials", "n_startup_trials",
-                             "n_evaluations") if getattr(args, f) is not None]
+                             "n_evaluations", "sampler_seed") if getattr(args, f) is not None]
     if searching and not args.optimize:
         print(f"train.py: error: --{searching[0].replace('_', '-')} goes with --optimize.", file=sys.stderr)
         return 2
@@ -156,7 +179,8 @@ def main(argv=None) -> int:
             out = tune_run(block, args.env, run_dir, algo=args.algo, seed=args.seed, storage=args.storage,
                            study_name=args.study_name, n_trials=args.n_trials, max_total_trials=args.max_total_trials,
                            n_startup_trials=args.n_startup_trials, n_evaluations=args.n_evaluations,
-                           sampler=args.sampler, pruner=args.pruner, eval_episodes=args.eval_episodes, vec=args.vec)
+                           sampler=args.sampler, pruner=args.pruner, eval_episodes=args.eval_episodes, vec=args.vec,
+                           sampler_seed=args.sampler_seed)
         except ValueError as err:
             print(f"train.py: error: {err}", file=sys.stderr)
             return 2

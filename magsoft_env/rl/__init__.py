@@ -36,6 +36,7 @@ from .training import (
     evaluate_run,
     fail_stale_trials,
     learning_curve,
+    open_study,
     optuna_storage,
     run_zoo,
     summarize_run,
@@ -63,4 +64,4 @@ __all__ = ["ALGOS", "GYM_PACKAGE", "ZOO_KEYS", "EvalResult", "Policy", "RunRecor
            "locomotion_mode",
            "load_hyperparams", "load_policy", "make_sb3_vec_env", "open_loop_actor", "parse_override",
            "policy_run_info", "read_zoo_yaml", "run_episodes", "run_zoo", "split_hyperparams", "summarize_run",
-           "train", "unbatch_infos", "zoo_argv", "fail_stale_trials", "optuna_storage", "tune"]
+           "train", "unbatch_infos", "zoo_argv", "fail_stale_trials", "open_study", "optuna_storage", "tune"]

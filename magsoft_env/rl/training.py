@@ -92,26 +92,48 @@ def warp_create_envs(original, device=None):
     return create_envs
 
 
-def run_zoo(argv: list[str], *, vec_env_cls=None, warp_device=None, warp: bool = False) -> None:
+def seeded_sampler(original, sampler_seed: int):
+    """rl-zoo3's ``ExperimentManager._create_sampler`` with the sampler seeded by ``sampler_seed`` instead of
+    ``--seed``: rl-zoo3's own sampler (the same classes and settings), whose seed alone differs; ``--seed`` keeps
+    seeding the trials' envs and the process's random generators. ``original``: the unpatched method."""
+
+    def create_sampler(manager, sampler_method: str):
+        training_seed = manager.seed
+        manager.seed = sampler_seed
+        try:
+            return original(manager, sampler_method)
+        finally:
+            manager.seed = training_seed
+
+    return create_sampler
+
+
+def run_zoo(argv: list[str], *, vec_env_cls=None, warp_device=None, warp: bool = False,
+            sampler_seed: int | None = None) -> None:
     """Run ``python -m rl_zoo3.train *argv`` in this process (rl-zoo3 parses ``sys.argv``); ``vec_env_cls``:
     the SB3 ``VecEnv`` class rl-zoo3 builds its envs with, for this run (its ``ExperimentManager``'s
     ``default_vec_env_cls`` hook, which overrides ``--vec-env``); ``warp``: the training envs as one MuJoCo Warp
-    batch on ``warp_device`` (:func:`warp_create_envs`)."""
+    batch on ``warp_device`` (:func:`warp_create_envs`); ``sampler_seed``: the seed of ``-optimize``'s Optuna
+    sampler (:func:`seeded_sampler`; None: rl-zoo3's, ``--seed``)."""
     from rl_zoo3.exp_manager import ExperimentManager
     from rl_zoo3.train import train as zoo_train
 
     saved, saved_cls, saved_create = sys.argv, ExperimentManager.default_vec_env_cls, ExperimentManager.create_envs
+    saved_sampler = ExperimentManager._create_sampler
     sys.argv = ["rl_zoo3.train", *argv]
     if vec_env_cls is not None:
         ExperimentManager.default_vec_env_cls = vec_env_cls
     if warp:
         ExperimentManager.create_envs = warp_create_envs(saved_create, warp_device)
+    if sampler_seed is not None:
+        ExperimentManager._create_sampler = seeded_sampler(saved_sampler, sampler_seed)
     try:
         zoo_train()
     finally:
         sys.argv = saved
         ExperimentManager.default_vec_env_cls = saved_cls
         ExperimentManager.create_envs = saved_create
+        ExperimentManager._create_sampler = saved_sampler
 
 
 def check_vec(vec: str, env_id: str) -> None:
@@ -353,10 +375,24 @@ def optuna_storage(storage: str):
     return storage
 
 
+#: Optuna's samplers take seeds below 2**32 (numpy's ``RandomState``).
+_SEED_LIMIT = 2**32
+
+
+def draw_sampler_seed() -> int:
+    """A sampler seed for one worker of a shared study, from the operating system's entropy (as rl-zoo3 draws
+    its ``--seed`` when given none): workers started together, on one machine or many, with the same ``--seed``,
+    then sample their own trials."""
+    import secrets
+
+    return secrets.randbelow(_SEED_LIMIT)
+
+
 def tune(block: dict, env_id: str, run_dir, *, algo: str = "ppo", seed: int = 0, storage: str | None = None,
          study_name: str | None = None, n_trials: int | None = None, max_total_trials: int | None = None,
          n_startup_trials: int | None = None, n_evaluations: int | None = None, sampler: str = "tpe",
-         pruner: str = "median", eval_episodes: int = 2, vec: str = "threads") -> dict:
+         pruner: str = "median", eval_episodes: int = 2, vec: str = "threads",
+         sampler_seed: int | None = None) -> dict:
     """Search hyperparameters with rl-zoo3 (``-optimize``, Optuna) into the new folder ``run_dir``; several
     workers (processes, machines) given the same ``storage`` and ``study_name`` share one study.
 
@@ -366,7 +402,13 @@ def tune(block: dict, env_id: str, run_dir, *, algo: str = "ppo", seed: int = 0,
     ``n_trials``: this worker's. The block's ``env_kwargs`` also go to rl-zoo3's evaluation env
     (``--eval-env-kwargs``), which is where the trials are scored. Writes ``run_dir/hyperparams.yml``,
     ``zoo_command.txt``, rl-zoo3's report (``<algo>/report_*.csv``) and ``tune.json``; returns the latter's
-    content: the study's trials by state and its best value and parameters.
+    content: the sampler's seed, the study's trials by state and its best value and parameters.
+
+    Seeds: ``seed`` is the training seed of every trial (rl-zoo3's ``--seed``: the trials' envs and the
+    process's random generators). ``sampler_seed`` seeds the Optuna sampler that draws the trials'
+    hyperparameters; default: ``seed`` without ``storage`` (rl-zoo3's choice: the same seed, the same trials),
+    else one drawn for this worker (:func:`draw_sampler_seed`), since workers of one study seeded alike draw the
+    same hyperparameters. It is printed and kept in ``tune.json``; given again, the sampler draws as before.
     """
     import yaml
 
@@ -380,11 +422,18 @@ def tune(block: dict, env_id: str, run_dir, *, algo: str = "ppo", seed: int = 0,
                         ("n_startup_trials", n_startup_trials), ("n_evaluations", n_evaluations)):
         if value is not None and (isinstance(value, bool) or not isinstance(value, int) or value < 1):
             raise ValueError(f"{name} must be an integer >= 1, got {value!r}.")
+    if sampler_seed is not None and (isinstance(sampler_seed, bool) or not isinstance(sampler_seed, int)
+                                     or not 0 <= sampler_seed < _SEED_LIMIT):
+        raise ValueError(f"sampler_seed must be an integer in [0, 2**32), got {sampler_seed!r}.")
     check_hyperparams(block, env_id, algo)
     check_vec(vec, env_id)
     if vec == "warp":
         raise ValueError("vec='warp' trains one run (train); the hyperparameter search runs on the CPU batch "
                          "(vec='threads', 'dummy' or 'subproc').")
+    if sampler_seed is None:
+        sampler_seed, origin = (int(seed), "--seed") if storage is None else (draw_sampler_seed(), "drawn")
+    else:
+        origin = "given"
     run_dir.mkdir(parents=True, exist_ok=False)
     conf = run_dir / "hyperparams.yml"
     conf.write_text(f"# hyperparameters the search starts from, rl-zoo3's format ({algo}); see zoo_command.txt\n"
@@ -398,8 +447,13 @@ def tune(block: dict, env_id: str, run_dir, *, algo: str = "ppo", seed: int = 0,
         if value is not None:
             argv += [flag, str(value)]
     command = "python -m rl_zoo3.train " + shlex.join(argv)
-    (run_dir / "zoo_command.txt").write_text(command + "\n")
+    note = "" if sampler_seed == int(seed) else (
+        f"# the Optuna sampler seeded with {sampler_seed}, not --seed (magsoft_env.rl.tune(sampler_seed="
+        f"{sampler_seed}); rl-zoo3 seeds it with --seed)\n")
+    (run_dir / "zoo_command.txt").write_text(note + command + "\n")
     print(f"tune: {command}", flush=True)
+    print(f"tune: sampler seed {sampler_seed} ({origin}; --sampler-seed {sampler_seed} draws the same), "
+          f"training seed {int(seed)}", flush=True)
     vec_env_cls = None
     if vec == "threads":
         from .vec import ThreadedVecEnv
@@ -410,12 +464,14 @@ def tune(block: dict, env_id: str, run_dir, *, algo: str = "ppo", seed: int = 0,
     t0 = time.perf_counter()
     note = None
     try:
-        run_zoo(argv, vec_env_cls=vec_env_cls)
+        # rl-zoo3 seeds its sampler with --seed: hooked only where the sampler's seed is another
+        run_zoo(argv, vec_env_cls=vec_env_cls, sampler_seed=None if sampler_seed == int(seed) else sampler_seed)
     except ImportError as exc:  # rl-zoo3 writes its report with pandas, after the search: the trials are stored
         if "pandas" not in str(exc):
             raise
         note = "rl-zoo3's CSV report needs pandas (not installed); the trials are listed here"
-    out = {"env_id": env_id, "algo": algo, "seed": int(seed), "storage": storage, "study_name": study_name,
+    out = {"env_id": env_id, "algo": algo, "seed": int(seed), "sampler": sampler, "sampler_seed": sampler_seed,
+           "sampler_seed_from": origin, "storage": storage, "study_name": study_name,
            "wall_s": time.perf_counter() - t0, "zoo_command": command}
     if note:
         out["note"] = note
@@ -452,26 +508,74 @@ def ensure_study(storage: str, study_name: str, *, attempts: int = 8) -> None:
             time.sleep(0.2 + random.random())
 
 
+def _shown(storage: str) -> str:
+    """``storage`` as it may be printed: a database URL's password hidden."""
+    if storage.endswith(".log"):
+        return repr(storage)
+    try:
+        from sqlalchemy.engine import make_url
+
+        return repr(make_url(storage).render_as_string(hide_password=True))
+    except Exception:  # noqa: BLE001  not a URL sqlalchemy reads: shown as given (no password to hide)
+        return repr(storage)
+
+
+def open_study(storage: str, study_name: str):
+    """The existing study ``study_name`` of ``storage`` (a database URL or a journal file ``*.log``, as
+    :func:`optuna_storage` reads it), or a ValueError saying why not: a journal or SQLite file that does not exist
+    (nothing is created), a URL that cannot be opened, a study that is not there (the storage's studies listed,
+    the closest name suggested)."""
+    import optuna
+
+    from .hyperparams import _suggest
+
+    if not isinstance(storage, str) or not storage:
+        raise ValueError(f"storage must be a database URL or a journal file *.log, got {storage!r}.")
+    if storage.endswith(".log"):
+        if not Path(storage).is_file():
+            raise ValueError(f"journal file {storage!r} does not exist: give the --storage the workers were "
+                             "given.")
+    elif storage.startswith("sqlite:///"):
+        path = storage[len("sqlite:///"):].split("?", 1)[0]
+        if path and path != ":memory:" and not Path(path).is_file():
+            raise ValueError(f"SQLite file {path!r} of {storage!r} does not exist: give the --storage the workers "
+                             "were given (sqlite:///relative/path.db, sqlite:////absolute/path.db).")
+    try:
+        names = optuna.get_all_study_names(optuna_storage(storage))
+    except Exception as exc:  # noqa: BLE001  sqlalchemy's URL and connection errors, a missing database driver
+        raise ValueError(f"cannot open the study storage {_shown(storage)}: {type(exc).__name__}: {exc} "
+                         "(a database URL such as sqlite:///study.db or postgresql://user:pass@host/db, or a "
+                         "journal file study.log).") from exc
+    if study_name not in names:
+        held = f"its studies: {', '.join(map(repr, sorted(names)))}.{_suggest(study_name, names)}" if names \
+            else "it holds none."
+        raise ValueError(f"the storage {_shown(storage)} has no study {study_name!r}; {held}")
+    return optuna.load_study(study_name=study_name, storage=optuna_storage(storage))
+
+
 def fail_stale_trials(storage: str, study_name: str, older_than_s: float = 3600.0) -> list[int]:
     """Mark FAIL the trials of a shared study still RUNNING ``older_than_s`` seconds after they started: the
     trials of workers that were killed (rl-zoo3 gives Optuna its storage as a string, so no heartbeat can find
     them). A RUNNING trial counts against ``max_total_trials``; once failed, another worker runs one in its place.
-    Returns their numbers. Give a time longer than any live trial takes."""
+    Returns their numbers. Give a time longer than any live trial takes. The study must exist
+    (:func:`open_study`: a ValueError otherwise)."""
     import datetime
 
     import optuna
 
-    if not (isinstance(older_than_s, int | float) and older_than_s >= 0):
+    if isinstance(older_than_s, bool) or not (isinstance(older_than_s, int | float) and older_than_s >= 0):
         raise ValueError(f"older_than_s must be a number of seconds >= 0, got {older_than_s!r}.")
-    study = optuna.load_study(study_name=study_name, storage=optuna_storage(storage))
-    now = datetime.datetime.now()
+    study = open_study(storage, study_name)
+    now = datetime.datetime.now()  # Optuna's start times are naive local times too
     failed = []
     for t in study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.RUNNING,)):
         if t.datetime_start is not None and (now - t.datetime_start).total_seconds() >= older_than_s:
-            study._storage.set_trial_state_values(t._trial_id, optuna.trial.TrialState.FAIL)
-            failed.append(t.number)
+            # a trial that finished meanwhile is left as it is
+            if study.tell(t.number, state=optuna.trial.TrialState.FAIL, skip_if_finished=True).state \
+                    == optuna.trial.TrialState.FAIL:
+                failed.append(t.number)
     return failed
 
 
-__all__ = ["GYM_PACKAGE", "ensure_study", "evaluate_run", "fail_stale_trials", "learning_curve", "optuna_storage",
-           "run_zoo", "summarize_run", "train", "tune", "zoo_argv"]
+__all__ = ["GYM_PACKAGE", "draw_sampler_seed", "ensure_study", "evaluate_run", "fail_stale_trials", "learning_curve",
+           "open_study", "optuna_storage", "run_zoo", "seeded_sampler", "summarize_run", "train", "tune", "zoo_argv"]
