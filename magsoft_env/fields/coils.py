@@ -3,12 +3,15 @@
 An MPEM calibration (Petruska et al., *Model-based calibration for magnetic manipulation*, IEEE Trans. Magn. 53,
 2017) describes each coil's field per ampere as a sum of point dipoles. The dipole-only YAML files read here list
 the coils under ``Coil_List``; each coil lists its sources under ``Source_List``; each source has ``B_Coeff``
-(one number, T m^3 / A, with mu0/(4 pi) folded in), ``Source_Direction`` (normalized on reading, as the MPEM
-reader does) and ``Source_Position`` (m), and ``A_Coeff: ~``. The field of coil ``j`` per ampere is::
+(one number, T m^3 / A, with mu0/(4 pi) folded in), ``Source_Direction`` and ``Source_Position`` (m), and
+``A_Coeff: ~``. The field of coil ``j`` per ampere is::
 
     b_j(x) = sum over its sources of (3 r_hat (m . r_hat) - m) / r^3,   m = B_Coeff * Source_Direction,  r = x - p
 
-and ``B(x) = sum_j I_j b_j(x)``. A coil named ``Offset`` in ``Coil_List`` is a field independent of the
+and ``B(x) = sum_j I_j b_j(x)``, with the directions as written. The MPEM reader of ethz-msrl's Tesla framework
+normalizes each direction first (``normalize_directions=True`` does too): the shipped measured calibrations'
+directions are unit vectors within 5e-10 (Navion's field moves by up to 2e-9 relative), the ideal OctoMag's,
+rounded to 4 digits, within 7.6e-5. A coil named ``Offset`` in ``Coil_List`` is a field independent of the
 currents, added to it (as the MPEM reader does); an ``Offset`` block not listed there is ignored (CardioMag's
 file has one: its field would be 1.46 mT at the centre). ``Workspace_Dimensions`` (m) is kept as
 :attr:`CoilSystem.workspace`. The optional top-level key ``Max_Current`` (A: one number, or one per coil) is this
@@ -25,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from ..assets import asset_path
-from ..validate import finite_array
+from ..validate import boolean, finite_array
 from .base import MAX_COORDINATE, Source, SourceSum, as_points, position3
 from .dipole import DipoleSet, dipole_sum
 
@@ -89,7 +92,7 @@ def _triple(where: str, value) -> np.ndarray:
     return np.array([_number(f"{where}[{i}]", v) for i, v in enumerate(value)])
 
 
-def _read_coil(data: dict, coil: str, where: str) -> tuple[np.ndarray, np.ndarray]:
+def _read_coil(data: dict, coil: str, where: str, normalize: bool) -> tuple[np.ndarray, np.ndarray]:
     """(positions (k, 3) m, moments (k, 3) T m^3 / A) of one coil's sources."""
     block = data.get(coil)
     if not isinstance(block, dict):
@@ -123,12 +126,15 @@ def _read_coil(data: dict, coil: str, where: str) -> tuple[np.ndarray, np.ndarra
             raise ValueError(f"{where}: {key}.Source_Position must lie within {MAX_COORDINATE:g} m (metres), "
                              f"got {p.tolist()!r}.")
         pos.append(p)
-        mom.append(coeff * d / n)
+        mom.append(coeff * (d / n if normalize else d))
     return np.array(pos), np.array(mom)
 
 
-def read_mpem(path) -> dict:
+def read_mpem(path, *, normalize_directions: bool = False) -> dict:
     """The contents of a dipole-only MPEM calibration file, checked (a ValueError naming the file and the key).
+
+    The moments are ``B_Coeff * Source_Direction`` as written, or with the direction normalized first if
+    ``normalize_directions`` (as the MPEM reader of ethz-msrl's Tesla framework does).
 
     Returns a dict: ``system_name``, ``coil_names`` (tuple), ``positions`` / ``moments`` (per coil, arrays (k, 3):
     m and T m^3 / A), ``offset`` (positions, moments, or None), ``workspace`` ((3, 2) m or None), ``max_current``
@@ -159,8 +165,8 @@ def read_mpem(path) -> dict:
     names = [c for c in coils if c != OFFSET_COIL]
     if not names:
         raise ValueError(f"{where}: Coil_List has no coil besides {OFFSET_COIL!r}.")
-    per_coil = [_read_coil(data, c, where) for c in names]
-    offset = _read_coil(data, OFFSET_COIL, where) if OFFSET_COIL in coils else None
+    per_coil = [_read_coil(data, c, where, normalize_directions) for c in names]
+    offset = _read_coil(data, OFFSET_COIL, where, normalize_directions) if OFFSET_COIL in coils else None
     ws = data.get("Workspace_Dimensions")
     workspace = None
     if ws is not None:
@@ -285,23 +291,29 @@ class CoilSystem:
     # ------------------------------------------------------------------------------------------ construction
 
     @classmethod
-    def from_file(cls, path, *, max_current=None, name: str | None = None) -> CoilSystem:
+    def from_file(cls, path, *, max_current=None, name: str | None = None,
+                  normalize_directions: bool = False) -> CoilSystem:
         """A coil system from an MPEM calibration file (YAML; module docstring).
 
-        ``max_current`` (A, one or one per coil) overrides the file's ``Max_Current``; one of them is needed."""
-        data = read_mpem(path)
-        limit = max_current if max_current is not None else data["max_current"]
+        ``max_current`` (A, one or one per coil) overrides the file's ``Max_Current``; one of them is needed.
+        ``normalize_directions``: normalize each ``Source_Direction`` first, as the MPEM reader does."""
+        data = read_mpem(path, normalize_directions=boolean("normalize_directions", normalize_directions))
+        limit = max_current
         if limit is None:
-            raise ValueError(f"{path}: the file has no Max_Current; pass max_current= (A, one per coil or one for "
-                             f"all) for its {len(data['coil_names'])} coils: the model holds within the limits only.")
+            if data["max_current"] is None:
+                raise ValueError(f"{path}: the file has no Max_Current; pass max_current= (A, one per coil or one "
+                                 f"for all) for its {len(data['coil_names'])} coils: the model holds within the "
+                                 "limits only.")
+            limit = _limits(data["max_current"], len(data["coil_names"]), data["coil_names"], f"{path}: Max_Current")
         return cls(coil_names=data["coil_names"], positions=data["positions"], moments=data["moments"],
                    max_current=limit, name=name or data["system_name"], offset=data["offset"],
                    workspace=data["workspace"])
 
     @classmethod
-    def from_calibration(cls, source: str, *, max_current=None) -> CoilSystem:
+    def from_calibration(cls, source: str, *, max_current=None, normalize_directions: bool = False) -> CoilSystem:
         """A named system of :data:`CALIBRATIONS` (``"navion"``, ``"cardiomag"``, the ideal ones), or an MPEM file
-        (a path ending in .yaml or .yml); ``max_current`` (A) overrides the limits."""
+        (a path ending in .yaml or .yml); ``max_current`` (A) overrides the limits; ``normalize_directions`` as
+        :meth:`from_file`."""
         if not isinstance(source, (str, Path)):
             raise ValueError(f"CoilSystem.from_calibration takes a name ({', '.join(CALIBRATIONS)}) or a .yaml file, "
                              f"got {source!r}.")
@@ -310,9 +322,9 @@ class CoilSystem:
             cal = CALIBRATIONS[key]
             path = asset_path("fields", cal.file)
             return cls.from_file(path, max_current=cal.max_current if max_current is None else max_current,
-                                 name=key)
+                                 name=key, normalize_directions=normalize_directions)
         if key.lower().endswith((".yaml", ".yml")) or Path(key).exists():
-            return cls.from_file(key, max_current=max_current)
+            return cls.from_file(key, max_current=max_current, normalize_directions=normalize_directions)
         hint = difflib.get_close_matches(key.lower(), list(CALIBRATIONS), n=1, cutoff=0.5)
         extra = f" Did you mean {hint[0]!r}?" if hint else ""
         raise ValueError(f"unknown coil system {key!r}: give one of {', '.join(CALIBRATIONS)} or an MPEM .yaml "
