@@ -14,6 +14,7 @@ from magsoft_env.assets import asset_path
 from magsoft_env.fields import (
     CALIBRATIONS,
     CircularLoop,
+    CoaxialLoops,
     CoilSystem,
     CuboidMagnet,
     CylinderMagnet,
@@ -270,9 +271,20 @@ def test_loop_off_its_axis_against_biot_savart(rho_over_R):
         assert _rel(B[0], Bq) < RTOL and _rel(G[0], Gq) < RTOL
 
 
+def test_coaxial_loops_are_the_sum_of_their_loops():
+    coil = CoaxialLoops(center=(0.01, 0, 0), normal=(0, 1, 1), offsets=[-0.02, 0.0, 0.015], radii=[0.03, 0.02, 0.04],
+                        currents=[2.0, -1.0, 0.5])
+    x = RNG.normal(size=(9, 3)) * 0.01
+    B, G = coil.field_and_gradient(x)
+    parts = [loop.field_and_gradient(x) for loop in coil.loops]
+    assert _rel(B, sum(b for b, _ in parts)) < 1e-14 and _rel(G, sum(g for _, g in parts)) < 1e-14
+    with pytest.raises(ValueError, match=r"one radius and one current per offset \(3\)"):
+        CoaxialLoops(center=(0, 0, 0), normal=(0, 0, 1), offsets=[0, 0.1, 0.2], radii=[0.1, 0.1], currents=1.0)
+
+
 def test_the_wire_is_refused():
     loop = CircularLoop(center=(0, 0, 0), normal=(0, 0, 1), radius=0.02, current=1.0)
-    with pytest.raises(ValueError, match=r"points\[0\].*on the loop's wire"):
+    with pytest.raises(ValueError, match=r"points\[0\].*on the wire of the loop"):
         loop.field(np.array([[0.02, 0.0, 0.0]]))
     assert np.isfinite(loop.field(np.array([[0.02, 0.0, 1e-6]]))).all()
 
@@ -615,3 +627,12 @@ def test_cli_field_refuses_bad_input(argv, match, capsys):
     assert main(["field", *argv]) == 2
     err = capsys.readouterr().err
     assert err.startswith("magsoft field: error:") and match in err and len(err.strip().splitlines()) == 1
+
+
+def test_the_benchmark_runs(capsys):
+    from magsoft_env.bench import fields_bench
+
+    assert fields_bench.main(["--points", "5", "--repeat", "2"]) == 0
+    out = capsys.readouterr().out
+    for name in ("CardioMag, currents", "Helmholtz pair", "point dipole", "grid fit of CardioMag"):
+        assert name in out

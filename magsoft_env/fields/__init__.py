@@ -12,6 +12,7 @@ shape ``(n, 3)`` in T and ``G`` of shape ``(n, 3, 3)`` in T/m with ``G[i, a, b] 
 ``CylinderMagnet``     an axially magnetized cylinder (exact closed form, inside and outside)
 ``CuboidMagnet``       a uniformly magnetized cuboid (exact closed form, inside and outside)
 ``CircularLoop``       a current loop (exact, complete elliptic integrals)
+``CoaxialLoops``       loops on one axis, evaluated together (exact)
 ``helmholtz_pair``     two loops for a uniform field; ``maxwell_pair``: two loops for a uniform gradient
 ``CoilSystem``         an electromagnetic navigation system from an MPEM calibration, linear in its currents
 ``GridField``          samples on a grid fitted by a harmonic potential (div- and curl-free)
@@ -28,7 +29,7 @@ from .base import MU0_4PI, Source, SourceSum, Transformed, Uniform, as_points
 from .coils import ACTUATION_ROWS, CALIBRATIONS, Calibration, CoilSystem, read_mpem
 from .dipole import DipoleSet, PointDipole, SphereMagnet
 from .grid import GridField
-from .loop import CircularLoop, helmholtz_pair, maxwell_pair
+from .loop import CircularLoop, CoaxialLoops, helmholtz_pair, maxwell_pair
 from .magnets import CuboidMagnet, CylinderMagnet
 from .moving import MovingSource, rotation_about
 
@@ -38,6 +39,7 @@ __all__ = [
     "MU0_4PI",
     "Calibration",
     "CircularLoop",
+    "CoaxialLoops",
     "CoilSystem",
     "CuboidMagnet",
     "CylinderMagnet",

@@ -28,7 +28,6 @@ MAX_MOMENT = 1e4
 #: Largest magnetization accepted for a magnet (A/m), as :data:`magsoft_env.spec.material.MAX_PARTICLE_MAGNETIZATION`:
 #: NdFeB's remanence 1.4 T is 1.1e6 A/m (``M = B_r / mu0``).
 MAX_MAGNETIZATION = MAX_PARTICLE_MAGNETIZATION
-_I3 = np.arange(3)
 
 
 def dipole_sum(points: np.ndarray, positions_T: np.ndarray, moments: np.ndarray, moments_T: np.ndarray,
@@ -70,14 +69,16 @@ def dipole_sum(points: np.ndarray, positions_T: np.ndarray, moments: np.ndarray,
     c = inv_r3 * inv_r2
     c *= 3.0  # 3 / r^5
     a = c * np.einsum("ank,ak->nk", r, moments_T)  # 3 (m . r) / r^5
-    B = np.einsum("nk,ank->na", a, r)
+    r_nk3 = r.transpose(1, 2, 0)  # (n, k, 3) view: batched products over k below
+    B = np.matmul(a[:, None, :], r_nk3)[:, 0, :]
     B -= inv_r3 @ moments
     M1 = (c * r) @ moments  # [b, i, a] = sum_k 3/r^5 r_b m_a
     e = a * inv_r2
     e *= 5.0
     G = M1.transpose(1, 2, 0) + M1.transpose(1, 0, 2)
-    G -= np.einsum("ank,bnk->nab", e * r, r)
-    G[:, _I3, _I3] += a.sum(axis=1)[:, None]
+    G -= np.matmul((e * r).transpose(1, 0, 2), r_nk3)  # sum_k 5 a / r^2 r_a r_b
+    diagonal = G.reshape(-1, 9)[:, ::4]  # a view of G[:, i, i]
+    diagonal += a.sum(axis=1)[:, None]
     if scale != 1.0:
         B *= scale
         G *= scale

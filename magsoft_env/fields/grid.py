@@ -50,6 +50,8 @@ class HarmonicFit:
         phi = _monomials(degree, 1)  # the potential's monomials
         self.eval_exps = _monomials(degree - 1, 0)  # B and G are polynomials of degree <= degree - 1
         index = {tuple(e): i for i, e in enumerate(self.eval_exps)}
+        # columns of the flattened power table (n, 3 * degree) for each evaluation monomial
+        self._ix, self._iy, self._iz = (a * degree + self.eval_exps[:, a] for a in range(3))
         # the Laplacian of the potential, onto monomials of degree <= degree - 2
         lap = np.zeros((max(len(index), 1), len(phi)))
         for col, (i, j, k) in enumerate(phi):
@@ -80,12 +82,19 @@ class HarmonicFit:
                     self.d2[q][index[tuple(f)], col] = coef
         self.W = None  # (n_eval, 9, channels): B_x, B_y, B_z, then G of _PAIRS
 
+    def monomials_T(self, points: np.ndarray) -> np.ndarray:
+        """The evaluation monomials at ``points`` (m), transposed: shape (n_eval, n)."""
+        u = ((points - self.center) / self.scale).T
+        n = u.shape[1]
+        P = np.ones((3, self.degree, n))  # powers 0 .. degree - 1 by products (np.power is slow)
+        if self.degree > 1:
+            P[:, 1:] = np.cumprod(np.repeat(u[:, None, :], self.degree - 1, axis=1), axis=1)
+        P = P.reshape(-1, n)  # rows: x^0 .. x^(degree-1), y^0 .., z^0 ..
+        return P[self._ix] * P[self._iy] * P[self._iz]
+
     def monomials(self, points: np.ndarray) -> np.ndarray:
         """The evaluation monomials at ``points`` (m), shape (n, n_eval)."""
-        u = (points - self.center) / self.scale
-        P = u[:, :, None] ** np.arange(self.degree)  # (n, 3, degree)
-        e = self.eval_exps
-        return P[:, 0, e[:, 0]] * P[:, 1, e[:, 1]] * P[:, 2, e[:, 2]]
+        return self.monomials_T(points).T
 
     def fit(self, points: np.ndarray, B: np.ndarray, G: np.ndarray | None) -> tuple[np.ndarray, int]:
         """Least-squares coefficients for samples ``B`` (n, 3, c) and optionally ``G`` (n, 3, 3, c); returns the
@@ -106,12 +115,13 @@ class HarmonicFit:
 
     def evaluate(self, points: np.ndarray, W: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """B (n, 3) and G (n, 3, 3) at ``points`` for the evaluation matrix ``W`` (n_eval, 9)."""
-        out = self.monomials(points) @ W
-        G = out[:, [3, 4, 5, 4, 6, 7, 5, 7, 8]].reshape(-1, 3, 3)
-        return out[:, :3], G
+        out = W.T @ self.monomials_T(points)  # (9, n)
+        return out[:3].T.copy(), out[[3, 4, 5, 4, 6, 7, 5, 7, 8]].T.reshape(-1, 3, 3)
 
     def check_inside(self, points: np.ndarray, what: str) -> None:
         tol = BOX_TOL * self.scale
+        if (points.min(axis=0) >= self.lo - tol).all() and (points.max(axis=0) <= self.hi + tol).all():
+            return
         out = ((points < self.lo - tol) | (points > self.hi + tol)).any(axis=1)
         if out.any():
             i = int(np.argmax(out))
