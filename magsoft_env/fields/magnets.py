@@ -161,78 +161,68 @@ class CylinderMagnet(Source):
 # ------------------------------------------------------------------------------------------------ cuboid
 
 
-def _log_pair(U_hi, U_lo, R_hi, R_lo, s2):
-    """``ln(U_hi + R_hi) - ln(U_lo + R_lo)`` without cancellation (``s2`` the sum of the other two squares)."""
-    def lg(U, R):
-        return np.where(U >= 0.0, np.log(np.where(U >= 0.0, U + R, 1.0)),
-                        -np.log(np.where(U < 0.0, R - U, 1.0)))
-    # ln(U + R) = ln(s2) - ln(R - U) for U < 0: ln(s2) cancels unless exactly one corner has U < 0
-    one = (U_lo < 0.0) & (U_hi >= 0.0)
-    return lg(U_hi, R_hi) - lg(U_lo, R_lo) - np.where(one, np.log(np.where(one, s2, 1.0)), 0.0)
+def _lg(U, R):
+    """``ln(U + R)`` for ``U >= 0``, ``-ln(R - U)`` for ``U < 0`` (where ``ln(U + R) = ln(s2) - ln(R - U)``: the
+    ``ln(s2)`` is added back by the caller where it does not cancel)."""
+    pos = U >= 0.0
+    return np.where(pos, np.log(np.where(pos, U + R, 1.0)), -np.log(np.where(pos, 1.0, R - U)))
 
 
 def _ratio(U, R, s2, num):
     """``num / (R (U + R))`` without cancellation: ``num (R - U) / (R s2)`` for ``U < 0`` (0 where s2 = 0, the
     limit of the pair of corners on an edge's line)."""
     neg = U < 0.0
-    den = np.where(neg, R * np.where(s2 > 0.0, s2, 1.0) / (R - U), R * (U + R))
+    den = np.where(neg, R * np.where(s2 > 0.0, s2, 1.0) / np.where(neg, R - U, 1.0), R * (U + R))
     return np.where(neg & (s2 == 0.0), 0.0, num / den)
 
 
-def _cuboid_z(x, y, z, hx, hy, hz, Mz):
-    """H (3, n) and its gradient (3, 3, n) of the charges +-Mz on the faces z = +-hz of the cuboid."""
-    n = x.shape[0]
+_CORNER = np.array([1.0, -1.0])  # the upper (x' = -h: X = x + h) and lower corner of each pair
+_FACE_SIGN = _CORNER.reshape(1, 1, 2, 1)  # sigma = +M on the face z0 = +h, -M on z0 = -h
+_SIGNS = (_CORNER.reshape(2, 1, 1, 1) * _CORNER.reshape(1, 2, 1, 1) * _FACE_SIGN)  # (2, 2, 2, 1)
+
+
+def _cuboid_H(local: np.ndarray, h: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """H (n, 3) and dH (n, 3, 3) of a cuboid's face charges at ``local`` (n, 3) points in its frame (half-sides
+    ``h``, magnetization ``M``): each component of M charges the two faces normal to it; all components, faces
+    and corners at once, in axes where that component is "z" (cyclic permutations)."""
+    n = local.shape[0]
+    perms = np.array([[(c + 1) % 3, (c + 2) % 3, c] for c in range(3)])
+    q = local[:, perms].transpose(1, 2, 0)  # (3 components, 3 axes, n)
+    hh = h[perms]  # (3, 3)
+    # corners: (component, X corner, Y corner, face, point)
+    X = q[:, 0, None, None, None, :] + _CORNER.reshape(1, 2, 1, 1, 1) * hh[:, 0, None, None, None, None]
+    Y = q[:, 1, None, None, None, :] + _CORNER.reshape(1, 1, 2, 1, 1) * hh[:, 1, None, None, None, None]
+    Z = q[:, 2, None, None, None, :] - _FACE_SIGN[None, :, :, :, :].reshape(1, 1, 1, 2, 1) * hh[:, 2, None, None,
+                                                                                              None, None]
+    X, Y, Z = np.broadcast_arrays(X, Y, Z)
+    X2, Y2, Z2 = X * X, Y * Y, Z * Z
+    R = np.sqrt(X2 + Y2 + Z2)
+    sxz, syz = X2 + Z2, Y2 + Z2
+    k = (M / (4.0 * np.pi))[:, None, None, None, None] * _SIGNS  # (3, 2, 2, 2, 1): sigma / (4 pi) times the sign
+    # [[ln(Y + R)]]: ln(sxz) returns where the two Y corners straddle 0 (then sxz > 0 off the surface)
+    one_y = (Y[:, :, 1:] < 0.0) & (Y[:, :, :1] >= 0.0)
+    lnY = (k * _lg(Y, R)).sum(axis=(1, 2, 3)) - (
+        k[:, :, :1] * np.where(one_y, np.log(np.where(one_y, sxz[:, :, :1], 1.0)), 0.0)).sum(axis=(1, 2, 3))
+    one_x = (X[:, 1:] < 0.0) & (X[:, :1] >= 0.0)
+    lnX = (k * _lg(X, R)).sum(axis=(1, 2, 3)) - (
+        k[:, :1] * np.where(one_x, np.log(np.where(one_x, syz[:, :1], 1.0)), 0.0)).sum(axis=(1, 2, 3))
+    zr = Z * R  # 0: the point is in a face's plane, off the face; the corners' terms cancel
+    atn = (k * np.where(zr != 0.0, np.arctan(X * Y / np.where(zr != 0.0, zr, 1.0)), 0.0)).sum(axis=(1, 2, 3))
+    den = R * sxz * syz
+    ok = den > 0.0
+    F = np.stack([_ratio(Y, R, sxz, X), _ratio(X, R, syz, Y),
+                  np.where(ok, X * Y * (R * R + Z2) / np.where(ok, den, 1.0), 0.0),
+                  1.0 / R, _ratio(Y, R, sxz, Z), _ratio(X, R, syz, Z)], axis=1)  # xx, yy, zz, xy, xz, yz
+    F = (k[:, None] * F).sum(axis=(2, 3, 4))  # (3, 6, n)
+    Hp = np.stack([-lnY, -lnX, atn], axis=1)  # (3 components, 3 axes, n): H = -grad phi, phi = k [[F]]
     H = np.zeros((3, n))
     dH = np.zeros((3, 3, n))
-    for sigma, z0 in ((Mz, hz), (-Mz, -hz)):
-        Z = z - z0
-        Z2 = Z * Z
-        F = np.zeros((6, n))  # second derivatives summed over the corners: xx, yy, zz, xy, xz, yz
-        hxv = atn = 0.0
-        for sx, X in ((1.0, x + hx), (-1.0, x - hx)):  # X = x - x', x' = -hx (upper limit) and +hx
-            Yh, Yl = y + hy, y - hy
-            X2 = X * X
-            Rh = np.sqrt(X2 + Yh * Yh + Z2)
-            Rl = np.sqrt(X2 + Yl * Yl + Z2)
-            sxz = X2 + Z2
-            hxv = hxv + sx * _log_pair(Yh, Yl, Rh, Rl, sxz)  # [[ln(Y + R)]]
-            for sy, Y, Rc in ((1.0, Yh, Rh), (-1.0, Yl, Rl)):
-                s = sx * sy
-                Y2 = Y * Y
-                syz = Y2 + Z2
-                F[0] += s * _ratio(Y, Rc, sxz, X)
-                F[1] += s * _ratio(X, Rc, syz, Y)
-                F[3] += s / Rc
-                F[4] += s * _ratio(Y, Rc, sxz, Z)
-                F[5] += s * _ratio(X, Rc, syz, Z)
-                den = Rc * sxz * syz
-                ok = den > 0.0
-                F[2] += s * np.where(ok, X * Y * (Rc * Rc + Z2) / np.where(ok, den, 1.0), 0.0)
-                zr = Z * Rc  # Z = 0: the point is in the face's plane, off the face; the corners' terms cancel
-                atn = atn + s * np.where(zr != 0.0, np.arctan(X * Y / np.where(zr != 0.0, zr, 1.0)), 0.0)
-        # [[ln(X + R)]]: the same sum with the roles of X and Y swapped
-        hyv = 0.0
-        for sy, Y in ((1.0, y + hy), (-1.0, y - hy)):
-            Xh, Xl = x + hx, x - hx
-            Y2 = Y * Y
-            Rh = np.sqrt(Xh * Xh + Y2 + Z2)
-            Rl = np.sqrt(Xl * Xl + Y2 + Z2)
-            hyv = hyv + sy * _log_pair(Xh, Xl, Rh, Rl, Y2 + Z2)
-        k = sigma / (4.0 * math.pi)
-        H[0] -= k * hxv
-        H[1] -= k * hyv
-        H[2] += k * atn
-        # H = -grad phi, phi = k [[F]]: dH_a/dx_b = -k [[d2F/dadb]]
-        dH[0, 0] -= k * F[0]
-        dH[1, 1] -= k * F[1]
-        dH[2, 2] -= k * F[2]
-        dH[0, 1] -= k * F[3]
-        dH[0, 2] -= k * F[4]
-        dH[1, 2] -= k * F[5]
-    dH[1, 0] = dH[0, 1]
-    dH[2, 0] = dH[0, 2]
-    dH[2, 1] = dH[1, 2]
-    return H, dH
+    sym = np.array([[0, 3, 4], [3, 1, 5], [4, 5, 2]])  # dH_ab = -k [[d2F/dadb]]
+    for c in range(3):
+        pc = perms[c]
+        H[pc] += Hp[c]
+        dH[np.ix_(pc, pc)] -= F[c][sym]
+    return H.T, dH.transpose(2, 0, 1)
 
 
 @dataclass(frozen=True, eq=False, init=False)
@@ -289,21 +279,10 @@ class CuboidMagnet(Source):
         if surface.any():
             i = int(np.argmax(surface))
             raise ValueError(f"points[{i}] = {p[i].tolist()!r} m is on the cuboid's surface, where its field jumps.")
-        H = np.zeros((3, p.shape[0]))
-        dH = np.zeros((3, 3, p.shape[0]))
-        # each magnetization component: its two charged faces, in axes where it is "z" (cyclic permutations)
-        for axis in range(3):
-            Mc = float(self.magnetization[axis])
-            if Mc == 0.0:
-                continue
-            perm = [(axis + 1) % 3, (axis + 2) % 3, axis]  # local axes playing x, y, z
-            h_p = h[perm]
-            Hp, dHp = _cuboid_z(local[:, perm[0]], local[:, perm[1]], local[:, perm[2]], *h_p, Mc)
-            H[perm] += Hp
-            dH[np.ix_(perm, perm)] += dHp
-        B = MU0 * H.T
+        H, dH = _cuboid_H(local, h, self.magnetization)
+        B = MU0 * H
         B[inside] += MU0 * self.magnetization
-        G = MU0 * dH.transpose(2, 0, 1)
+        G = MU0 * dH
         return to_global(B, G, R)
 
 
