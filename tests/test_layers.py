@@ -26,6 +26,7 @@ ALLOWED = {
     "spec": {"leaf"},
     "cases": {"spec", "leaf"},
     "theory": {"spec", "leaf"},
+    "fields": {"spec", "leaf"},
     "design": {"theory", "spec", "leaf"},
     "sim": {"cases", "spec", "leaf"},
     "compare": {"sim", "design", "theory", "cases", "spec", "leaf"},
@@ -33,10 +34,10 @@ ALLOWED = {
     "envs": {"render", "sim", "theory", "cases", "spec", "leaf"},
     "rl": {"envs", "cases", "spec", "leaf"},
     "parallel": {"rl", "envs", "compare", "sim", "design", "theory", "cases", "spec", "leaf"},
-    "cli": {"parallel", "rl", "envs", "render", "compare", "sim", "design", "theory", "cases", "spec", "leaf",
-            "facade"},
-    "bench": {"parallel", "rl", "envs", "render", "compare", "sim", "design", "theory", "cases", "spec", "leaf",
-              "facade"},
+    "cli": {"parallel", "rl", "envs", "render", "compare", "sim", "design", "theory", "fields", "cases", "spec",
+            "leaf", "facade"},
+    "bench": {"parallel", "rl", "envs", "render", "compare", "sim", "design", "theory", "fields", "cases", "spec",
+              "leaf", "facade"},
     "facade": {"spec", "leaf"},  # the rest is reached lazily by name (importlib), never imported at import time
 }
 # third-party packages a unit may import; all others may import none of these

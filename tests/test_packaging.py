@@ -1,4 +1,5 @@
-"""The built wheel ships the assets, and an installed copy finds them (not the source tree).
+"""The built wheel ships the assets (presets, contours, the coil calibrations), and an installed copy finds them
+(not the source tree).
 
 The wheel is installed with ``pip install --no-deps --target DIR`` and imported by the running
 interpreter with ``PYTHONPATH=DIR``, outside the source tree. Its dependencies (numpy, ...) come from
@@ -39,7 +40,7 @@ def test_wheel_install_finds_assets(tmp_path):
     # the archive itself carries every preset and contour
     with zipfile.ZipFile(wheel) as zf:
         members = set(zf.namelist())
-    for kind in ("presets", "contours"):
+    for kind in ("presets", "contours", "fields"):
         for name in _names(ROOT / "assets" / kind):
             assert f"magsoft_env/_assets/{kind}/{name}" in members, (kind, name)
 
@@ -51,7 +52,9 @@ def test_wheel_install_finds_assets(tmp_path):
     probe = (
         "import json, magsoft_env, magsoft_env.assets as a; "
         "p = magsoft_env.load_preset('fig3a_L25'); "
-        "print(json.dumps({'pkg': magsoft_env.__file__, 'assets': str(a.assets_dir()), "
+        "from magsoft_env.fields import CoilSystem; n = CoilSystem.from_calibration('navion').n_coils; "
+        "print(json.dumps({'pkg': magsoft_env.__file__, 'assets': str(a.assets_dir()), 'navion_coils': n, "
+        "'fields': sorted(q.name for q in (a.assets_dir() / 'fields').iterdir()), "
         "'presets': sorted(q.name for q in (a.assets_dir() / 'presets').iterdir()), "
         "'contours': sorted(q.name for q in (a.assets_dir() / 'contours').iterdir()), 'L': p.beam.length}))"
     )
@@ -68,3 +71,4 @@ def test_wheel_install_finds_assets(tmp_path):
     assert info["presets"] == _names(ROOT / "assets" / "presets")
     assert info["contours"] == _names(ROOT / "assets" / "contours")
     assert info["L"] == pytest.approx(25e-3)
+    assert info["fields"] == _names(ROOT / "assets" / "fields") and info["navion_coils"] == 3

@@ -23,6 +23,7 @@ COMMANDS = {
     "design": "magsoft_env.cli.design",
     "export": "magsoft_env.cli.export",
     "batch": "magsoft_env.cli.batch",
+    "field": "magsoft_env.cli.field",
 }
 
 
