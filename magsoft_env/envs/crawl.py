@@ -23,12 +23,12 @@ from .crawl_task import (
     NONFINITE_OBSERVATION,
     CrawlRecords,
     CrawlTask,
+    book_substeps,
     clock_tail,
     crawl_info,
     crawl_limits,
     crawl_reward,
     first_violation,
-    limit_summary,
     observation,
     observation_high,
     period_substeps,
@@ -522,12 +522,9 @@ class MagSoftCrawlEnv(gym.Env):
         pose = sim.pose()
         # every substep's start state (the sensors' history), then the step's end state (now)
         end = self._limits(pose.centreline[:, None, :], [self.sim.floor_depth()])
-        lim = np.concatenate([*self._samples, end], axis=2)
+        lim, k = book_substeps(rec, self._samples, end, com=pose.com[[0, 2]][None], duration=[n * self.sim_dt],
+                               roll=[pose.roll])
         self._samples = []
-        clear, cos, airborne = limit_summary(lim)
-        k = lim.shape[2] - 1
-        rec.book([True], com=pose.com[[0, 2]][None], duration=[n * self.sim_dt], highest_clearance=clear,
-                 lowest_cos=cos, airborne=airborne, substeps=[k], roll=[pose.roll])
         column, figures = first_violation(lim, task)
         violated = column >= 0
         reward, terms = crawl_reward(rec.com_velocity[:, 0], [power], violated, rec.episode_forward, task,

@@ -325,6 +325,19 @@ class CrawlRecords:
         self.substeps[m] += np.asarray(substeps)[m]
 
 
+def book_substeps(records: CrawlRecords, samples, end, *, com, duration, roll) -> tuple[np.ndarray, int]:
+    """One robot's step booked from its crawl limits: ``samples`` (the blocks' :func:`crawl_limits`, ``(1, 3, k_i)``
+    each, the substeps' start states) and ``end`` (the end state's, ``(1, 3, 1)``); the centre of mass now ``(1,
+    2)``, the step's ``duration`` ``(1,)`` (s) and the body's ``roll`` ``(1,)`` (rad). Returns the step's limits
+    ``(1, 3, k + 1)`` and ``k``."""
+    lim = np.concatenate([*samples, end], axis=2)
+    clear, cos, airborne = limit_summary(lim)
+    k = lim.shape[2] - 1
+    records.book([True], com=com, duration=duration, highest_clearance=clear, lowest_cos=cos, airborne=airborne,
+                 substeps=[k], roll=roll)
+    return lim, k
+
+
 def crawl_info(records: CrawlRecords, *, orientation, reward, terms: Mapping, time, max_penetration,
                is_success) -> dict[str, np.ndarray]:
     """The ``info`` values of ``n`` robots, each an array over them: ``orientation`` (rad) and ``flipped`` (the
@@ -417,7 +430,7 @@ def stack_infos(infos: Mapping[int, Mapping], n: int) -> dict:
     return out
 
 
-__all__ = ["AIRBORNE_TOLERANCE", "CRAWL_MODES", "LOCOMOTION_MODES", "ROLL_ANGLE", "locomotion_modes",
+__all__ = ["book_substeps", "AIRBORNE_TOLERANCE", "CRAWL_MODES", "LOCOMOTION_MODES", "ROLL_ANGLE", "locomotion_modes",
            "NONFINITE_OBSERVATION", "OBS_MAX_ANGULAR_VELOCITY", "OBS_MAX_VELOCITY",
            "CrawlRecords", "CrawlTask", "broken_limits", "clock_tail", "crawl_info", "crawl_limits", "crawl_reward",
            "first_violation", "limit_summary", "observation", "observation_high", "period_substeps", "single_info",

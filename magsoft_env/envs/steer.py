@@ -23,9 +23,9 @@ from .crawl_task import (
     CRAWL_MODES,
     CrawlRecords,
     CrawlTask,
+    book_substeps,
     crawl_limits,
     first_violation,
-    limit_summary,
     locomotion_modes,
     violation_texts,
 )
@@ -482,13 +482,9 @@ class MagSoftSteerEnv(gym.Env):
         # every substep's start state, then the step's end: clearance, highest point, piece angles from the floor
         pose = sim.pose()
         end = self._limits(pose.centreline[:, None, :], [self.sim.floor_depth()])
-        lim = np.concatenate([*self._samples, end], axis=2)
+        lim, k = book_substeps(self._records, self._samples, end, com=self._com[None, [0, 2]],
+                               duration=[n * self.sim_dt], roll=[pose.roll])
         self._samples = []
-        clear, cos, airborne = limit_summary(lim)
-        k = lim.shape[2] - 1
-        rec = self._records
-        rec.book([True], com=self._com[None, [0, 2]], duration=[n * self.sim_dt], highest_clearance=clear,
-                 lowest_cos=cos, airborne=airborne, substeps=[k], roll=[pose.roll])
         task = self.task
         column, figures = first_violation(lim, task)
         violated = bool(column[0] >= 0)
