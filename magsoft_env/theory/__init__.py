@@ -2,6 +2,7 @@
 
 from .elastica import elastica_tip, prandtl_field
 from .rod_solver import CriticalField, RodResult, critical_field
+from .sources import SourceResult, shoot
 from .solver import TERMINATION_MESSAGES, EquilibriumResult, SolverOptions, solve_equilibrium, solve_path
 
 __all__ = [
@@ -10,9 +11,11 @@ __all__ = [
     "EquilibriumResult",
     "RodResult",
     "SolverOptions",
+    "SourceResult",
     "critical_field",
     "elastica_tip",
     "prandtl_field",
+    "shoot",
     "solve_equilibrium",
     "solve_path",
 ]

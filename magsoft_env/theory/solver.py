@@ -26,6 +26,7 @@ from .options import (
 )
 from .result import PathResult
 from .rod_solver import RodResult, solve_rod_path
+from .sources import SourceResult, is_source, solve_source_path, uniform_field
 from .verify import equation_residual, outcome
 
 #: The models :func:`solve_path` takes: the planar beam, the 3D rod, or the one the problem needs.
@@ -805,7 +806,7 @@ def solve_path(
     options: SolverOptions | None = None,
     progress: bool = False,
     model: str = "auto",
-) -> list[EquilibriumResult] | list[RodResult]:
+) -> list[EquilibriumResult] | list[RodResult] | list[SourceResult]:
     """Equilibria along a loading path, one result per field, in order.
 
     The path starts from the straight, unloaded beam: gravity is applied first (zero field),
@@ -821,8 +822,14 @@ def solve_path(
     ----------
     beam : Beam
         The beam.
-    fields : sequence of Field, (B_x, B_z) pairs or (B_x, B_y, B_z) triples
-        Applied fields (T), in loading order. A pair is (B_x, B_z), in the plane of bending.
+    fields : sequence of Field, (B_x, B_z) pairs, (B_x, B_y, B_z) triples or field sources
+        Applied fields (T), in loading order. A pair is (B_x, B_z), in the plane of bending. A field source
+        (:mod:`magsoft_env.fields`: a magnet, a coil system at its currents, ...; one source or a sequence) loads
+        every piece with the couple ``m x B`` and the force ``G^T m`` at its position, the clamp at the origin:
+        the planar cantilever, inextensible (:mod:`magsoft_env.theory.sources`), returning
+        :class:`~magsoft_env.theory.sources.SourceResult`. Between consecutive sources one magnet at two poses
+        moves, other sources blend; the first is switched on from zero. A ``fields.Uniform`` source is today's
+        uniform field, bit for bit.
     gravity : float
         Gravitational acceleration (m/s^2) along -z. Must be 0 for ``support="free"``.
     support : {"cantilever", "free"}
@@ -859,6 +866,14 @@ def solve_path(
     >>> bool(res[-1].success), round(res[-1].tip_deflection / beam.length, 2)
     (True, 0.92)
     """
+    if is_source(fields):
+        fields = [fields]
+    elif not isinstance(fields, np.ndarray) and isinstance(fields, (list, tuple)) and any(map(is_source, fields)):
+        uniform = [uniform_field(f) if is_source(f) else f for f in fields]
+        if any(f is None for f in uniform):  # a non-uniform source on the path
+            return _solve_source_path(beam, fields, gravity, support, coupling, extensible, clamp_angle, options,
+                                      progress, model)
+        fields = uniform  # uniform sources: today's solver, bit for bit
     rod = use_rod(beam, fields, model)
     g, support, coupling, extensible, th0, options = check_problem(
         beam, gravity, support, coupling, extensible, clamp_angle, options, rod=rod
@@ -869,6 +884,34 @@ def solve_path(
             return solve_rod_path(beam, fields, g, support, th0, options, subdomain_edges(beam, options.split_at_knots),
                                   TERMINATION_MESSAGES, progress)
         return _solve_path(beam, fields, g, support, coupling, extensible, th0, options, progress)
+
+
+def _solve_source_path(beam, fields, gravity, support, coupling, extensible, clamp_angle, options, progress, model):
+    """A path with a non-uniform field source: the planar cantilever with couples and gradient forces."""
+    from ..fields import Uniform
+
+    if choice("model", model, ["auto", "planar", "3d"]) == "3d":
+        raise ValueError("model='3d' does not yet take a non-uniform field source (the planar model does: couples "
+                         "and gradient forces in the x-z plane); pass model='planar' or 'auto', or a uniform field.")
+    if not isinstance(beam, Beam):
+        raise ValueError(f"beam must be a magsoft_env.Beam, got {type(beam).__name__}.")
+    if not beam.is_planar:
+        raise ValueError("a non-uniform field source takes the planar model, which cannot take a magnetization with "
+                         "a component across the width.")
+    g, support, coupling, extensible, th0, options = check_problem(
+        beam, gravity, support, coupling, extensible, clamp_angle, options
+    )
+    if support != "cantilever":
+        raise ValueError(f"a non-uniform field source needs support='cantilever' (a free beam in a gradient is pulled "
+                         f"away: no equilibrium), got {support!r}.")
+    if extensible:
+        raise ValueError("a non-uniform field source takes the inextensible beam: pass extensible=False.")
+    sources = [f if is_source(f) else Uniform(f) for f in fields]
+    if not sources:
+        raise ValueError("fields must hold at least one field or source, got none.")
+    with single_threaded_blas():
+        return solve_source_path(beam, sources, gravity=g, coupling=coupling, clamp_angle=th0, options=options,
+                                 progress=progress)
 
 
 def _solve_path(beam, fields, g, support, coupling, extensible, th0, options, progress):
@@ -910,7 +953,7 @@ def solve_equilibrium(
     start: str = "path",
     options: SolverOptions | None = None,
     model: str = "auto",
-) -> EquilibriumResult | RodResult:
+) -> EquilibriumResult | RodResult | SourceResult:
     """Equilibrium shape of a beam under a uniform field (T) and gravity.
 
     Solves, for the cantilever (``theta(0) = clamp_angle``, ``theta'(L) = 0``)::
@@ -923,9 +966,11 @@ def solve_equilibrium(
     Parameters
     ----------
     beam : Beam
-    field : Field, (B_x, B_z) or (B_x, B_y, B_z)
+    field : Field, (B_x, B_z), (B_x, B_y, B_z) or a field source
         Applied field (T). Three components (or a magnetization across the width) take the 3D
-        rod and return a :class:`~magsoft_env.theory.rod_solver.RodResult` (``model``).
+        rod and return a :class:`~magsoft_env.theory.rod_solver.RodResult` (``model``). A non-uniform
+        field source (:mod:`magsoft_env.fields`) adds gradient forces (see :func:`solve_path`) and returns a
+        :class:`~magsoft_env.theory.sources.SourceResult`.
     start : {"path", "straight"}
         ``"path"`` (default) follows the loading path: gravity first, then the field ramped
         from zero, as the real beam experiences it. ``"straight"`` runs Newton once from the
@@ -946,6 +991,14 @@ def solve_equilibrium(
     >>> r.success, r.stable
     (True, True)
     """
+    if is_source(field) and uniform_field(field) is None:
+        if choice("start", start, ["path", "straight"]) != "path":
+            raise ValueError("start='straight' takes a uniform field; a field source follows the loading path: "
+                             "pass start='path'.")
+        return solve_path(beam, [field], gravity=gravity, support=support, coupling=coupling, extensible=extensible,
+                          clamp_angle=clamp_angle, options=options, model=model)[0]
+    if is_source(field):
+        field = uniform_field(field)
     rod = use_rod(beam, [field], model)
     fld = as_field(field)
     start = choice("start", start, ["path", "straight"])
