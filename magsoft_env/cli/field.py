@@ -1,5 +1,6 @@
 """``magsoft field``: the field and gradient of a coil system at points, per ampere of each coil, and the largest
-field each axis reaches there within the current limits.
+field each axis reaches there within the current limits; with ``--want-mT``, the currents of least norm for a
+wanted field (and gradient) at the first point.
 
 Coil systems by name (``--source navion``, ``cardiomag``, the ideal ones: ``--list``) or from an MPEM calibration
 file (``--source my_system.yaml --max-current-A 20``). Positions in mm, currents in A, fields in mT, gradients in
@@ -19,6 +20,9 @@ from .output import dumps_json
 MAX_AT_MM = 10_000.0
 #: Most points one call takes.
 MAX_POINTS = 1000
+#: Largest |component| of ``--want-mT`` (mT) and ``--want-gradient-mT-per-m`` (mT/m).
+MAX_WANT_MT = 10_000.0
+MAX_WANT_MT_PER_M = 1e7
 
 
 def add_parser(subparsers) -> None:
@@ -38,6 +42,12 @@ def add_parser(subparsers) -> None:
     p.add_argument("--max-current-A", type=float, nargs="+", default=None, metavar="A",
                    help="current limit (A), one for all coils or one per coil (default: the system's; needed for a "
                         "file without Max_Current)")
+    p.add_argument("--want-mT", type=float, nargs=3, default=None, metavar=("BX", "BY", "BZ"),
+                   help="allocate: the currents of least norm (within the limits) for this field (mT) at the first "
+                        "--at-mm point; the report then uses them (not with --currents-A)")
+    p.add_argument("--want-gradient-mT-per-m", type=float, nargs="+", default=None, metavar="G",
+                   help="with --want-mT, also this gradient (mT/m): 5 values (dBx/dx dBx/dy dBx/dz dBy/dy dBy/dz) or "
+                        "9 (the symmetric, traceless matrix row by row)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
     p.add_argument("--list", action="store_true", help="list the named coil systems and exit")
     p.set_defaults(run=run)
@@ -74,8 +84,16 @@ def run(args) -> int:
         raise ValueError(f"--source is required: a named coil system ({', '.join(CALIBRATIONS)}) or an MPEM .yaml "
                          "file (see --list).")
     pts_mm = _points(args.at_mm)
+    want_B, want_G = _wanted(args)
     coils = CoilSystem.from_calibration(args.source, max_current=_limits_flag(args.max_current_A))
     n = coils.n_coils
+    allocation = None
+    if want_B is not None:
+        from magsoft_env.fields import allocate
+
+        allocation = allocate(coils, pts_mm[0] * MM, field=want_B * MT,
+                              gradient=None if want_G is None else want_G * MT)
+        args.currents_A = allocation.currents.tolist()
     currents = np.zeros(n) if args.currents_A is None else np.array(args.currents_A, dtype=float)
     if currents.shape != (n,):
         raise ValueError(f"--currents-A needs one current per coil ({n}: {', '.join(coils.coil_names)}), got "
@@ -97,11 +115,89 @@ def run(args) -> int:
         })
     info = {"source": coils.name, "coils": list(coils.coil_names), "max_current_A": coils.max_current.tolist(),
             "currents_A": currents.tolist(), "offset": coils.offset is not None, "points": rows}
+    if allocation is not None:
+        info["allocation"] = _allocation_info(coils, pts_mm[0], allocation)
     if args.json:
         print(dumps_json(info))
         return 0
     _print_text(coils, currents, rows)
+    if allocation is not None:
+        _print_allocation(coils, info["allocation"])
     return 0
+
+
+def _wanted(args):
+    """``--want-mT`` and ``--want-gradient-mT-per-m`` checked: (B (3,) mT or None, G (3, 3) mT/m or None)."""
+    if args.want_mT is None:
+        if args.want_gradient_mT_per_m is not None:
+            raise ValueError("--want-gradient-mT-per-m needs --want-mT BX BY BZ (the field wanted with it, mT).")
+        return None, None
+    if args.currents_A is not None:
+        raise ValueError("--want-mT and --currents-A exclude each other: --want-mT computes the currents.")
+    B = np.array(args.want_mT, dtype=float)
+    if not all(math.isfinite(v) and abs(v) <= MAX_WANT_MT for v in B):
+        raise ValueError(f"--want-mT must be 3 finite components within +-{MAX_WANT_MT:g} mT, got {B.tolist()}.")
+    if args.want_gradient_mT_per_m is None:
+        return B, None
+    g = np.array(args.want_gradient_mT_per_m, dtype=float)
+    if g.size not in (5, 9):
+        raise ValueError("--want-gradient-mT-per-m takes 5 values (dBx/dx dBx/dy dBx/dz dBy/dy dBy/dz) or 9 (the "
+                         f"matrix row by row), mT/m, got {g.size}.")
+    if not all(math.isfinite(v) and abs(v) <= MAX_WANT_MT_PER_M for v in g):
+        raise ValueError(f"--want-gradient-mT-per-m must be finite values within +-{MAX_WANT_MT_PER_M:g} mT/m, got "
+                         f"{g.tolist()}.")
+    if g.size == 5:
+        G = np.array([[g[0], g[1], g[2]], [g[1], g[3], g[4]], [g[2], g[4], -g[0] - g[3]]])
+    else:
+        G = g.reshape(3, 3)
+        scale = max(float(np.abs(G).max()), 1e-300)
+        if np.abs(G - G.T).max() > 1e-6 * scale or abs(np.trace(G)) > 1e-6 * scale:
+            raise ValueError("--want-gradient-mT-per-m with 9 values must be a symmetric, traceless matrix (the "
+                             f"gradient of a source-free field), got {G.tolist()} (trace {np.trace(G):g} mT/m).")
+    return B, G
+
+
+def _allocation_info(coils, at_mm, a) -> dict:
+    out = {
+        "at_mm": at_mm.tolist(),
+        "want_B_mT": (a.wanted["field"] / MT).tolist(),
+        "want_G_mT_per_m": (a.wanted["gradient"] / MT).tolist() if "gradient" in a.wanted else None,
+        "currents_A": a.currents.tolist(),
+        "B_mT": (a.field / MT).tolist(),
+        "G_mT_per_m": (a.gradient / MT).tolist(),
+        "error_B_mT": a.error["field"] / MT,
+        "error_G_mT_per_m": a.error["gradient"] / MT if "gradient" in a.error else None,
+        "relative_error": a.relative_error,
+        "reachable": a.reachable,
+        "saturated": [c for c, f in zip(coils.coil_names, a.saturated, strict=True) if f],
+        "rank": a.rank,
+        "n_wanted": a.n_wanted,
+        "settable": list(a.settable),
+        "scale_limit": a.scale_limit,
+        "status": a.status,
+        "message": a.message,
+    }
+    return out
+
+
+def _print_allocation(coils, a) -> None:
+    x, y, z = a["at_mm"]
+    print(f"\nallocation at ({x:g}, {y:g}, {z:g}) mm: {'reachable' if a['reachable'] else 'NOT reachable'}")
+    print(f"  wanted B (mT)       {_row(a['want_B_mT'])}")
+    print(f"  achieved B (mT)     {_row(a['B_mT'])}   |error| = {a['error_B_mT']:.3g} mT")
+    if a["want_G_mT_per_m"] is not None:
+        for ax, gw, ga in zip("xyz", a["want_G_mT_per_m"], a["G_mT_per_m"], strict=True):
+            print(f"  dB{ax}/d(x,y,z) (mT/m) wanted {_row(gw)}   achieved {_row(ga)}")
+        print(f"  |gradient error| = {a['error_G_mT_per_m']:.3g} mT/m")
+    print(f"  {'coil':16s}{'current A':>10s}{'limit A':>9s}")
+    for name, I, lim in zip(coils.coil_names, a["currents_A"], coils.max_current, strict=True):
+        mark = "  at its limit" if name in a["saturated"] else ""
+        print(f"  {name:16s}{I:10.4f}{lim:9g}{mark}")
+    scale = a["scale_limit"]
+    print(f"  relative error {a['relative_error']:.3g}; rank {a['rank']} of {a['n_wanted']} wanted components; "
+          f"sets here: {', '.join(a['settable']) or 'nothing fully'}")
+    print(f"  the wanted quantities scale by up to {scale:.6g} within the limits")
+    print(f"  {a['message']}")
 
 
 def _row(values, fmt="{:9.4f}") -> str:

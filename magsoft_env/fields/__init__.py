@@ -18,6 +18,10 @@ shape ``(n, 3)`` in T and ``G`` of shape ``(n, 3, 3)`` in T/m with ``G[i, a, b] 
 ``GridField``          samples on a grid fitted by a harmonic potential (div- and curl-free)
 ``MovingSource``       a source whose pose is an input over time; ``Transformed``: at a fixed pose
 ``SourceSum``          sources added
+``CoilDrive``          coil currents as an input: limits, slew rate, L/R lag (exact in discrete time)
+``allocate``           least-norm currents for a wanted field (and gradient or force), within the limits
+``reachable_field``    the largest field along a direction within the limits (a linear program)
+``MagnetWorkspace``    where a permanent magnet may be; ``PosedMagnet``: a magnet whose pose is the input
 =====================  ==========================================================================
 
 Everything is SI. docs/fields.md has the formulas, their references and the checks. This unit imports the
@@ -25,6 +29,7 @@ root leaves, ``spec``, numpy and scipy (PyYAML when a calibration file is read);
 does not import it.
 """
 
+from .actuation import Allocation, CoilDrive, MagnetWorkspace, PosedMagnet, Reach, allocate, reachable_field
 from .base import MU0_4PI, Source, SourceSum, Transformed, Uniform, as_points
 from .coils import ACTUATION_ROWS, CALIBRATIONS, Calibration, CoilSystem, read_mpem
 from .dipole import DipoleSet, PointDipole, SphereMagnet
@@ -37,24 +42,31 @@ __all__ = [
     "ACTUATION_ROWS",
     "CALIBRATIONS",
     "MU0_4PI",
+    "Allocation",
     "Calibration",
     "CircularLoop",
     "CoaxialLoops",
+    "CoilDrive",
     "CoilSystem",
     "CuboidMagnet",
     "CylinderMagnet",
     "DipoleSet",
     "GridField",
+    "MagnetWorkspace",
     "MovingSource",
     "PointDipole",
+    "PosedMagnet",
+    "Reach",
     "Source",
     "SourceSum",
     "SphereMagnet",
     "Transformed",
     "Uniform",
+    "allocate",
     "as_points",
     "helmholtz_pair",
     "maxwell_pair",
+    "reachable_field",
     "read_mpem",
     "rotation_about",
 ]
