@@ -18,6 +18,9 @@ shape ``(n, 3)`` in T and ``G`` of shape ``(n, 3, 3)`` in T/m with ``G[i, a, b] 
 ``GridField``          samples on a grid fitted by a harmonic potential (div- and curl-free)
 ``MovingSource``       a source whose pose is an input over time; ``Transformed``: at a fixed pose
 ``SourceSum``          sources added
+``load_source``        a source from a calibration name, a YAML/JSON source file or a dict (mm, mT, A in
+                       the key names); ``source_from_dict``, ``source_to_dict``, ``save_source``: the same
+                       as data, written back exactly (docs/fields.md, "Sources in files")
 =====================  ==========================================================================
 
 Everything is SI. docs/fields.md has the formulas, their references and the checks. This unit imports the
@@ -28,6 +31,7 @@ does not import it.
 from .base import MU0_4PI, Source, SourceSum, Transformed, Uniform, as_points
 from .coils import ACTUATION_ROWS, CALIBRATIONS, Calibration, CoilSystem, read_mpem
 from .dipole import DipoleSet, PointDipole, SphereMagnet
+from .files import load_source, save_source, source_from_dict, source_markers, source_to_dict
 from .grid import GridField
 from .loop import CircularLoop, CoaxialLoops, helmholtz_pair, maxwell_pair
 from .magnets import CuboidMagnet, CylinderMagnet
@@ -54,7 +58,12 @@ __all__ = [
     "Uniform",
     "as_points",
     "helmholtz_pair",
+    "load_source",
     "maxwell_pair",
     "read_mpem",
     "rotation_about",
+    "save_source",
+    "source_from_dict",
+    "source_markers",
+    "source_to_dict",
 ]
