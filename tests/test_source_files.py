@@ -366,3 +366,19 @@ def test_plot_into_given_axes_and_from_a_dict():
         plot_source(SPECS["helmholtz"], plane="xq")
     with pytest.raises(ValueError, match="robot must be a centreline"):
         plot_source(SPECS["helmholtz"], robot=np.zeros((3, 2)), points=8)
+
+
+def test_the_documented_example_file(tmp_path):
+    """docs/fields.md's example YAML reads, and is the sphere plus Navion at 10 A on coil 0."""
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "fields.md").read_text()
+    block = text.split("## Sources in files", 1)[1].split("```yaml\n", 1)[1].split("```", 1)[0]
+    (tmp_path / "magnet_near_strip.yaml").write_text(block)
+    s = load_source(tmp_path / "magnet_near_strip.yaml")
+    expected = (SphereMagnet(position=(0.0125, 0.0, 0.015), radius=0.003, magnetization=(0.0, 0.0, 1.2 / 4e-7 / np.pi))
+                + CoilSystem.from_calibration("navion").at_currents([10.0, 0.0, 0.0]))
+    B, G = s.field_and_gradient(POINTS)
+    Be, Ge = expected.field_and_gradient(POINTS)
+    assert np.allclose(B, Be, rtol=0, atol=1e-14 * np.abs(Be).max())
+    assert np.allclose(G, Ge, rtol=0, atol=1e-14 * np.abs(Ge).max())
