@@ -22,6 +22,9 @@ shape ``(n, 3)`` in T and ``G`` of shape ``(n, 3, 3)`` in T/m with ``G[i, a, b] 
 ``allocate``           least-norm currents for a wanted field (and gradient or force), within the limits
 ``reachable_field``    the largest field along a direction within the limits (a linear program)
 ``MagnetWorkspace``    where a permanent magnet may be; ``PosedMagnet``: a magnet whose pose is the input
+``load_source``        a source from a calibration name, a YAML/JSON source file or a dict (mm, mT, A in
+                       the key names); ``source_from_dict``, ``source_to_dict``, ``save_source``: the same
+                       as data, written back exactly (docs/fields.md, "Sources in files")
 =====================  ==========================================================================
 
 Everything is SI. docs/fields.md has the formulas, their references and the checks. This unit imports the
@@ -33,6 +36,7 @@ from .actuation import Allocation, CoilDrive, MagnetWorkspace, PosedMagnet, Reac
 from .base import MU0_4PI, Source, SourceSum, Transformed, Uniform, as_points
 from .coils import ACTUATION_ROWS, CALIBRATIONS, Calibration, CoilSystem, read_mpem
 from .dipole import DipoleSet, PointDipole, SphereMagnet
+from .files import load_source, save_source, source_from_dict, source_markers, source_to_dict
 from .grid import GridField
 from .loop import CircularLoop, CoaxialLoops, helmholtz_pair, maxwell_pair
 from .magnets import CuboidMagnet, CylinderMagnet
@@ -65,8 +69,13 @@ __all__ = [
     "allocate",
     "as_points",
     "helmholtz_pair",
+    "load_source",
     "maxwell_pair",
     "reachable_field",
     "read_mpem",
     "rotation_about",
+    "save_source",
+    "source_from_dict",
+    "source_markers",
+    "source_to_dict",
 ]

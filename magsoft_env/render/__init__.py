@@ -3,7 +3,8 @@
 The headless OpenGL backend (EGL, then OSMesa) is chosen by :mod:`magsoft_env.gl`: programs that
 know they will render call :func:`~magsoft_env.gl.select_gl_backend` before mujoco is imported;
 :class:`RodRenderer` binds one late otherwise. Figures (matplotlib) are :mod:`.figures`;
-a design written to files is :func:`magsoft_env.render.design.write_design`. One palette
+a design written to files is :func:`magsoft_env.render.design.write_design`; a field source's map is
+:func:`plot_source` (:mod:`.fields`). One palette
 (:data:`.figures.PALETTE`) colours the figures and the frames. Importing this package does not
 import mujoco: :class:`RodRenderer`, :class:`StripRenderer`, :func:`make_renderer` (the renderer of a rod in a
 view), :class:`TimePanel` and :func:`write_video` load lazily.
@@ -19,7 +20,8 @@ from ..gl import GL_BACKENDS, RenderBackendError, preselect_gl_backend, select_g
 _LAZY = {"RodRenderer": "magsoft_env.render.frames", "TimePanel": "magsoft_env.render.frames",
          "StripRenderer": "magsoft_env.render.strip", "make_renderer": "magsoft_env.render.views",
          "write_video": "magsoft_env.render.video", "render_gait": "magsoft_env.render.video",
-         "render_policy": "magsoft_env.render.video", "PALETTE": "magsoft_env.render.figures"}
+         "render_policy": "magsoft_env.render.video", "PALETTE": "magsoft_env.render.figures",
+         "plot_source": "magsoft_env.render.fields"}
 
 
 def __getattr__(name):
@@ -30,4 +32,5 @@ def __getattr__(name):
 
 
 __all__ = ["GL_BACKENDS", "PALETTE", "RenderBackendError", "RodRenderer", "StripRenderer", "TimePanel",
-           "make_renderer", "preselect_gl_backend", "render_gait", "render_policy", "select_gl_backend", "write_video"]
+           "make_renderer", "plot_source", "preselect_gl_backend", "render_gait", "render_policy", "select_gl_backend",
+           "write_video"]
