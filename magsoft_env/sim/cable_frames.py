@@ -194,7 +194,7 @@ class CoupleWriter:
         bt = (t * B) @ one
         F = self._ma * B - bt[:, None] * mw
         twist = alpha * ((v * B) @ one) - beta * ((u * B) @ one)
-        force = np.einsum("nab,na->nb", Gs, mw)
+        force = np.matmul(mw[:, None, :], Gs)[:, 0, :]  # G^T M
         if extra is not None:
             F += (extra[:, 3:, None] * t[:, None, :]).reshape(-1, 9) @ self._eps
             twist += (extra[:, 3:] * t) @ one

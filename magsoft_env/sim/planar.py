@@ -35,7 +35,6 @@ from .model import (
     native_controls,
 )
 from .readouts import ChainOrientation
-from .sources import piece_loads
 from .stepping import NativeSteps, PythonSteps
 
 
@@ -247,10 +246,12 @@ class PlanarRod:
         """``(p, m, B, G)`` of the pieces (body-id order) at the positions in ``xpos`` / ``xmat``: magnetic centres
         (the pieces' midpoints, m), world moments (A m^2) and the source's field and gradient there, one call."""
         b0, b1 = self.b0, self.b1
-        R = data.xmat[b0:b1].reshape(-1, 3, 3)
-        m = np.einsum("nij,nj->ni", R, self._m_ids)
+        R = data.xmat[b0:b1]  # rows: R00 R01 R02 R10 ... R22
+        m = np.zeros((b1 - b0, 3))  # R (m_x, 0, m_z): the body moments lie in the x-z plane, every R turns about y
+        m[:, 0] = R[:, 0] * self._mx + R[:, 2] * self._mz
+        m[:, 2] = R[:, 6] * self._mx + R[:, 8] * self._mz
         # a body's frame starts at its piece's first point, x along the piece: the midpoint is half a piece along x
-        p = data.xpos[b0:b1] + self._half_ids[:, None] * R[:, :, 0]
+        p = data.xpos[b0:b1] + self._half_ids[:, None] * R[:, 0::3]
         B, G = self._source(p, float(data.time))
         return p, m, B, G
 
@@ -266,13 +267,16 @@ class PlanarRod:
         # after mj_step, xpos / xmat are those of the step's start: the state in qpos needs its own kinematics
         mujoco.mj_kinematics(self.model, data)
         p, m, B, G = self._source_state(data)
-        c, f = piece_loads(m, B, G)
+        mx, mz = m[:, 0], m[:, 2]
+        # in the plane (m_y = 0): f = G^T m has f_x = G_xx m_x + G_zx m_z, f_z = G_xz m_x + G_zz m_z; (m x B)_y
+        fx = G[:, 0, 0] * mx + G[:, 2, 0] * mz
+        fz = G[:, 0, 2] * mx + G[:, 2, 2] * mz
         r = p - data.xipos[self.b0:self.b1]
         xf = data.xfrc_applied[self.b0:self.b1]
         xf[:] = 0.0 if self._external is None else self._external
-        xf[:, 0] += f[:, 0]
-        xf[:, 2] += f[:, 2]
-        xf[:, 4] += c[:, 1] + r[:, 2] * f[:, 0] - r[:, 0] * f[:, 2]
+        xf[:, 0] += fx
+        xf[:, 2] += fz
+        xf[:, 4] += mz * B[:, 0] - mx * B[:, 2] + r[:, 2] * fx - r[:, 0] * fz
         self.moment[0] = m[:, 0].sum()
         self.moment[1] = m[:, 2].sum()
 

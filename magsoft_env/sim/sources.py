@@ -129,7 +129,11 @@ class SourceField:
 def piece_loads(m: np.ndarray, B: np.ndarray, G: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Couples ``m x B`` (N m) and forces ``G^T m`` (N) of pieces with world moments ``m`` ``(n, 3)`` (A m^2) in
     fields ``B`` ``(n, 3)`` (T) with gradients ``G`` ``(n, 3, 3)`` (T/m), each ``(n, 3)``."""
-    return np.cross(m, B), np.einsum("nab,na->nb", G, m)
+    c = np.empty_like(m)
+    c[:, 0] = m[:, 1] * B[:, 2] - m[:, 2] * B[:, 1]
+    c[:, 1] = m[:, 2] * B[:, 0] - m[:, 0] * B[:, 2]
+    c[:, 2] = m[:, 0] * B[:, 1] - m[:, 1] * B[:, 0]
+    return c, np.matmul(m[:, None, :], G)[:, 0, :]
 
 
 #: Magnetic moment of the magnet of :func:`magnet_case` (A m^2, along +z): a 4 mm NdFeB sphere has about 0.03.
