@@ -218,3 +218,9 @@ def test_set_source_none_restores_the_uniform_path():
     a.step(200)
     b.step(200)
     assert state_hash(a) == state_hash(b)
+
+
+def test_source_step_bench_runs():
+    from magsoft_env.bench import source_step_bench
+
+    assert source_step_bench.main(["--segments", "4", "--steps", "5"]) == 0

@@ -19,7 +19,7 @@ import time
 
 import numpy as np
 
-from ..fields import CoilSystem, PointDipole
+from ..fields import CoilSystem
 from ..io import format_table, write_json
 from ..sim import RodOptions, Simulator
 from ..sim.sources import magnet_case

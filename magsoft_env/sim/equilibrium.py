@@ -439,7 +439,7 @@ def mujoco_path(
     prev, prev_big = np.zeros(3), 0.0
     substeps = []
     seed = np.array([0.0, 0.0, imperfection])
-    for target, rest, big in loads:
+    for target, _rest, big in loads:
         f = Field(*target)
         change = max(float(np.max(np.abs(target - prev))), big + prev_big)  # a bound of the sources' change
         n = max(1, math.ceil(change / mstep)) + (1 if imperfection else 0)

@@ -143,6 +143,11 @@ class Simulator:
     with the others (docs/sim.md, "The 3D rod in the Simulator"). The simulator holds one field
     ``(B_x, B_y, B_z)``; a pair means ``(B_x, B_z)``, and a rod in the x-z plane refuses a y component.
 
+    Besides the uniform field, a field source (:mod:`magsoft_env.fields`; ``source=``, :meth:`set_source`) gives
+    every piece the couple ``m x B(p)`` and the force ``G(p)^T m`` at its magnetic centre, written by the backend
+    before every step (Python per step); a uniform source is folded into the uniform field (docs/sim.md, "Field
+    sources").
+
     Parameters
     ----------
     beam : Beam
@@ -775,7 +780,8 @@ class Simulator:
     def energies(self) -> dict[str, float]:
         """Kinetic, elastic, gravitational, magnetic and total energy (J).
 
-        Gravity is measured from z = 0; magnetic energy is ``-sum (R m) . B``.
+        Gravity is measured from z = 0; magnetic energy is ``-sum (R m) . B``, with a source's field at each piece
+        added to ``B``.
         """
         kinetic = self.kinetic_energy()
         return self.backend.energies(self.data, self._B3, kinetic)
