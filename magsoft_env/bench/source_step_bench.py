@@ -50,7 +50,7 @@ def run(segments: int = 49, steps: int = 2000) -> list[dict]:
         base = None
         for name, src in sources().items():
             sim = Simulator(beam, RodOptions(rod=rod, segments=segments, timestep=dt, gravity=9.81),
-                            field=(0.0, 0.0, 0.002) if rod == "cable" else (0.0, 0.002), source=src)
+                            field=(0.0, 0.002), source=src)
             step = _per_call(lambda sim=sim: sim.step(steps), steps)
             evaluation = float("nan")
             if src is not None:
