@@ -146,9 +146,10 @@ def magnet_case():
     The paper's strip (25 x 5 x 1.13 mm, axial magnetization, the package's default material at 20 % volume
     fraction), clamped at the origin along +x (``clamp = {"clamp_angle": 0.0, "gravity": 0.0}``: no gravity), and a
     point dipole of :data:`MAGNET_CASE_MOMENT` A m^2 along +z at ``(L - 5 mm, 0, -10 mm)``: 5 mm short of the free
-    end and 10 mm below it. The strip bends toward it by about 20 degrees at the tip, pulled by the gradient force as
-    much as turned by the couple (docs/sim.md, "Field sources"; the planar chain and the 3D strip agree within
-    1e-3 L, tests/test_sim_sources.py)::
+    end and 10 mm below it. The strip bends up, away from it, by about 23 degrees at the tip; the gradient forces'
+    moment about the clamp is about -9 % of the couples' there (docs/sim.md, "Field sources"). The planar chain and
+    the 3D strip agree within 1e-3 L (tests/test_sim_sources.py) and with the analytical solver within 2e-4 L
+    (tests/test_theory_sources.py)::
 
         beam, source, clamp = magnet_case()
         eq = mujoco_equilibrium(beam, source, rod="planar", **clamp)

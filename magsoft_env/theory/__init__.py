@@ -2,8 +2,8 @@
 
 from .elastica import elastica_tip, prandtl_field
 from .rod_solver import CriticalField, RodResult, critical_field
-from .sources import SourceResult, shoot
 from .solver import TERMINATION_MESSAGES, EquilibriumResult, SolverOptions, solve_equilibrium, solve_path
+from .sources import SourceResult, shoot
 
 __all__ = [
     "TERMINATION_MESSAGES",
