@@ -40,6 +40,9 @@ __version__ = "0.4.0"
 _LAZY = {
     "solve_equilibrium": "magsoft_env.theory",
     "solve_path": "magsoft_env.theory",
+    "fit": "magsoft_env.theory",
+    "sensitivities": "magsoft_env.theory",
+    "FitResult": "magsoft_env.theory",
     "EquilibriumResult": "magsoft_env.theory",
     "RodResult": "magsoft_env.theory",
     "SourceResult": "magsoft_env.theory",
@@ -89,6 +92,7 @@ __all__ = [
     "EquilibriumResult",
     "Field",
     "RodResult",
+    "FitResult",
     "SourceResult",
     "Function",
     "Material",
@@ -102,6 +106,7 @@ __all__ = [
     "critical_field",
     "crosscheck_preset",
     "design_profile",
+    "fit",
     "gait_preset",
     "jig_curve",
     "jig_from_function",
@@ -117,6 +122,7 @@ __all__ = [
     "ramp",
     "run_gait",
     "sample_profile",
+    "sensitivities",
     "solve_equilibrium",
     "solve_path",
 ]

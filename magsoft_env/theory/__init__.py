@@ -1,7 +1,9 @@
 """Analytical side: equilibrium shapes of hard-magnetic beams along loading paths."""
 
 from .elastica import elastica_tip, prandtl_field
+from .fit import FitResult, fit
 from .rod_solver import CriticalField, RodResult, critical_field
+from .sensitivity import Sensitivity, sensitivities
 from .solver import TERMINATION_MESSAGES, EquilibriumResult, SolverOptions, solve_equilibrium, solve_path
 from .sources import SourceResult, shoot
 
@@ -9,12 +11,16 @@ __all__ = [
     "TERMINATION_MESSAGES",
     "CriticalField",
     "EquilibriumResult",
+    "FitResult",
     "RodResult",
+    "Sensitivity",
     "SolverOptions",
     "SourceResult",
     "critical_field",
     "elastica_tip",
+    "fit",
     "prandtl_field",
+    "sensitivities",
     "shoot",
     "solve_equilibrium",
     "solve_path",

@@ -1,0 +1,368 @@
+"""Fit a robot's parameters to measured shapes: Levenberg-Marquardt on exact Jacobians, with uncertainties.
+
+A measurement is a field (and the gravity of the fit) and tracked positions on the beam: the tip, or points at
+given reference arc lengths. For each measurement the planar solver finds the equilibrium along the loading path
+(gravity, then the field ramped from zero, as the robot meets it), and :mod:`magsoft_env.theory.sensitivity`
+gives the exact derivatives of the positions with respect to the parameters. The fit minimizes the sum of squared
+position misfits (``scipy.optimize.least_squares``, Levenberg-Marquardt, in the logarithm of the positive
+parameters). At the optimum, with ``J`` the Jacobian of the misfits in the parameters' units and ``s^2`` the
+residual variance (the sum of squares over ``n - k``, or the given measurement sigma squared)::
+
+    covariance = s^2 (J^T J)^-1,      sigma = sqrt(diag(covariance))
+
+Parameters that the data cannot tell apart (for example ``E0`` and ``particle_magnetization`` without gravity:
+a field bends the beam by ``M_p / E0`` alone) are refused before the fit with a message saying which.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.optimize
+
+from ..spec import Beam, as_field
+from .options import SolverOptions
+from .sensitivity import sensitivities
+
+#: Parameters :func:`fit` can fit (SI units), and whether each is positive (fitted in its logarithm).
+FIT_PARAMETERS = {"E0": True, "particle_magnetization": True, "density": True, "thickness": True,
+                  "volume_fraction": True, "clamp_angle": False}
+#: Largest |correlation| between two fitted parameters before they count as not identifiable from the data.
+MAX_CORRELATION = 0.9999
+#: Restarts of the fit lie this factor above and below the guess of each positive parameter.
+RESTART_FACTOR = 1.4
+#: Most measurements (fields) one fit takes; each costs one equilibrium per iteration.
+MAX_MEASUREMENTS = 500
+
+
+@dataclass(frozen=True)
+class Measurement:
+    """One measured shape: the field (T), the reference arc lengths (m) of the tracked points and their
+    measured positions ``(n, 2)`` (x, z) in m, clamp at the origin."""
+
+    field: tuple
+    s: np.ndarray
+    points: np.ndarray
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """The outcome of :func:`fit` (frozen).
+
+    Attributes
+    ----------
+    success : bool
+        The optimizer converged and every equilibrium was found.
+    message : str
+    params : tuple of str
+    values, sigma : dict
+        Fitted values and their 1-sigma uncertainties, by parameter (SI units).
+    interval95 : dict
+        ``(low, high)`` 95 % intervals (normal approximation, +-1.96 sigma).
+    covariance, correlation : (k, k) ndarray
+    beam : Beam
+        The beam with the fitted values.
+    residual : (m,) ndarray
+        Misfits at the optimum (m), x then z of each tracked point, measurement by measurement.
+    rms : float
+        Root-mean-square misfit (m).
+    residual_sigma : float
+        ``s``: the measurement sigma given, or the one the residual implies (m).
+    iterations : int
+        Function evaluations of the optimizer.
+    """
+
+    success: bool
+    message: str
+    params: tuple
+    values: dict
+    sigma: dict
+    interval95: dict
+    covariance: np.ndarray
+    correlation: np.ndarray
+    beam: Beam
+    residual: np.ndarray
+    rms: float
+    residual_sigma: float
+    iterations: int
+
+    def to_dict(self) -> dict:
+        return {"success": self.success, "message": self.message, "values": dict(self.values),
+                "sigma": dict(self.sigma), "interval95": {k: list(v) for k, v in self.interval95.items()},
+                "correlation": self.correlation.tolist(), "rms_m": self.rms, "residual_sigma_m": self.residual_sigma,
+                "iterations": self.iterations}
+
+
+def _value(beam: Beam, p: str, clamp_angle: float) -> float:
+    from ..spec.profiles import Constant
+
+    if p == "E0":
+        return float(beam.material.E0)
+    if p == "particle_magnetization":
+        return float(beam.material.particle_magnetization)
+    if p == "density":
+        if callable(beam.material.density):
+            raise ValueError("the beam's density is a function of the volume fraction: fit 'volume_fraction' or give "
+                             "the material a density number.")
+        return float(beam.material.density)
+    if p == "thickness":
+        return float(beam.thickness)
+    if p == "volume_fraction":
+        phi = beam.volume_fraction
+        if not isinstance(phi, Constant):
+            raise ValueError("the beam's volume fraction varies along it: fitting one number does not apply.")
+        return float(phi.value)
+    return float(clamp_angle)
+
+
+def _with(beam: Beam, values: dict) -> Beam:
+    mat = {k: values[k] for k in ("E0", "particle_magnetization", "density") if k in values}
+    if mat:
+        beam = dataclasses.replace(beam, material=dataclasses.replace(beam.material, **mat))
+    if "thickness" in values:
+        beam = dataclasses.replace(beam, thickness=values["thickness"])
+    if "volume_fraction" in values:
+        beam = dataclasses.replace(beam, volume_fraction=values["volume_fraction"])
+    return beam
+
+
+def _measurements(measurements, length: float) -> list[Measurement]:
+    if isinstance(measurements, (str, bytes)) or not hasattr(measurements, "__len__"):
+        raise ValueError("measurements must be a list of (field, tip_position) or (field, s, points) entries, got "
+                         f"{type(measurements).__name__}.")
+    if not 1 <= len(measurements) <= MAX_MEASUREMENTS:
+        raise ValueError(f"measurements must hold 1 to {MAX_MEASUREMENTS} entries, got {len(measurements)}.")
+    out = []
+    for i, m in enumerate(measurements):
+        if isinstance(m, Measurement):
+            out.append(m)
+            continue
+        if not isinstance(m, (tuple, list)) or len(m) not in (2, 3):
+            raise ValueError(f"measurements[{i}] must be (field, tip_position) or (field, s, points), got {m!r}.")
+        fld = as_field(m[0], f"measurements[{i}] field")
+        if not fld.is_planar:
+            raise ValueError(f"measurements[{i}] field has B_y = {fld.By:g} T: the fit uses the planar model "
+                             "(fields in the x-z plane).")
+        if len(m) == 2:
+            s = np.array([length])
+            pts = np.atleast_2d(np.asarray(m[1], dtype=float))
+        else:
+            s = np.atleast_1d(np.asarray(m[1], dtype=float))
+            pts = np.atleast_2d(np.asarray(m[2], dtype=float))
+        if pts.shape[1] == 3:
+            pts = pts[:, [0, 2]]
+        if pts.shape != (s.size, 2) or not np.all(np.isfinite(pts)):
+            raise ValueError(f"measurements[{i}] positions must be {s.size} finite (x, z) or (x, y, z) rows in m, got "
+                             f"shape {pts.shape}.")
+        if not np.all(np.isfinite(s)) or np.any(s <= 0) or np.any(s > length * (1 + 1e-12)):
+            raise ValueError(f"measurements[{i}] arc lengths must lie in (0, {length:g}] m, got {s.tolist()}.")
+        if np.max(np.abs(pts)) > 10 * length:
+            raise ValueError(f"measurements[{i}] positions reach {np.max(np.abs(pts)):g} m, more than 10 beam lengths "
+                             f"({10 * length:g} m): positions are in metres.")
+        out.append(Measurement(field=(fld.Bx, fld.Bz), s=s, points=pts))
+    return out
+
+
+def fit(beam: Beam, measurements, params=("E0", "particle_magnetization"), *, gravity: float = 9.81,
+        clamp_angle: float = 0.0, coupling: str = "rotated", sigma: float | None = None,
+        options: SolverOptions | None = None, max_evaluations: int = 100, restarts: int = 4) -> FitResult:
+    """Fit ``params`` of ``beam`` to measured shapes under known fields (planar cantilever, clamp at the origin).
+
+    Parameters
+    ----------
+    beam : Beam
+        The starting guess (and every parameter not fitted).
+    measurements : list
+        ``(field, tip_position)`` (field as in :func:`~magsoft_env.solve_equilibrium`, T; tip ``(x, z)`` or
+        ``(x, y, z)`` in m) or ``(field, s, points)`` with reference arc lengths ``s`` (m) and ``points``
+        ``(len(s), 2 or 3)`` (m), or :class:`Measurement`.
+    params : sequence of str
+        Any of ``E0``, ``particle_magnetization``, ``density``, ``thickness``, ``volume_fraction``,
+        ``clamp_angle``.
+    gravity : float
+        Gravitational acceleration during the measurements (m/s^2, along -z).
+    clamp_angle : float
+        theta(0) (rad); the start value when it is fitted.
+    sigma : float, optional
+        The measurement noise (m, 1 sigma) if known; otherwise estimated from the residual.
+    max_evaluations : int
+        Most evaluations of all the equilibria per start (in [5, 2000]).
+    restarts : int
+        Further starts, a factor :data:`RESTART_FACTOR` up and down each parameter in turn (in [0, 20]); the
+        lowest misfit wins (branches of the equilibria can make the misfit jump).
+
+    Returns
+    -------
+    FitResult
+
+    Examples
+    --------
+    >>> import magsoft_env as ms
+    >>> truth = ms.Beam(25e-3, 5e-3, 1.13e-3, material=ms.Material(E0=0.07e6, particle_magnetization=600e3))
+    >>> fields = [(0, 3e-3), (0, -3e-3), (3e-3, 0), (-3e-3, 2e-3), (0, 8e-3)]
+    >>> data = [(B, ms.solve_equilibrium(truth, B).tip_position) for B in fields]
+    >>> res = ms.fit(ms.Beam(25e-3, 5e-3, 1.13e-3), data, params=("E0", "particle_magnetization"))
+    >>> round(res.values["E0"]), round(res.values["particle_magnetization"])
+    (70000, 600000)
+    """
+    from .solver import solve_equilibrium
+
+    if not isinstance(beam, Beam):
+        raise ValueError(f"beam must be a magsoft_env.Beam, got {type(beam).__name__}.")
+    if isinstance(params, str):
+        params = tuple(p.strip() for p in params.split(","))
+    params = tuple(params)
+    if not params:
+        raise ValueError(f"params must name at least one of {list(FIT_PARAMETERS)}, got none.")
+    for p in params:
+        if p not in FIT_PARAMETERS:
+            import difflib
+
+            close = difflib.get_close_matches(str(p), list(FIT_PARAMETERS), n=1)
+            raise ValueError(f"unknown fit parameter {p!r}: fit any of {list(FIT_PARAMETERS)}."
+                             + (f" Did you mean {close[0]!r}?" if close else ""))
+    if len(set(params)) != len(params):
+        raise ValueError(f"params must not repeat a name, got {list(params)}.")
+    if not (isinstance(max_evaluations, int) and 5 <= max_evaluations <= 2000):
+        raise ValueError(f"max_evaluations must be an integer in [5, 2000], got {max_evaluations!r}.")
+    if not (isinstance(restarts, int) and 0 <= restarts <= 20):
+        raise ValueError(f"restarts must be an integer in [0, 20], got {restarts!r}.")
+    if sigma is not None and not (math.isfinite(sigma) and sigma > 0):
+        raise ValueError(f"sigma must be a positive length (m), got {sigma!r}.")
+    data = _measurements(measurements, beam.length)
+    n_res = sum(2 * m.s.size for m in data)
+    if n_res < len(params):
+        raise ValueError(f"{len(params)} parameters need at least as many measured coordinates; the data give "
+                         f"{n_res}.")
+    start = {p: _value(beam, p, clamp_angle) for p in params}
+    logs = [FIT_PARAMETERS[p] for p in params]
+    for p, lg in zip(params, logs, strict=True):
+        if lg and not start[p] > 0:
+            raise ValueError(f"{p} must start from a positive value, got {start[p]!r}.")
+    options = options if options is not None else SolverOptions()
+    sens_params = tuple(params)
+    cache: dict = {}
+
+    def unpack(u):
+        return {p: (math.exp(v) if lg else v) for p, v, lg in zip(params, u, logs, strict=True)}
+
+    def evaluate(u):
+        key = tuple(np.round(u, 15))
+        if key in cache:
+            return cache[key]
+        vals = unpack(u)
+        b = _with(beam, vals)
+        th0 = vals.get("clamp_angle", clamp_angle)
+        res, jac, ok = [], [], True
+        for m in data:
+            r = solve_equilibrium(b, m.field, gravity=gravity, clamp_angle=th0, coupling=coupling, options=options,
+                                  model="planar")
+            if not r.success:
+                ok = False
+                res.append(np.full(2 * m.s.size, 1e3))
+                jac.append(np.zeros((2 * m.s.size, len(params))))
+                continue
+            x, z, _ = r.at(m.s)
+            res.append(np.column_stack([x - m.points[:, 0], z - m.points[:, 1]]).ravel())
+            S = sensitivities(r, sens_params)
+            dp = S.positions(m.s)  # (n, 3, k)
+            jac.append(dp[:, [0, 2], :].reshape(-1, len(params)))
+        out = (np.concatenate(res), np.vstack(jac), ok)
+        cache.clear()
+        cache[key] = out
+        return out
+
+    u0 = np.array([math.log(start[p]) if lg else start[p] for p, lg in zip(params, logs, strict=True)])
+    scale_u = np.array([v if lg else 1.0 for v, lg in zip(unpack(u0).values(), logs, strict=True)])
+
+    def fun(u):
+        return evaluate(u)[0]
+
+    def jac(u):
+        vals = np.array(list(unpack(u).values()))
+        d = np.array([v if lg else 1.0 for v, lg in zip(vals, logs, strict=True)])
+        return evaluate(u)[1] * d[None, :]  # d/d log p = p d/dp
+
+    _check_identifiable(jac(u0), params)
+    # Equilibria along the loading path can switch branch as the parameters move (a field that pulls a hanging
+    # beam over: the objective jumps there), so the fit starts from the guess and from points a factor
+    # RESTART_FACTOR away along each parameter, and keeps the lowest misfit.
+    starts = [u0]
+    for i, lg in enumerate(logs):
+        for sign in (1.0, -1.0):
+            if len(starts) > restarts:
+                break
+            u = u0.copy()
+            u[i] += sign * (math.log(RESTART_FACTOR) if lg else 0.1)
+            starts.append(u)
+    best, nfev = None, 0
+    for u_start in starts:
+        try:
+            sol = scipy.optimize.least_squares(fun, u_start, jac=jac, method="lm", xtol=1e-12, ftol=1e-12,
+                                               gtol=1e-12, max_nfev=max_evaluations)
+        except ValueError:  # a start whose parameters leave the material's valid range
+            continue
+        nfev += sol.nfev
+        if best is None or sol.cost < best.cost:
+            best = sol
+    if best is None:
+        raise ValueError("every start of the fit left the parameters' valid range; start nearer the truth.")
+    sol = best
+    del scale_u
+    r, J, ok = evaluate(sol.x)
+    vals = unpack(sol.x)
+    dof = max(r.size - len(params), 1)
+    s2 = sigma**2 if sigma is not None else float(r @ r) / dof
+    try:
+        cov = s2 * np.linalg.inv(J.T @ J)
+    except np.linalg.LinAlgError:
+        cov = np.full((len(params), len(params)), np.nan)
+    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = cov / np.outer(sd, sd)
+    values = {p: float(vals[p]) for p in params}
+    sig = {p: float(v) for p, v in zip(params, sd, strict=True)}
+    msg = sol.message if ok else "Some equilibria were not found at the last parameters."
+    bad = _correlated(corr, params)
+    if bad:
+        msg += " " + bad
+    return FitResult(success=bool(sol.success and ok), message=msg, params=params, values=values, sigma=sig,
+                     interval95={p: (values[p] - 1.96 * sig[p], values[p] + 1.96 * sig[p]) for p in params},
+                     covariance=cov, correlation=corr, beam=_with(beam, values), residual=r,
+                     rms=float(math.sqrt(float(r @ r) / r.size)), residual_sigma=float(math.sqrt(s2)),
+                     iterations=int(nfev))
+
+
+def _correlated(corr: np.ndarray, params) -> str:
+    k = len(params)
+    pairs = [(params[i], params[j], corr[i, j]) for i in range(k) for j in range(i + 1, k)
+             if not abs(corr[i, j]) < MAX_CORRELATION]
+    if not pairs:
+        return ""
+    return "Warning: " + "; ".join(f"{a} and {b} are correlated ({c:+.5f})" for a, b, c in pairs) + \
+        ": the data barely tell them apart."
+
+
+def _check_identifiable(J: np.ndarray, params) -> None:
+    """Refuse parameter sets the data cannot identify at the starting point (rank-deficient Jacobian)."""
+    norms = np.linalg.norm(J, axis=0)
+    for p, n in zip(params, norms, strict=True):
+        if not n > 0:
+            raise ValueError(f"{p} is not identifiable from these data: the measured positions do not depend on it "
+                             "(for example the width in the planar model, or the density without gravity).")
+    Jn = J / norms[None, :]
+    sv = np.linalg.svd(Jn, compute_uv=False)
+    if sv[-1] < 1e-6 * sv[0]:
+        _, _, vt = np.linalg.svd(Jn)
+        v = vt[-1]
+        involved = [p for p, c in zip(params, v, strict=True) if abs(c) > 0.1]
+        raise ValueError(f"{', '.join(involved)} are not identifiable together from these data (they change the "
+                         "measured positions only in a fixed combination; e.g. E0 and particle_magnetization without "
+                         "gravity act only through M_p / E0): add measurements that separate them (gravity, another "
+                         "field direction) or fit fewer parameters.")
+
+
+__all__ = ["FIT_PARAMETERS", "RESTART_FACTOR", "FitResult", "Measurement", "fit"]
