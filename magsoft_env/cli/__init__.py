@@ -24,6 +24,7 @@ COMMANDS = {
     "export": "magsoft_env.cli.export",
     "batch": "magsoft_env.cli.batch",
     "field": "magsoft_env.cli.field",
+    "fit": "magsoft_env.cli.fit",
 }
 
 
