@@ -887,29 +887,41 @@ def solve_path(
 
 
 def _solve_source_path(beam, fields, gravity, support, coupling, extensible, clamp_angle, options, progress, model):
-    """A path with a non-uniform field source: the planar cantilever with couples and gradient forces."""
-    from ..fields import Uniform
+    """A path with a non-uniform field source: the cantilever with couples and gradient forces, planar
+    (:mod:`magsoft_env.theory.sources`) or in 3D (:mod:`magsoft_env.theory.rod_sources`).
 
-    if choice("model", model, ["auto", "planar", "3d"]) == "3d":
-        raise ValueError("model='3d' does not yet take a non-uniform field source (the planar model does: couples "
-                         "and gradient forces in the x-z plane); pass model='planar' or 'auto', or a uniform field.")
+    ``model="3d"`` takes the 3D rod; ``"planar"`` the planar one (a planar beam only); ``"auto"`` the 3D rod when
+    the beam's magnetization has a width component or a source loads a planar strip out of its plane by more than
+    ``OUT_OF_PLANE_TOL`` (1e-6) of its in-plane loads anywhere within its reach
+    (:func:`~magsoft_env.theory.rod_sources.out_of_plane_load`), and the planar one otherwise."""
+    from ..fields import Uniform
+    from .rod_sources import OUT_OF_PLANE_TOL, out_of_plane_load, solve_rod_source_path
+    from .sources import _check_source
+
+    model = choice("model", model, ["auto", "planar", "3d"])
     if not isinstance(beam, Beam):
         raise ValueError(f"beam must be a magsoft_env.Beam, got {type(beam).__name__}.")
-    if not beam.is_planar:
-        raise ValueError("a non-uniform field source takes the planar model, which cannot take a magnetization with "
-                         "a component across the width.")
+    if model == "planar" and not beam.is_planar:
+        raise ValueError("model='planar' cannot take a magnetization with a component across the width; use "
+                         "model='3d' (or 'auto') in a non-uniform field source.")
+    sources = [f if is_source(f) else Uniform(f) for f in fields]
+    if not sources:
+        raise ValueError("fields must hold at least one field or source, got none.")
+    sources = [_check_source(i, s) for i, s in enumerate(sources)]
+    rod = model == "3d" or (model == "auto" and (not beam.is_planar
+                                                 or out_of_plane_load(sources, beam.length) > OUT_OF_PLANE_TOL))
     g, support, coupling, extensible, th0, options = check_problem(
-        beam, gravity, support, coupling, extensible, clamp_angle, options
+        beam, gravity, support, coupling, extensible, clamp_angle, options, rod=rod
     )
     if support != "cantilever":
         raise ValueError(f"a non-uniform field source needs support='cantilever' (a free beam in a gradient is pulled "
                          f"away: no equilibrium), got {support!r}.")
     if extensible:
         raise ValueError("a non-uniform field source takes the inextensible beam: pass extensible=False.")
-    sources = [f if is_source(f) else Uniform(f) for f in fields]
-    if not sources:
-        raise ValueError("fields must hold at least one field or source, got none.")
     with single_threaded_blas():
+        if rod:
+            return solve_rod_source_path(beam, sources, gravity=g, clamp_angle=th0, options=options,
+                                         messages=TERMINATION_MESSAGES, progress=progress)
         return solve_source_path(beam, sources, gravity=g, coupling=coupling, clamp_angle=th0, options=options,
                                  progress=progress)
 
