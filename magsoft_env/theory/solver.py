@@ -826,10 +826,11 @@ def solve_path(
         Applied fields (T), in loading order. A pair is (B_x, B_z), in the plane of bending. A field source
         (:mod:`magsoft_env.fields`: a magnet, a coil system at its currents, ...; one source or a sequence) loads
         every piece with the couple ``m x B`` and the force ``G^T m`` at its position, the clamp at the origin:
-        the planar cantilever, inextensible (:mod:`magsoft_env.theory.sources`), returning
-        :class:`~magsoft_env.theory.sources.SourceResult`. Between consecutive sources one magnet at two poses
-        moves, other sources blend; the first is switched on from zero. A ``fields.Uniform`` source is today's
-        uniform field, bit for bit.
+        the cantilever, inextensible, planar (:mod:`magsoft_env.theory.sources`, returning
+        :class:`~magsoft_env.theory.sources.SourceResult`) or in 3D (:mod:`magsoft_env.theory.rod_sources`,
+        returning :class:`~magsoft_env.theory.rod_sources.SourceRodResult`; see ``model``). Between consecutive
+        sources one magnet at two poses moves, other sources blend; the first is switched on from zero. A
+        ``fields.Uniform`` source is today's uniform field, bit for bit.
     gravity : float
         Gravitational acceleration (m/s^2) along -z. Must be 0 for ``support="free"``.
     support : {"cantilever", "free"}
@@ -852,11 +853,15 @@ def solve_path(
         (default) takes the 3D model when a field is given with three components (or as a Field
         with B_y != 0) or the magnetization has a component across the width, and the planar one
         otherwise. On a planar problem both give the same shape; the 3D model also tests
-        stability against out-of-plane bending and twist.
+        stability against out-of-plane bending and twist. With a non-uniform field source, ``"auto"``
+        takes the 3D rod when the magnetization has a width component or a source loads the strip out of
+        its x-z plane (``B_y``, ``dB_x/dy``, ``dB_z/dy``) by more than 1e-6 of its in-plane loads anywhere
+        within its reach (:func:`~magsoft_env.theory.rod_sources.out_of_plane_load`), the planar one otherwise.
 
     Returns
     -------
-    list of EquilibriumResult (planar) or of RodResult (3D)
+    list of EquilibriumResult (planar) or of RodResult (3D); with a field source, of SourceResult (planar) or
+    of SourceRodResult (3D)
 
     Examples
     --------
@@ -982,7 +987,8 @@ def solve_equilibrium(
         Applied field (T). Three components (or a magnetization across the width) take the 3D
         rod and return a :class:`~magsoft_env.theory.rod_solver.RodResult` (``model``). A non-uniform
         field source (:mod:`magsoft_env.fields`) adds gradient forces (see :func:`solve_path`) and returns a
-        :class:`~magsoft_env.theory.sources.SourceResult`.
+        :class:`~magsoft_env.theory.sources.SourceResult` (planar) or, in 3D, a
+        :class:`~magsoft_env.theory.rod_sources.SourceRodResult`.
     start : {"path", "straight"}
         ``"path"`` (default) follows the loading path: gravity first, then the field ramped
         from zero, as the real beam experiences it. ``"straight"`` runs Newton once from the
