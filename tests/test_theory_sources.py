@@ -141,8 +141,8 @@ def test_an_approaching_magnet_snaps_the_tip_to_it_at_a_fold():
 
 def test_bad_input_is_refused_before_work():
     src = _magnet()
-    with pytest.raises(ValueError, match="model='3d'"):
-        ms.solve_equilibrium(BEAM, src, model="3d")
+    with pytest.raises(ValueError, match="coupling='paper'"):  # model='3d' takes a source (test_theory_sources_3d)
+        ms.solve_equilibrium(BEAM, src, model="3d", coupling="paper")
     with pytest.raises(ValueError, match="cantilever"):
         ms.solve_equilibrium(BEAM, src, support="free", gravity=0.0)
     with pytest.raises(ValueError, match="extensible"):

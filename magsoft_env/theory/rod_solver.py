@@ -379,7 +379,9 @@ class RodSolver:
         return self._is_stable(q2, load), q2
 
     # continuation ----------------------------------------------------------------------------------
-    def _tangent(self, q, start: Load3, target: Load3):
+    def _tangent(self, q, start: Load3, target: Load3, t: float = 0.0):
+        """d psi / d t along the step from ``start`` to ``target`` at the equilibrium ``q`` (load fraction ``t``;
+        a uniform load is linear in t, so t is not needed here: a field source's path uses it)."""
         st = self._J
         if st is not None and st[0] is q and st[1] is self.model:
             J = st[2]
@@ -462,7 +464,7 @@ class RodSolver:
                              f"{MAX_STEPS} and {MAX_JUMPS}) at {100 * t:.3g} % of it.")
                 self.q, self.load = q, start.lerp(target, t)
                 return False
-            tan = self._tangent(q, start, target)
+            tan = self._tangent(q, start, target, t)
             tmax = float(np.max(np.abs(tan)))
             dt = min(dt, 1.0 - t, _STEP_RAD / tmax if tmax > 0 else 1.0)
             if dt < self.opt.min_step:

@@ -826,10 +826,11 @@ def solve_path(
         Applied fields (T), in loading order. A pair is (B_x, B_z), in the plane of bending. A field source
         (:mod:`magsoft_env.fields`: a magnet, a coil system at its currents, ...; one source or a sequence) loads
         every piece with the couple ``m x B`` and the force ``G^T m`` at its position, the clamp at the origin:
-        the planar cantilever, inextensible (:mod:`magsoft_env.theory.sources`), returning
-        :class:`~magsoft_env.theory.sources.SourceResult`. Between consecutive sources one magnet at two poses
-        moves, other sources blend; the first is switched on from zero. A ``fields.Uniform`` source is today's
-        uniform field, bit for bit.
+        the cantilever, inextensible, planar (:mod:`magsoft_env.theory.sources`, returning
+        :class:`~magsoft_env.theory.sources.SourceResult`) or in 3D (:mod:`magsoft_env.theory.rod_sources`,
+        returning :class:`~magsoft_env.theory.rod_sources.SourceRodResult`; see ``model``). Between consecutive
+        sources one magnet at two poses moves, other sources blend; the first is switched on from zero. A
+        ``fields.Uniform`` source is today's uniform field, bit for bit.
     gravity : float
         Gravitational acceleration (m/s^2) along -z. Must be 0 for ``support="free"``.
     support : {"cantilever", "free"}
@@ -852,11 +853,15 @@ def solve_path(
         (default) takes the 3D model when a field is given with three components (or as a Field
         with B_y != 0) or the magnetization has a component across the width, and the planar one
         otherwise. On a planar problem both give the same shape; the 3D model also tests
-        stability against out-of-plane bending and twist.
+        stability against out-of-plane bending and twist. With a non-uniform field source, ``"auto"``
+        takes the 3D rod when the magnetization has a width component or a source loads the strip out of
+        its x-z plane (``B_y``, ``dB_x/dy``, ``dB_z/dy``) by more than 1e-6 of its in-plane loads anywhere
+        within its reach (:func:`~magsoft_env.theory.rod_sources.out_of_plane_load`), the planar one otherwise.
 
     Returns
     -------
-    list of EquilibriumResult (planar) or of RodResult (3D)
+    list of EquilibriumResult (planar) or of RodResult (3D); with a field source, of SourceResult (planar) or
+    of SourceRodResult (3D)
 
     Examples
     --------
@@ -887,29 +892,41 @@ def solve_path(
 
 
 def _solve_source_path(beam, fields, gravity, support, coupling, extensible, clamp_angle, options, progress, model):
-    """A path with a non-uniform field source: the planar cantilever with couples and gradient forces."""
-    from ..fields import Uniform
+    """A path with a non-uniform field source: the cantilever with couples and gradient forces, planar
+    (:mod:`magsoft_env.theory.sources`) or in 3D (:mod:`magsoft_env.theory.rod_sources`).
 
-    if choice("model", model, ["auto", "planar", "3d"]) == "3d":
-        raise ValueError("model='3d' does not yet take a non-uniform field source (the planar model does: couples "
-                         "and gradient forces in the x-z plane); pass model='planar' or 'auto', or a uniform field.")
+    ``model="3d"`` takes the 3D rod; ``"planar"`` the planar one (a planar beam only); ``"auto"`` the 3D rod when
+    the beam's magnetization has a width component or a source loads a planar strip out of its plane by more than
+    ``OUT_OF_PLANE_TOL`` (1e-6) of its in-plane loads anywhere within its reach
+    (:func:`~magsoft_env.theory.rod_sources.out_of_plane_load`), and the planar one otherwise."""
+    from ..fields import Uniform
+    from .rod_sources import OUT_OF_PLANE_TOL, out_of_plane_load, solve_rod_source_path
+    from .sources import _check_source
+
+    model = choice("model", model, ["auto", "planar", "3d"])
     if not isinstance(beam, Beam):
         raise ValueError(f"beam must be a magsoft_env.Beam, got {type(beam).__name__}.")
-    if not beam.is_planar:
-        raise ValueError("a non-uniform field source takes the planar model, which cannot take a magnetization with "
-                         "a component across the width.")
+    if model == "planar" and not beam.is_planar:
+        raise ValueError("model='planar' cannot take a magnetization with a component across the width; use "
+                         "model='3d' (or 'auto') in a non-uniform field source.")
+    sources = [f if is_source(f) else Uniform(f) for f in fields]
+    if not sources:
+        raise ValueError("fields must hold at least one field or source, got none.")
+    sources = [_check_source(i, s) for i, s in enumerate(sources)]
+    rod = model == "3d" or (model == "auto" and (not beam.is_planar
+                                                 or out_of_plane_load(sources, beam.length) > OUT_OF_PLANE_TOL))
     g, support, coupling, extensible, th0, options = check_problem(
-        beam, gravity, support, coupling, extensible, clamp_angle, options
+        beam, gravity, support, coupling, extensible, clamp_angle, options, rod=rod
     )
     if support != "cantilever":
         raise ValueError(f"a non-uniform field source needs support='cantilever' (a free beam in a gradient is pulled "
                          f"away: no equilibrium), got {support!r}.")
     if extensible:
         raise ValueError("a non-uniform field source takes the inextensible beam: pass extensible=False.")
-    sources = [f if is_source(f) else Uniform(f) for f in fields]
-    if not sources:
-        raise ValueError("fields must hold at least one field or source, got none.")
     with single_threaded_blas():
+        if rod:
+            return solve_rod_source_path(beam, sources, gravity=g, clamp_angle=th0, options=options,
+                                         messages=TERMINATION_MESSAGES, progress=progress)
         return solve_source_path(beam, sources, gravity=g, coupling=coupling, clamp_angle=th0, options=options,
                                  progress=progress)
 
@@ -970,7 +987,8 @@ def solve_equilibrium(
         Applied field (T). Three components (or a magnetization across the width) take the 3D
         rod and return a :class:`~magsoft_env.theory.rod_solver.RodResult` (``model``). A non-uniform
         field source (:mod:`magsoft_env.fields`) adds gradient forces (see :func:`solve_path`) and returns a
-        :class:`~magsoft_env.theory.sources.SourceResult`.
+        :class:`~magsoft_env.theory.sources.SourceResult` (planar) or, in 3D, a
+        :class:`~magsoft_env.theory.rod_sources.SourceRodResult`.
     start : {"path", "straight"}
         ``"path"`` (default) follows the loading path: gravity first, then the field ramped
         from zero, as the real beam experiences it. ``"straight"`` runs Newton once from the

@@ -252,6 +252,41 @@ def rod_residual(beam, grid, q_nodes, *, B, g: float, support: str, q0) -> float
     return out if math.isfinite(out) else math.nan
 
 
+def rod_source_residual(beam, grid, q_nodes, load, *, q0) -> float:
+    """Largest equilibrium residual (rad) of a clamped 3D rod's interpolated frames in a field source.
+
+    As :func:`rod_residual`, with the loads of a non-uniform source recomputed at the check points: the
+    positions ``r(s) = int_0^s d3`` by panel quadrature of the interpolated tangent (the clamp at the origin),
+    the field and gradient there from ``load.evaluate(points) -> (B (n, 3), G (n, 3, 3))`` (``load.g`` the
+    gravity, m/s^2), the couple ``(R a) x B(r)``, the force per length ``f = G(r)^T (R a) - rho A g z`` and the
+    force ``n(s) = int_s^L f`` by panel quadrature; then the moment, curvature and frames as in
+    :func:`rod_residual`, plus the clamp condition. NaN in, NaN out.
+    """
+    pts = _rod_points(beam, grid)
+    Q = pts.pan.Ith @ q_nodes
+    Q = Q / np.linalg.norm(Q, axis=1, keepdims=True)
+    R = _rotation(Q)
+    d3 = R[:, :, 2]
+    r = pts.before(d3)
+    if not np.all(np.isfinite(r)):
+        return math.nan
+    B, G = load.evaluate(r)
+    ma = np.einsum("nij,nj->ni", R, pts.a)
+    n = pts.beyond(np.einsum("nab,na->nb", G, ma))
+    n[:, 2] -= load.g * pts.W1
+    lam = np.cross(ma, B) + np.cross(d3, n)
+    m = pts.beyond(lam)
+    k = np.einsum("nji,nj->ni", R, m) / pts.K
+    rate = 0.5 * _qmul(Q, np.concatenate([np.zeros((k.shape[0], 1)), k], axis=1))
+    start = q_nodes[0] / np.linalg.norm(q_nodes[0])
+    back = start[None, :] + pts.before(rate)
+    worst = 2.0 * float(np.max(np.linalg.norm(back - Q, axis=1)))
+    q0 = np.asarray(q0, dtype=float)
+    bc = 2.0 * float(min(np.linalg.norm(start - q0), np.linalg.norm(start + q0)))
+    out = max(worst, bc)
+    return out if math.isfinite(out) else math.nan
+
+
 def outcome(ok: bool, status: int, tail: float, ver: float, options, *, note: str, events: int, nodes: int,
             messages: dict) -> tuple[int, str]:
     """The status and message of a result (planar or 3D) from what the solve and its verification found.
@@ -278,4 +313,5 @@ def outcome(ok: bool, status: int, tail: float, ver: float, options, *, note: st
     return status, msg
 
 
-__all__ = ["GAUSS_POINTS", "MAX_KNOT_EDGES", "equation_residual", "load_density", "outcome", "rod_residual"]
+__all__ = ["GAUSS_POINTS", "MAX_KNOT_EDGES", "equation_residual", "load_density", "outcome", "rod_residual",
+           "rod_source_residual"]
