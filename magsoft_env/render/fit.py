@@ -14,9 +14,9 @@ def plot_fit(result, measurements, *, gravity: float = 9.81, clamp_angle: float 
     import matplotlib.pyplot as plt
 
     from ..theory import solve_equilibrium
-    from ..theory.fit import _measurements
+    from ..theory.fit import as_measurements
 
-    data = _measurements(measurements, result.beam.length)
+    data = as_measurements(measurements, result.beam.length)
     th0 = result.values.get("clamp_angle", clamp_angle)
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(9.5, 4.0), gridspec_kw={"width_ratios": [1.3, 1]})
     mis = []

@@ -129,7 +129,8 @@ def _with(beam: Beam, values: dict) -> Beam:
     return beam
 
 
-def _measurements(measurements, length: float) -> list[Measurement]:
+def as_measurements(measurements, length: float) -> list[Measurement]:
+    """The measurements of :func:`fit` checked and as :class:`Measurement` records (ValueError naming the entry)."""
     if isinstance(measurements, (str, bytes)) or not hasattr(measurements, "__len__"):
         raise ValueError("measurements must be a list of (field, tip_position) or (field, s, points) entries, got "
                          f"{type(measurements).__name__}.")
@@ -232,7 +233,7 @@ def fit(beam: Beam, measurements, params=("E0", "particle_magnetization"), *, gr
         raise ValueError(f"restarts must be an integer in [0, 20], got {restarts!r}.")
     if sigma is not None and not (math.isfinite(sigma) and sigma > 0):
         raise ValueError(f"sigma must be a positive length (m), got {sigma!r}.")
-    data = _measurements(measurements, beam.length)
+    data = as_measurements(measurements, beam.length)
     n_res = sum(2 * m.s.size for m in data)
     if n_res < len(params):
         raise ValueError(f"{len(params)} parameters need at least as many measured coordinates; the data give "
@@ -365,4 +366,4 @@ def _check_identifiable(J: np.ndarray, params) -> None:
                          "field direction) or fit fewer parameters.")
 
 
-__all__ = ["FIT_PARAMETERS", "RESTART_FACTOR", "FitResult", "Measurement", "fit"]
+__all__ = ["FIT_PARAMETERS", "RESTART_FACTOR", "FitResult", "Measurement", "as_measurements", "fit"]
