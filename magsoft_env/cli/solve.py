@@ -411,9 +411,9 @@ def _field_source(args):
 
     robot = None
     if getattr(args, "robot", None) is not None and args.source is None:
-        from magsoft_env.cases.robots import resolve_robot
+        from magsoft_env.cases.robots import load_robot
 
-        robot = resolve_robot(args.robot, name="--robot")
+        robot = load_robot(args.robot)  # as robot_preset reads it: the same message for a bad robot
     source, origin = source_from_args(args, robot)
     if source is None:
         return None, None
