@@ -19,6 +19,10 @@ File format (YAML or JSON by the extension; units in the key names; every key ch
     simulation: {segments: 20, timestep_ms: 0.2,   # optional: the robot's own numerics (default 20, 0.2 ms),
                  scenes: {channel: {segments: 40, timestep_ms: 0.1}}}   # and a scene's, where they differ
     design_field_mT: [0.0, 19.99]    # optional: the held field a design found (magsoft design), [B_x, B_z]
+    field_source: {type: sphere, position_mm: [12, 0, 15], radius_mm: 3, remanence_T: [0, 0, 1.2]}
+                                     # optional: a field source (magnet, coil system, ...; docs/fields.md,
+                                     # "Sources in files"), kept here as data; the tools that take it (magsoft
+                                     # solve, gait, video) read it with magsoft_env.fields.load_source
     paper: {speed_mm_per_s: -0.85, direction: left}    # optional: what a reference reports (signed along +x;
                                                        # direction reversible: the speed either way, >= 0)
 
@@ -38,6 +42,7 @@ import difflib
 import json
 import os
 from dataclasses import dataclass, replace
+from dataclasses import field as dc_field
 from pathlib import Path
 
 import yaml
@@ -81,7 +86,7 @@ DIRECTIONS = ("", "left", "right", "reversible")
 MAX_FILE_BYTES = 50 * 2**20
 
 _TOP_KEYS = ("magsoft_robot", "name", "description", "source", "beam", "contact", "drive", "design_field_mT",
-             "simulation", "paper", "reverse")
+             "simulation", "paper", "reverse", "field_source")
 _CONTACT_KEYS = ("friction", "retardation_time_ms")
 _DRIVE_KEYS = ("shape", "amplitude_x_mT", "amplitude_z_mT", "frequency_Hz", "phase_deg", "coil_time_ms",
                "amplitude_y_mT", "phase_y_deg")
@@ -130,6 +135,15 @@ class Robot:
         The drive's B_x was inverted (:meth:`reversed`); results carry ``" (reverse)"`` in their name.
     source : str
         Where the robot comes from (a figure, a design run).
+    field_source : dict or None
+        A field source besides the drive (a magnet, a coil system at its currents, ...) as plain data: the dict of
+        :func:`magsoft_env.fields.source_from_dict` (docs/fields.md, "Sources in files"), kept as given and turned
+        into a source by the tools that take it (``magsoft solve``, ``gait``, ``video``: ``--source`` wins over
+        it). Only its form (plain JSON-like data, a mapping) is checked here; its content is checked when it is
+        read as a source.
+    field_source_dir : str
+        Folder that relative ``file`` paths in ``field_source`` start from (the robot file's folder when loaded from
+        a file; "" the working directory). Not compared, not written.
     """
 
     name: str
@@ -146,6 +160,8 @@ class Robot:
     paper_direction: str = ""
     reverse: bool = False
     source: str = ""
+    field_source: dict | None = dc_field(default=None, hash=False)
+    field_source_dir: str = dc_field(default="", compare=False, repr=False, hash=False)
 
     def __post_init__(self):
         for key in ("name", "description", "source"):
@@ -176,6 +192,10 @@ class Robot:
         _check_paper_sign(self.paper_speed, self.paper_direction)
         if not isinstance(self.reverse, bool):
             raise ValueError(f"Robot.reverse must be True or False, got {self.reverse!r}.")
+        if self.field_source is not None:
+            object.__setattr__(self, "field_source", _plain_source(self.field_source))
+        if not isinstance(self.field_source_dir, str):
+            raise ValueError(f"Robot.field_source_dir must be a string (a folder), got {self.field_source_dir!r}.")
 
     # -------------------------------------------------------------- derived
     @property
@@ -229,6 +249,8 @@ class Robot:
             out["paper"] = paper
         if self.reverse:
             out["reverse"] = True
+        if self.field_source is not None:
+            out["field_source"] = _plain_source(self.field_source)
         return out
 
     def save(self, path, *, sample_functions: bool = False) -> Path:
@@ -246,9 +268,16 @@ class Robot:
         return write_text_atomic(path, text)
 
     @classmethod
-    def from_dict(cls, data: dict, *, where: str = "robot") -> Robot:
-        """A Robot from a robot file's content (see the module docstring)."""
+    def from_dict(cls, data: dict, *, where: str = "robot", base_dir=None) -> Robot:
+        """A Robot from a robot file's content (see the module docstring). ``base_dir``: the folder relative
+        ``file`` paths of its ``field_source`` start from (the file's folder)."""
         check_keys(where, data, _TOP_KEYS, required=("name", "beam"))
+        if isinstance(data.get("source"), dict):
+            raise ValueError(f"{where} source is where the robot comes from (text); a field source (a magnet, a coil "
+                             "system) goes under field_source: (docs/robots.md).")
+        field_source = data.get("field_source")
+        if field_source is not None:
+            field_source = _plain_source(field_source, where=f"{where} field_source")
         version = data.get("magsoft_robot", FORMAT_VERSION)
         if version != FORMAT_VERSION:
             raise ValueError(f"{where} has format version {version!r}; this magsoft_env reads version "
@@ -284,6 +313,7 @@ class Robot:
             scene_numerics=tuple(scene_numerics),
             paper_speed=None if speed is None else _milli(f"{where} paper speed_mm_per_s", speed, "mm/s"),
             paper_direction=paper.get("direction", ""), reverse=data.get("reverse", False),
+            field_source=field_source, field_source_dir="" if base_dir is None else os.fspath(base_dir),
         )
 
     def summary(self) -> dict:
@@ -367,6 +397,32 @@ def _drive_from_dict(d, *, where: str) -> Waveparams:
     )
 
 
+def _plain_source(value, *, where: str = "Robot.field_source") -> dict:
+    """A deep copy of a field source description, checked to be plain data: a mapping of text keys to numbers,
+    text, booleans, None, lists and mappings (what YAML and JSON hold). Its content is the fields layer's to
+    check (``magsoft_env.fields.source_from_dict``), where it is read as a source."""
+    if not isinstance(value, dict):
+        raise ValueError(f"{where} must be a mapping, a field source as in docs/fields.md (\"Sources in files\"), "
+                         f"e.g. {{type: dipole, position_mm: [0, 0, 20], moment_A_m2: [0, 0, 0.05]}}, got {value!r}.")
+
+    def copy(v, path):
+        if isinstance(v, dict):
+            out = {}
+            for k, item in v.items():
+                if not isinstance(k, str):
+                    raise ValueError(f"{where}{path} has a key that is not text: {k!r}.")
+                out[k] = copy(item, f"{path}.{k}")
+            return out
+        if isinstance(v, (list, tuple)):
+            return [copy(item, f"{path}[{i}]") for i, item in enumerate(v)]
+        if v is None or isinstance(v, (str, bool, int, float)):
+            return v
+        raise ValueError(f"{where}{path} must be plain data (numbers, text, lists, mappings), got "
+                         f"{type(v).__name__} {v!r}.")
+
+    return copy(value, "")
+
+
 def _suffix(path: Path) -> str:
     suffix = path.suffix.lower()
     if suffix not in ROBOT_SUFFIXES:
@@ -423,7 +479,7 @@ def load_robot(source) -> Robot:
         raise ValueError(f"robot file {str(path)!r} is not UTF-8 text: {exc}") from None
     except OSError as exc:
         raise ValueError(f"robot file {str(path)!r} cannot be read: {exc.strerror or exc}") from None
-    return Robot.from_dict(data, where=f"robot file {path.name!r}")
+    return Robot.from_dict(data, where=f"robot file {path.name!r}", base_dir=path.resolve().parent)
 
 
 def resolve_robot(value, *, name: str = "robot") -> Robot:

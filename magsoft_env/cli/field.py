@@ -3,8 +3,11 @@ field each axis reaches there within the current limits; with ``--want-mT``, the
 wanted field (and gradient) at the first point.
 
 Coil systems by name (``--source navion``, ``cardiomag``, the ideal ones: ``--list``) or from an MPEM calibration
-file (``--source my_system.yaml --max-current-A 20``). Positions in mm, currents in A, fields in mT, gradients in
-mT/m (the unit in each flag's and key's name).
+file (``--source my_system.yaml --max-current-A 20``); any other source file (magnets, dipoles, loops, sums:
+docs/fields.md, "Sources in files") gives its field and gradient at the points. ``--plot out.png`` draws the
+source's field on a plane (:func:`magsoft_env.render.fields.plot_source`: ``--plane``, ``--extent-mm``,
+``--offset-mm``, and ``--robot`` for a robot's rest centreline). Positions in mm, currents in A, fields in mT,
+gradients in mT/m (the unit in each flag's and key's name).
 """
 
 from __future__ import annotations
@@ -23,6 +26,10 @@ MAX_POINTS = 1000
 #: Largest |component| of ``--want-mT`` (mT) and ``--want-gradient-mT-per-m`` (mT/m).
 MAX_WANT_MT = 10_000.0
 MAX_WANT_MT_PER_M = 1e7
+#: Planes of ``--plane`` (those of :func:`magsoft_env.render.fields.plot_source`).
+PLOT_PLANES = ("xz", "xy", "yz", "zx", "yx", "zy")
+#: Suffixes of ``--plot``.
+PLOT_SUFFIXES = (".png", ".pdf", ".svg")
 
 
 def add_parser(subparsers) -> None:
@@ -50,6 +57,22 @@ def add_parser(subparsers) -> None:
                         "9 (the symmetric, traceless matrix row by row)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
     p.add_argument("--list", action="store_true", help="list the named coil systems and exit")
+    fig = p.add_argument_group("figure")
+    fig.add_argument("--plot", default=None, metavar="PATH",
+                     help="also draw |B| (log scale, mT) and the field lines on a plane, with the source's magnets, "
+                          "dipoles and loop centres, to this image (.png, .pdf, .svg)")
+    fig.add_argument("--plane", choices=list(PLOT_PLANES), default="xz",
+                     help="--plot: the plane, horizontal axis first (default xz)")
+    fig.add_argument("--extent-mm", type=float, nargs="+", default=None, metavar="MM",
+                     help="--plot: the half-width of a square about the origin (one number, default 40) or U_MIN U_MAX "
+                          "V_MIN V_MAX along the plane's axes (mm)")
+    fig.add_argument("--offset-mm", type=float, default=0.0, metavar="MM",
+                     help="--plot: the plane's position along its normal axis (mm; default 0)")
+    fig.add_argument("--points", type=int, default=160,
+                     help="--plot: cells along the horizontal axis (default 160, in [4, 1000])")
+    fig.add_argument("--robot", default=None, metavar="ROBOT",
+                     help="--plot: draw this robot's rest centreline (a robot file or built-in name; straight along +x "
+                          "from the origin, where magsoft solve clamps it and the floor scenes start it)")
     p.set_defaults(run=run)
 
 
@@ -81,9 +104,12 @@ def run(args) -> int:
             print(f"{name:20s} {coils.n_coils} coils, +-{cal.max_current:g} A  {cal.description}")
         return 0
     if args.source is None:
-        raise ValueError(f"--source is required: a named coil system ({', '.join(CALIBRATIONS)}) or an MPEM .yaml "
-                         "file (see --list).")
+        raise ValueError(f"--source is required: a named coil system ({', '.join(CALIBRATIONS)}), an MPEM .yaml "
+                         "file (see --list) or a source file (docs/fields.md, 'Sources in files').")
     pts_mm = _points(args.at_mm)
+    plot = _plot_args(args)  # the figure's flags and the robot, checked before any work
+    if not _is_coil_system(args.source, CALIBRATIONS):
+        return _run_source_file(args, pts_mm, plot)
     want_B, want_G = _wanted(args)
     coils = CoilSystem.from_calibration(args.source, max_current=_limits_flag(args.max_current_A))
     n = coils.n_coils
@@ -117,12 +143,130 @@ def run(args) -> int:
             "currents_A": currents.tolist(), "offset": coils.offset is not None, "points": rows}
     if allocation is not None:
         info["allocation"] = _allocation_info(coils, pts_mm[0], allocation)
+    if plot is not None:
+        info["plot"] = str(_draw(coils.at_currents(currents), plot, f"{coils.name} at {_amps(currents)}"))
     if args.json:
         print(dumps_json(info))
         return 0
     _print_text(coils, currents, rows)
     if allocation is not None:
         _print_allocation(coils, info["allocation"])
+    if plot is not None:
+        print(f"\nwrote {info['plot']}")
+    return 0
+
+
+def _amps(currents) -> str:
+    return "[" + ", ".join(f"{v:g}" for v in currents) + "] A"
+
+
+def _is_coil_system(spec: str, calibrations) -> bool:
+    """Whether ``--source`` names a coil system: a calibration name, or a file that is an MPEM calibration (a YAML
+    with ``Coil_List``) or is not a readable source file (then the coil system's reader says what is wrong)."""
+    from pathlib import Path
+
+    if spec in calibrations:
+        return True
+    path = Path(spec).expanduser()
+    if path.suffix.lower() not in (".yml", ".yaml", ".json") or not path.is_file():
+        return True
+    import json
+
+    import yaml
+
+    try:
+        text = path.read_text(encoding="utf-8")
+        data = json.loads(text) if path.suffix.lower() == ".json" else yaml.safe_load(text)
+    except (OSError, UnicodeDecodeError, ValueError, yaml.YAMLError):
+        return False  # load_source gives the reason
+    return isinstance(data, dict) and "Coil_List" in data
+
+
+def _plot_args(args):
+    """``--plot`` and its flags checked (ValueError naming the flag), with the robot's rest centreline: a dict, or
+    None without ``--plot`` (then the figure's flags must not be given)."""
+    if args.plot is None:
+        given = [f for f, v in (("--extent-mm", args.extent_mm), ("--robot", args.robot)) if v is not None]
+        if given:
+            raise ValueError(f"{' and '.join(given)} {'is' if len(given) == 1 else 'are'} for the figure: give --plot "
+                             "PATH too.")
+        return None
+    from .output import out_file
+
+    path = out_file(args.plot, flag="--plot", suffixes=PLOT_SUFFIXES)
+    ext = [40.0] if args.extent_mm is None else list(args.extent_mm)
+    if len(ext) not in (1, 4):
+        raise ValueError(f"--extent-mm takes one number (a half-width, mm) or four (U_MIN U_MAX V_MIN V_MAX), got "
+                         f"{len(ext)}.")
+    if not all(math.isfinite(v) and abs(v) <= MAX_AT_MM for v in ext):
+        raise ValueError(f"--extent-mm must be finite and within +-{MAX_AT_MM:g} mm, got {ext}.")
+    if len(ext) == 1 and not ext[0] > 0:
+        raise ValueError(f"--extent-mm with one number is a half-width > 0 (mm), got {ext[0]:g}.")
+    if len(ext) == 4 and not (ext[0] < ext[1] and ext[2] < ext[3]):
+        raise ValueError(f"--extent-mm U_MIN U_MAX V_MIN V_MAX needs U_MIN < U_MAX and V_MIN < V_MAX, got {ext}.")
+    if not (math.isfinite(args.offset_mm) and abs(args.offset_mm) <= MAX_AT_MM):
+        raise ValueError(f"--offset-mm must be finite and within +-{MAX_AT_MM:g} mm, got {args.offset_mm}.")
+    if not 4 <= args.points <= 1000:
+        raise ValueError(f"--points must be an integer in [4, 1000], got {args.points}.")
+    robot = None
+    if args.robot is not None:
+        from magsoft_env.cases.robots import resolve_robot
+
+        r = resolve_robot(args.robot, name="--robot")
+        L = r.beam.length
+        robot = np.column_stack([np.linspace(0.0, L, 51), np.zeros(51), np.zeros(51)])
+    return {"path": path, "extent": ext[0] if len(ext) == 1 else tuple(ext), "robot": robot, "plane": args.plane,
+            "offset": args.offset_mm, "points": args.points}
+
+
+def _draw(source, plot, title: str):
+    from magsoft_env.render.fields import plot_source
+    from magsoft_env.render.figures import save_figure
+
+    plane = plot["plane"]
+    normal = ({"x", "y", "z"} - set(plane)).pop()
+    fig = plot_source(source, plane=plane, extent_mm=plot["extent"], offset_mm=plot["offset"], points=plot["points"],
+                      robot=plot["robot"], title=f"{title}\n|B| in the {plane} plane, {normal} = {plot['offset']:g} mm")
+    return save_figure(fig, plot["path"])
+
+
+def _run_source_file(args, pts_mm, plot) -> int:
+    """``magsoft field --source FILE`` for a source file that is not a coil system: B and G at the points."""
+    from magsoft_env.fields import load_source
+
+    for flag, v in (("--currents-A", args.currents_A), ("--max-current-A", args.max_current_A),
+                    ("--want-mT", args.want_mT), ("--want-gradient-mT-per-m", args.want_gradient_mT_per_m)):
+        if v is not None:
+            raise ValueError(f"{flag} applies to a coil system (a name or an MPEM file); {args.source} is a source "
+                             "file (its coil systems, if any, state their currents_A).")
+    try:
+        source = load_source(args.source)
+    except ValueError as exc:
+        raise ValueError(f"--source {args.source}: {exc}") from None
+    B, G = source.field_and_gradient(pts_mm * MM)
+    rows = [{"at_mm": pts_mm[i].tolist(), "B_mT": (B[i] / MT).tolist(), "B_norm_mT": float(np.linalg.norm(B[i]) / MT),
+             "G_mT_per_m": (G[i] / MT).tolist()} for i in range(len(pts_mm))]
+    from magsoft_env.fields import source_markers
+
+    markers = [{"kind": kind, "at_mm": (p / MM).tolist()} for kind, pts in source_markers(source) for p in pts]
+    info = {"source": args.source, "markers": markers, "points": rows}
+    if plot is not None:
+        info["plot"] = str(_draw(source, plot, args.source))
+    if args.json:
+        print(dumps_json(info))
+        return 0
+    print(f"{args.source}: {type(source).__name__}")
+    for m in markers:
+        x, y, z = m["at_mm"]
+        print(f"  {m['kind']} at ({x:g}, {y:g}, {z:g}) mm")
+    for r in rows:
+        x, y, z = r["at_mm"]
+        print(f"\nat ({x:g}, {y:g}, {z:g}) mm")
+        print(f"  B (mT)              {_row(r['B_mT'])}   |B| = {r['B_norm_mT']:.4f} mT")
+        for a, g in zip("xyz", r["G_mT_per_m"], strict=True):
+            print(f"  dB{a}/d(x,y,z) (mT/m) {_row(g)}")
+    if plot is not None:
+        print(f"\nwrote {info['plot']}")
     return 0
 
 

@@ -12,6 +12,7 @@ from pathlib import Path
 from ..rods import DEFAULT_ROD, rod_names
 from .output import dumps_json, out_file, write_json
 from .solve import add_planar_only_flags, refuse_3d
+from .sources import add_source_flags, source_description, source_from_args, source_label
 
 
 def add_rod_option_flag(p) -> None:
@@ -89,6 +90,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     add_rod_option_flag(p)
     add_y_drive_flags(p)
     add_rotate_flags(p)
+    add_source_flags(p, what="its field and gradient act on every piece besides the drive's uniform field (run_gait("
+                              "source=...))")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
     p.add_argument("--out", type=Path, default=None, metavar="PATH",
                    help="also write the result as JSON to this file (checked before the run, written atomically)")
@@ -220,11 +223,16 @@ def run(args) -> int:
         preset = dataclasses.replace(preset, friction=args.friction)
     if args.face_down:
         preset = dataclasses.replace(preset, beam=_turned_over(args.preset))
+    field_source, origin = source_from_args(args, preset)  # --source, else the robot file's field_source
     res = run_gait(preset, args.seconds, segments=args.segments, fidelity=args.fidelity,
                    timestep=None if args.timestep_ms is None else args.timestep_ms * 1e-3,
                    # a bar on a terminal only: logs and pipes stay clean
-                   progress=sys.stderr.isatty(), rod=args.rod, rod_options=rod_options(args))
+                   progress=sys.stderr.isatty(), rod=args.rod, rod_options=rod_options(args),
+                   **({} if field_source is None else {"source": field_source}))
     out = res.to_dict()
+    if field_source is not None:
+        out["field_source"] = {"given": source_label(args, origin), "origin": origin,
+                               "source": source_description(field_source)}
     out["paper_speed_mm_s"] = None if preset.paper_speed is None else preset.paper_speed * 1e3
     out["paper_direction"] = preset.paper_direction
     out["field_mT"] = {
@@ -252,6 +260,11 @@ def run(args) -> int:
             print(f"field replaced: {preset.wave.describe()}")
         if args.face_down or args.friction is not None:
             print(f"robot: {'face down' if args.face_down else 'face up'}, friction {preset.friction:g}")
+        if field_source is not None:
+            from .sources import markers_text
+
+            where = markers_text(field_source)
+            print(f"field source: {source_label(args, origin)}, added to the drive" + (f" ({where})" if where else ""))
         if res.flipped:  # the displacement of a tumble is not a crawl: no speed, and say so first
             print(f"TUMBLE: the robot flipped end over end (body orientation up to {out['max_orientation_deg']:.0f} "
                   f"deg, past vertical first at t = {res.flip_time:.2f} s); no crawl speed")

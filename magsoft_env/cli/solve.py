@@ -165,6 +165,11 @@ def add_parser(subparsers) -> None:
                    help="solve in 3D and report the first loss of stability along the ramp from zero (critical field "
                         "in mT, its discretization error, bifurcation or fold; Prandtl's estimate beside it for a "
                         "uniform, axially magnetized strip)")
+    from .sources import add_source_flags
+
+    add_source_flags(p, what="solves the cantilever (clamped at the origin along +x) in its field with gravity, "
+                              "planar and inextensible, the source switched on from zero in --steps states (default "
+                              "1); --field-mT is then a uniform field added to it")
     p.add_argument("--out", default=DEFAULT_OUT, help=f"output folder (default {DEFAULT_OUT}/)")
     p.add_argument("--no-plot", action="store_true", help="skip the PNG")
     p.set_defaults(run=run)
@@ -353,8 +358,13 @@ def run(args) -> int:
         for name in list_presets():
             print(f"{name:20s} {load_preset(name).source}")
         return 0
+    field_source, origin = _field_source(args)  # a bad source: exit 2 before anything is written
     out = out_dir(args.out)
     preset = build_case(args)
+    if field_source is not None:
+        from .solve_source import run_source
+
+        return run_source(args, preset, field_source, origin, out)
     if args.critical or (args.field_mT is not None and len(args.field_mT) == 3) or not preset.beam.is_planar:
         from .rod import run_rod
 
@@ -392,6 +402,29 @@ def run(args) -> int:
         print(f"warning: {failed} of {len(rows)} equilibria did not converge (see 'status' and 'message').")
         return 1
     return 0
+
+
+def _field_source(args):
+    """``(source, origin)`` of ``--source`` / ``--currents-A`` or the robot file's ``field_source`` (None, None
+    without one), with the flags a source excludes refused."""
+    from .sources import source_from_args
+
+    robot = None
+    if getattr(args, "robot", None) is not None and args.source is None:
+        from magsoft_env.cases.robots import load_robot
+
+        robot = load_robot(args.robot)  # as robot_preset reads it: the same message for a bad robot
+    source, origin = source_from_args(args, robot)
+    if source is None:
+        return None, None
+    given = "--source" if origin == "--source" else f"--robot {args.robot} (its field_source)"
+    if args.critical:
+        raise ValueError(f"--critical takes a uniform field (the 3D rod); {given} solves the planar cantilever in a "
+                         "field source.")
+    if args.field_mT is not None and len(args.field_mT) == 3:
+        raise ValueError(f"{given} solves the planar cantilever: --field-mT (a uniform field added to the source) "
+                         "takes two numbers, BX BZ, in mT.")
+    return source, origin
 
 
 def _shape(result, n: int = 101) -> dict:

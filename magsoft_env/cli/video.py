@@ -25,6 +25,7 @@ from .gait import (
     with_y_drive,
 )
 from .output import dumps_json, out_file
+from .sources import add_source_flags, source_description, source_from_args, source_label
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -76,6 +77,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     add_rod_option_flag(p)
     add_y_drive_flags(p)
     add_rotate_flags(p)
+    add_source_flags(p, what="added to the gait's drive (as magsoft gait --source); the frames draw its magnets in view "
+                              "and the field at the robot's centre (an arrow labelled in mT)")
     p.add_argument("--out", type=Path, required=True, help="output file, .mp4 or .gif")
     p.set_defaults(run=run)
     return p
@@ -147,11 +150,15 @@ def run(args) -> int:
         # an unknown name: the closest one suggested; a robot without a drive: refused
         preset = gait_preset(robot if robot is not None else args.preset, reverse=args.reverse)
         preset = rotated_drive(args, with_y_drive(preset, args))
+        field_source, origin = source_from_args(args, preset)  # --source, else the robot file's field_source
         step_ms = args.timestep_ms if args.timestep_ms is not None else preset.timestep * 1e3
         if args.seconds / (step_ms * 1e-3) > _MAX_STEPS:
             raise ValueError(f"--seconds / --timestep-ms = {args.seconds:g} s / {step_ms:g} ms is more than "
                              f"{_MAX_STEPS:.0e} simulation steps; use fewer seconds or a larger timestep.")
     else:
+        if args.source is not None or args.currents_A is not None:
+            raise ValueError("--source adds a field source to a gait (--preset or --robot); an --env builds its own "
+                             "field.")
         _check_env_id(args.env)
         if args.policy is not None and not args.policy.is_file():
             raise ValueError(f"--policy must be an existing model .zip, got {str(args.policy)!r}.")
@@ -176,7 +183,11 @@ def run(args) -> int:
                                  timestep=None if args.timestep_ms is None else args.timestep_ms * 1e-3,
                                  scene=args.scene, panel=args.panel, zoom=False if args.no_zoom else None,
                                  rod=args.rod or DEFAULT_ROD, view=args.view, progress=sys.stderr.isatty(),
-                                 rod_options=rod_options(args))
+                                 rod_options=rod_options(args),
+                                 **({} if field_source is None else {"source": field_source}))
+        if field_source is not None:
+            summary["field_source"] = {"given": source_label(args, origin), "origin": origin,
+                                       "source": source_description(field_source)}
     else:
         policy, env_kwargs = None, {}
         if args.policy is not None:

@@ -41,6 +41,52 @@ _ZOOM_SPAN = 0.25
 _TICK_MINOR, _TICK_MID, _TICK_MAJOR = 0.1 * MM, 0.5 * MM, 1.0 * MM
 
 
+#: A field source's magnets, dipoles and loop centres are drawn as spheres of this radius (a fraction of the beam
+#: length; at least :data:`_MARKER_MIN`), in the field colour, where they lie within the view.
+_MARKER_FRACTION, _MARKER_MIN = 0.05, 0.4 * MM
+#: Colour (palette key) of the arrow of the field at the robot's centre under a field source.
+_SOURCE_ARROW = "field_z"
+#: Marker text by kind (``magsoft_env.fields.source_markers``).
+_MARKER_NAMES = {"magnet": "magnet", "dipole": "dipole", "loop": "loop centre"}
+
+
+def source_state(sim):
+    """What a frame draws of the simulator's field source at its time, or None without one (``sim.source``):
+    ``{"markers": [(kind, (k, 3) positions in m), ...], "centre": (3,) the centre of mass (m), "B": (3,) the
+    field there (T): the uniform field (the drive and the source's uniform parts) plus the rest of the source}``.
+    A :class:`~magsoft_env.fields.MovingSource` is posed at the simulator's time."""
+    src = getattr(sim, "source", None)
+    if src is None:
+        return None
+    from ..fields import MovingSource, source_markers
+    from ..sim.sources import split_source, takes_time
+
+    t = float(sim.time)
+    posed = src.at(t) if isinstance(src, MovingSource) else src
+    try:
+        markers = source_markers(posed)
+    except (TypeError, ValueError):
+        markers = []
+    centre = np.asarray(sim.pose().com, dtype=float)
+    B = np.asarray(sim.field_vector, dtype=float).copy()
+    _, rest = split_source(src)
+    if rest is not None:
+        p = centre.reshape(1, 3)
+        b, _ = rest.field_and_gradient(p, t=t) if takes_time(rest) else rest.field_and_gradient(p)
+        B = B + np.asarray(b, dtype=float)[0]
+    return {"markers": markers, "centre": centre, "B": B}
+
+
+def marker_radius(length: float) -> float:
+    """Radius (m) of a source marker sphere for a beam of ``length`` (m)."""
+    return max(_MARKER_FRACTION * float(length), _MARKER_MIN)
+
+
+def source_field_text(b) -> str:
+    """``"B here = 1.23 mT"``: the field at the robot's centre under a source (T in, mT out)."""
+    return f"B at centre = {float(np.linalg.norm(b)) / MT:.2f} mT"
+
+
 def _rgb(name: str) -> tuple[int, int, int]:
     h = PALETTE[name].lstrip("#")
     return int(h[0:2], 16), int(h[2:4], 16), int(h[4:6], 16)
@@ -362,6 +408,8 @@ class RodRenderer:
         self.panel = TimePanel(height=self.height, seconds=panel_seconds) if panel else None
         self.view: tuple[float, float, float, float] | None = None
         self.scale_bar: tuple[float, float] | None = None
+        self._source = None  # source_state(sim) of the frame being drawn (None: no field source)
+        self._source_scale = _FIELD_STEPS[0]  # full scale (T) of the field-at-the-centre arrow; it only grows
         self._reset_path()
 
     # ------------------------------------------------------------------ framing
@@ -557,12 +605,68 @@ class RodRenderer:
             lw = max(2.0, 2 * round(self.height / 540.0))
             self._connector(scn, mujoco.mjtGeom.mjGEOM_LINE, (x_lo, _Y_FLOOR - 1e-3, 0.0), (x_hi, _Y_FLOOR - 1e-3, 0.0),
                             _rgba32("floor_edge"), lw)
-        else:  # a clamp block behind the rod's base, along the clamp angle
+        if self._source is not None:
+            self._source_spheres(scn, view)
+        if not self._floor:  # a clamp block behind the rod's base, along the clamp angle
             th = float(sim.options.clamp_angle)
             c, s = math.cos(th), math.sin(th)
             half = np.array([1.0 * MM, 0.75 * sim.beam.width, 2.0 * sim.beam.thickness])
             rot = np.array([[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]])
             self._box(scn, (-half[0] * c, 0.0, -half[0] * s), half, _rgba32("scene"), rot)
+
+    def _visible_markers(self, view):
+        """The source's markers within ``view`` (x, z; the side view sees every depth): (kind, (x, y, z))."""
+        x_lo, x_hi, z_lo, z_hi = view
+        r = marker_radius(self.sim.beam.length)
+        out = []
+        for kind, pts in self._source["markers"]:
+            for p in np.asarray(pts, dtype=float):
+                if x_lo - r <= p[0] <= x_hi + r and z_lo - r <= p[2] <= z_hi + r:
+                    out.append((kind, p))
+        return out
+
+    def _source_spheres(self, scn, view) -> None:
+        """Spheres at the source's magnets, dipoles and loop centres in the view, in the rod's plane (y = 0: the
+        side view is orthographic, so their depth does not move them)."""
+        r = marker_radius(self.sim.beam.length)
+        for _, p in self._visible_markers(view):
+            if scn.ngeom >= scn.maxgeom:
+                return
+            g = scn.geoms[scn.ngeom]
+            mujoco.mjv_initGeom(g, mujoco.mjtGeom.mjGEOM_SPHERE, np.array([r, r, r]), np.array([p[0], 0.0, p[2]]),
+                                np.eye(3).ravel(), _rgba32("field"))
+            g.specular = 0.0
+            scn.ngeom += 1
+
+    def _draw_source(self, cv: _Canvas, view) -> None:
+        """The source's markers named, and the field at the centre of mass as an arrow (its x-z part; length by
+        the dial's rule against its own full scale) labelled with |B| in mT."""
+        st = self._source
+        u = cv.unit
+        r_px = marker_radius(self.sim.beam.length) / (view[1] - view[0]) * self.width
+        for kind, p in self._visible_markers(view):
+            pu, pv = self._to_px(view, p[0], p[2])
+            where = "" if abs(p[1]) < 1e-9 else f" (y = {p[1] / MM:.3g} mm)"
+            cv.text((pu, pv - r_px - 3 * u), _MARKER_NAMES.get(kind, kind) + where, _rgb("field"), px=12.5,
+                    anchor="md", box=True)
+        b = st["B"]
+        bmag = float(np.linalg.norm(b))
+        if bmag > self._source_scale:
+            self._source_scale = dial_scale(bmag)
+        c = st["centre"]
+        cu, cv_ = self._to_px(view, c[0], c[2])
+        col = _rgb(_SOURCE_ARROW) + (255,)
+        cv.circle((cu, cv_), 3.5 * u, fill=col)
+        b2 = float(np.hypot(b[0], b[2]))
+        R = 70 * u
+        tip = (cu, cv_)
+        if b2 >= _ZERO_FIELD:
+            length = R * (_ARROW_MIN + (_ARROW_MAX - _ARROW_MIN) * min(bmag / self._source_scale, 1.0))
+            tip = (cu + length * b[0] / b2, cv_ - length * b[2] / b2)
+            cv.arrow((cu, cv_), tip, col, width=3.0, head=11 * u)
+        below = tip[1] >= cv_
+        cv.text((tip[0], tip[1] + (6 if below else -6) * u), source_field_text(b), col, px=12.5, bold=True,
+                anchor="ma" if below else "md", box=True)
 
     # ------------------------------------------------------------------ overlay (2-D)
     def _to_px(self, view, x, z):
@@ -804,6 +908,7 @@ class RodRenderer:
         f = sim.field if field is None else field
         b = planar_field(as_field(f, "field"), "the frame's field arrow (drawn in the x-z plane)").as_array()
         self._record()
+        self._source = source_state(sim)
         view = self.view = self._view()
         if self.zoom:
             self.zoom_view = self._zoom_window()
@@ -815,6 +920,8 @@ class RodRenderer:
         if self.trace:
             self._draw_path(cv, view)
         self._draw_overlay(cv, view, overlay, target)
+        if self._source is not None:
+            self._draw_source(cv, view)
         self._draw_scale(cv, view)
         self._draw_field(cv, b)
         self._draw_header(cv, str(label), target)

@@ -23,6 +23,8 @@ from .frames import (
     _ARROW_MAX,
     _ARROW_MIN,
     _FIELD_STEPS,
+    _MARKER_NAMES,
+    _SOURCE_ARROW,
     _ZERO_FIELD,
     TimePanel,
     _Canvas,
@@ -32,6 +34,9 @@ from .frames import (
     _signed,
     check_frame_args,
     dial_scale,
+    marker_radius,
+    source_field_text,
+    source_state,
     trace_append,
 )
 
@@ -207,6 +212,9 @@ class StripRenderer:
         self.panel = TimePanel(height=self.height, seconds=panel_seconds, components=3) if panel else None
         self.scale_bar: tuple[float, float] | None = None
         self._glcam = None
+        self._source_scale = _FIELD_STEPS[0]  # full scale (T) of the field-at-the-centre arrow under a source
+        self._markers: list = []
+        self._source_tip = None
         self._reset_path()
 
     # ------------------------------------------------------------------ state
@@ -415,6 +423,55 @@ class StripRenderer:
             length = R * (_ARROW_MIN + (_ARROW_MAX - _ARROW_MIN) * min(bmag / self.field_scale, 1.0))
             self._connect(scn, mujoco.mjtGeom.mjGEOM_ARROW, anchor, anchor + length * b / bmag, col, 0.014 * L)
         self._anchor = anchor
+
+    def _near(self, state, aim):
+        """The source's markers near the view (within four view widths of the camera's aim): (kind, (3,))."""
+        out = []
+        for kind, pts in state["markers"]:
+            for p in np.asarray(pts, dtype=float):
+                if np.linalg.norm(p[:2] - np.asarray(aim, dtype=float)[:2]) <= 4.0 * self.span:
+                    out.append((kind, p))
+        return out
+
+    def _source_arrow(self, state):
+        """(base, tip) of the arrow of the field at the centre of mass (m), or (base, None) for a zero field."""
+        b = state["B"]
+        bmag = float(np.linalg.norm(b))
+        if bmag > self._source_scale:
+            self._source_scale = dial_scale(bmag)
+        base = state["centre"] + np.array([0.0, 0.0, 0.6 * self._h])
+        if bmag < _ZERO_FIELD:
+            return base, None
+        R = _ARROW_REACH * self._L
+        length = R * (_ARROW_MIN + (_ARROW_MAX - _ARROW_MIN) * min(bmag / self._source_scale, 1.0))
+        return base, base + length * b / bmag
+
+    def _source_geoms(self, scn, state, aim) -> None:
+        """Spheres at the source's magnets, dipoles and loop centres near the view, and the arrow of the field at
+        the robot's centre of mass (drive plus source)."""
+        self._markers = self._near(state, aim)
+        r = marker_radius(self._L)
+        for _, p in self._markers:
+            self._add(scn, mujoco.mjtGeom.mjGEOM_SPHERE, (r, 0, 0), p, np.eye(3), _rgba32("field"))
+        base, tip = self._source_arrow(state)
+        col = _rgba32(_SOURCE_ARROW)
+        self._add(scn, mujoco.mjtGeom.mjGEOM_SPHERE, (0.02 * self._L, 0, 0), base, np.eye(3), col)
+        if tip is not None:
+            self._connect(scn, mujoco.mjtGeom.mjGEOM_ARROW, base, tip, col, 0.012 * self._L)
+        self._source_tip = base if tip is None else tip
+
+    def _draw_source(self, cv: _Canvas, state) -> None:
+        """The markers named where they show, and the field at the centre of mass labelled in mT."""
+        u = cv.unit
+        for kind, p in self._markers:
+            q = self.project(p + np.array([0.0, 0.0, 1.3 * marker_radius(self._L)]))
+            if np.isfinite(q).all() and 0 <= q[0] <= self.width and 0 <= q[1] <= self.height:
+                cv.text((q[0], q[1] - 2 * u), _MARKER_NAMES.get(kind, kind), _rgb("field"), px=12.5, anchor="md",
+                        box=True)
+        q = self.project(self._source_tip)
+        if np.isfinite(q).all():
+            cv.text((q[0] + 8 * u, q[1]), source_field_text(state["B"]), _rgb(_SOURCE_ARROW) + (255,), px=12.5,
+                    bold=True, anchor="lm", box=True)
 
     def _lights(self, scn) -> None:
         """One directional light straight down (a face turned up shows its colour), no headlight."""
@@ -745,10 +802,15 @@ class StripRenderer:
         self._features(scn)
         self._strip_boxes(scn, x, frames)
         self._field_arrow(scn, com, b)
+        state = source_state(sim)
+        if state is not None:
+            self._source_geoms(scn, state, aim)
         img = r.render()
         cv = _Canvas(img)
         bar = self._draw_floor(cv, img, aim, x, com, goal)
         self._draw_labels(cv, goal, bar)
+        if state is not None:
+            self._draw_source(cv, state)
         self._draw_field(cv, b)
         self._draw_header(cv, str(label), goal, com)
         self._draw_legend(cv, goal)

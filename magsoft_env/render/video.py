@@ -50,7 +50,7 @@ def render_gait(
     preset, seconds: float, path=None, *, fps: float = 25.0, width: int = 960, height: int = 540,
     timestep: float | None = None, segments: int | None = None, scene: str = "floor", panel: bool = False,
     overlay=None, zoom: bool | None = None, rod: str = "planar", view: str | None = None, progress: bool = False,
-    rod_options: dict | None = None,
+    rod_options: dict | None = None, source=None,
 ) -> tuple[list[np.ndarray], dict]:
     """Frames of an open-loop gait (a :class:`~magsoft_env.cases.robots.Robot` with a drive), optionally written.
 
@@ -97,6 +97,11 @@ def render_gait(
         A progress bar (tqdm, on stderr) over the simulated time.
     rod_options : dict or None
         More :class:`~magsoft_env.sim.RodOptions` keywords (:func:`~magsoft_env.sim.gait.gait_rod_options`).
+    source : field source or None
+        A field source besides the drive (as :func:`~magsoft_env.sim.gait.run_gait`'s ``source``: a magnet, a coil
+        system at its currents, a :class:`~magsoft_env.fields.MovingSource`). The frames then draw its magnets,
+        dipoles and loop centres that lie in the view (spheres) and the field at the robot's centre of mass (an
+        arrow labelled in mT; docs/rendering.md, "Field sources").
 
     Returns
     -------
@@ -125,7 +130,7 @@ def render_gait(
     from .views import make_renderer
 
     sim = Simulator(preset.beam, gait_rod_options(preset, scene=scene, segments=segments, timestep=timestep,
-                                                 render=True, rod=rod, **(rod_options or {})))
+                                                 render=True, rod=rod, **(rod_options or {})), source=source)
     wave = as_waveform(preset.wave)
     sim.set_waveform(wave)
     peak = float(np.max(np.linalg.norm(wave.sample(np.linspace(0.0, seconds, 1001)), axis=1)))
