@@ -17,7 +17,7 @@ from ..fields import Source
 from ..io import format_table
 from ..units import MM, MT
 from .output import write_json
-from .sources import markers_text, mT, source_description, source_label
+from .sources import markers_text, source_description, source_label
 
 SOURCE_COLUMNS = [
     ("strength", "strength", ".3g"),

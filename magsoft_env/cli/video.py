@@ -77,8 +77,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     add_rod_option_flag(p)
     add_y_drive_flags(p)
     add_rotate_flags(p)
-    add_source_flags(p, what="added to the gait's drive (as magsoft gait --source); the frames draw its magnets in view "
-                              "and the field at the robot's centre (an arrow labelled in mT)")
+    add_source_flags(p, what="added to the gait's drive (as magsoft gait --source); the frames draw its magnets in "
+                              "view and the field at the robot's centre (an arrow labelled in mT)")
     p.add_argument("--out", type=Path, required=True, help="output file, .mp4 or .gif")
     p.set_defaults(run=run)
     return p

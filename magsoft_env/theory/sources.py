@@ -431,6 +431,7 @@ class _SourceSolver:
         mdl = self.model
         E = mdl.energy(th, load)
         alpha = 0.5
+        self._descent_field = max(getattr(self, "_descent_field", 0.0), mdl.field_on_beam(th, load))
         for _ in range(_DESCENT_ITS):
             R, _, _ = mdl.residual(th, load)
             if float(np.max(np.abs(R))) < 1e-4:
@@ -451,7 +452,8 @@ class _SourceSolver:
                 alpha *= 0.5
             else:
                 return False, th, None
-            if mdl.field_on_beam(trial, load) > MAX_FIELD_ON_BEAM:
+            self._descent_field = max(self._descent_field, mdl.field_on_beam(trial, load))
+            if self._descent_field > MAX_FIELD_ON_BEAM:
                 self.note = "The beam reached the source (the field on it exceeded " \
                             f"{MAX_FIELD_ON_BEAM:g} T): there is no equilibrium beyond the snap."
                 return False, th, None
@@ -521,7 +523,10 @@ class _SourceSolver:
                         best = (E, thd, Jd)
             if best is None:
                 if not self.note:
-                    self.note = f"No stable equilibrium found beyond the fold at load fraction {t:.6f}."
+                    self.note = (f"No stable equilibrium found beyond the fold at load fraction {t:.6f}: energy "
+                                 f"descent from it did not settle (the largest field on the beam reached "
+                                 f"{self._descent_field:.3g} T). A beam that snaps onto a magnet has no equilibrium "
+                                 "in this model, which has no contact with the source.")
                 return False
             self.events[-1]["converged"] = True
             t, self.theta, J = t_j, best[1], best[2]
@@ -597,7 +602,8 @@ class _SourceSolver:
         inplane = float(np.max(np.abs(mx * B[:, 2] - mz * B[:, 0])))
         inplane = max(inplane + float(np.max(np.abs(Fx)) + np.max(np.abs(Fz))) * self.beam.length, 1e-300)
         oop = (float(np.max(np.abs(cx)) + np.max(np.abs(cz))) + float(np.max(np.abs(fy))) * self.beam.length) / inplane
-        status, msg = outcome(ok, 0, tail, ver, self.opt, note=self.note, events=len(self.events),
+        status, msg = outcome(ok, 0, tail, ver, self.opt, note=self.note,
+                              events=sum(bool(e.get("converged")) for e in self.events),
                               nodes=int(u.size), messages=_MESSAGES)
         if ok and oop > 1e-6:
             msg += (f" The source also loads the beam out of its plane ({oop:.1e} of the in-plane loads), which the "
