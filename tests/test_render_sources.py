@@ -9,7 +9,7 @@ import pytest
 pytest.importorskip("mujoco")
 
 from magsoft_env.cases.gaits import gait_preset  # noqa: E402
-from magsoft_env.fields import MovingSource, PointDipole, SphereMagnet, Uniform  # noqa: E402
+from magsoft_env.fields import MovingSource, PointDipole, SphereMagnet  # noqa: E402
 
 #: A weak magnet ahead of and above paper-5c (in the side view's frame, clear of the zoom inset and the dial).
 MAGNET = SphereMagnet(position=(0.030, 0.0, 0.012), radius=1e-3, magnetization=(0.0, 0.0, 1.2 / (4e-7 * np.pi)))
