@@ -49,25 +49,36 @@ class Scaled(Source):
 
 
 def source_row(result, beam, strength: float) -> dict:
-    """The reported metrics of one equilibrium in a source (mm, mT, deg)."""
+    """The reported metrics of one equilibrium in a source (mm, mT, deg): a planar result, or the 3D rod's when the
+    source loads the beam out of its plane (``model="auto"``; the tip and chord angles are then those of the
+    tip's tangent and chord projected on the x-z plane)."""
     tip_B = np.asarray(result.tip_field, dtype=float)
     L = beam.length
+    tip = np.asarray(result.tip_position, dtype=float)
+    c = np.asarray(result.centreline, dtype=float)
+    tip_angle = getattr(result, "tip_angle", None)
+    if tip_angle is None:
+        tangent = c[-1] - c[-2]
+        tip_angle = math.atan2(tangent[2], tangent[0])
+    rotation = getattr(result, "rotation_angle", math.atan2(tip[2], tip[0]))
     return {
         "strength": strength,
-        "tip_x_mm": float(result.x[-1]) / MM,
-        "tip_z_mm": float(result.z[-1]) / MM,
+        "tip_x_mm": float(tip[0]) / MM,
+        "tip_y_mm": float(tip[1]) / MM,
+        "tip_z_mm": float(tip[2]) / MM,
         "v_over_L": float(result.tip_deflection) / L,
-        "tip_angle_deg": math.degrees(float(result.tip_angle)),
-        "rotation_angle_deg": math.degrees(float(result.rotation_angle)),
+        "tip_angle_deg": math.degrees(float(tip_angle)),
+        "rotation_angle_deg": math.degrees(float(rotation)),
         "tip_Bx_mT": tip_B[0] / MT,
         "tip_By_mT": tip_B[1] / MT,
         "tip_Bz_mT": tip_B[2] / MT,
         "tip_B_norm_mT": float(np.linalg.norm(tip_B)) / MT,
         "max_curvature_per_mm": float(result.max_curvature) * MM,
         "min_eigenvalue": float(result.min_eigenvalue),
-        "out_of_plane": float(result.out_of_plane),
+        "out_of_plane": float(getattr(result, "out_of_plane", math.nan)),
+        "model": "planar" if hasattr(result, "theta") else "3d",
         "clamp_force_N": [float(v) for v in result.clamp_force],
-        "clamp_moment_N_m": float(result.clamp_moment),
+        "clamp_moment_N_m": np.asarray(result.clamp_moment, dtype=float).tolist(),  # about -y (planar) or (3,)
         "stable": bool(result.stable),
         "snap_through": bool(result.snap_through),
         "success": bool(result.success),
@@ -160,8 +171,11 @@ def run_source(args, preset, source, origin, out) -> int:
 
 
 def _shape(result, n: int = 101) -> dict:
-    s, x, z, theta = result.sample(n)
-    return {"s_m": s, "x_m": x, "z_m": z, "theta_rad": theta}
+    if hasattr(result, "theta"):
+        s, x, z, theta = result.sample(n)
+        return {"s_m": s, "x_m": x, "z_m": z, "theta_rad": theta}
+    s, c, _ = result.sample(n)
+    return {"s_m": s, "x_m": c[:, 0], "y_m": c[:, 1], "z_m": c[:, 2]}
 
 
 def _figure(source, results, length: float, path, *, title: str):
@@ -185,5 +199,6 @@ def _figure(source, results, length: float, path, *, title: str):
     ax.plot([0.0, L], [0.0, 0.0], color=PALETTE["muted"], lw=1.2, ls="--", label="rest")
     for r in results[:-1][-4:]:
         if r.success:
-            ax.plot(np.asarray(r.x) / MM, np.asarray(r.z) / MM, color=PALETTE["trace"], lw=1.0, alpha=0.5)
+            c = np.asarray(r.centreline)
+            ax.plot(c[:, 0] / MM, c[:, 2] / MM, color=PALETTE["trace"], lw=1.0, alpha=0.5)
     return save_figure(fig, path)
