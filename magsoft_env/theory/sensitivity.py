@@ -18,6 +18,8 @@ linearly or by a power law (inextensible beam):
 ``thickness``              EI ~ t^3, moment and weight ~ t:  dR/dt = -2 P f / t
 ``volume_fraction``        (a number) E, B_r and rho all change: central differences of the residual alone
                            (not of the solve), step 1e-6 of phi, about 1e-10 relative
+profile parameters         (:func:`profile_sensitivities`) q changes beta(s) by d beta/dq and ln m(s) by
+                           d ln m/dq: exact through mc = m cos beta, ms = m sin beta
 =========================  ======================================================================================
 
 (the width cancels from the planar equation). The tip's position and angle follow by differentiating
@@ -30,6 +32,7 @@ costs less than one forward solve.
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -172,6 +175,161 @@ def sensitivities(result, params=("E0", "particle_magnetization")) -> Sensitivit
     if not lam > FOLD_EIGENVALUE:
         raise ValueError(f"the equilibrium is at (or past) a fold: smallest eigenvalue {lam:.3g} EI/L^2 <= "
                          f"{FOLD_EIGENVALUE:g}; the shape's derivative does not exist there.")
+    cols = _param_columns(mdl, th, load, params)
+    return _solve(mdl, th, load, np.column_stack(cols), params, {p: _UNITS[p] for p in params}, lam)
+
+
+def collocation_nodes(result) -> np.ndarray:
+    """The arc lengths (m) at which ``result``'s equilibrium evaluates the beam's coefficients: the rows of an array
+    ``dbeta`` or ``dlog_moment`` given to :func:`profile_sensitivities` (``M`` of them, interface nodes repeated and
+    nudged into their own subdomain, so that one-sided values of a discontinuous profile are taken)."""
+    mdl, _, _ = _state(result)
+    return mdl.grid.s_eval.copy()
+
+
+def _profile_array(name, value, s_eval) -> np.ndarray | None:
+    """``value`` (a callable of s or an array at the collocation nodes) as an (M, k) array, or None."""
+    if value is None:
+        return None
+    if callable(value):
+        a = value(s_eval.copy())
+        where = "its values at the collocation nodes"
+    else:
+        a = value
+        where = "the array"
+    try:
+        a = np.array(a, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a callable of s (m) or an array of numbers, "
+                         f"got {type(a).__name__}.") from None
+    if a.ndim == 1:
+        a = a[:, None]
+    if a.ndim != 2 or a.shape[0] != s_eval.size or a.shape[1] < 1:
+        raise ValueError(f"{name} must give one row per collocation node ({s_eval.size}; collocation_nodes(result)) "
+                         f"and one column per parameter: {where} has shape {np.shape(a)}.")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} must be finite: {where} holds NaN or inf.")
+    return a
+
+
+def profile_sensitivities(result, dbeta=None, *, dlog_moment=None, names=None, params=(),
+                          exact_eigenvalue: bool = True) -> Sensitivity:
+    """Exact derivatives of a planar cantilever equilibrium with respect to the parameters of its magnetization
+    profile (and, in the same solve, any of :data:`PARAMETERS`).
+
+    A parameter ``q`` of the profile changes the magnetization angle by ``d beta(s)/dq`` and, optionally, the
+    magnitude of the moment per length by ``d ln m(s)/dq``. Only the coefficients ``m cos beta`` and ``m sin beta``
+    of ``f = r1 cos theta + r2 sin theta`` depend on them (r1 = ms Bx - mc Bz + g W1, r2 = ms Bz + mc Bx), so::
+
+        dR/dq = P (df/dmc dmc/dq + df/dms dms/dq),
+        dmc/dq = -m sin(beta) dbeta/dq + mc dln m/dq,   dms/dq = kappa (m cos(beta) dbeta/dq + ms dln m/dq)
+
+        (kappa = 1 for the rotated coupling, 0 for the paper's: there m sin(beta) still enters through dmc)
+
+    exactly; the shape's derivative is ``-J^-1 dR/dq`` with one factorization for all columns.
+
+    Parameters
+    ----------
+    result : EquilibriumResult
+        A successful planar, inextensible cantilever equilibrium.
+    dbeta : callable or (M, k) array, optional
+        ``d beta(s) / d q_j`` (rad per unit of q_j): a callable of the arc length (m) returning ``(len(s), k)``
+        values (or ``(len(s),)`` for one parameter), or its values at :func:`collocation_nodes`.
+    dlog_moment : callable or (M, k) array, optional
+        ``d ln m(s) / d q_j`` (per unit of q_j), the relative change of the moment per length (a profile of the
+        magnitude); same forms and the same ``k`` as ``dbeta`` when both are given.
+    names : sequence of str, optional
+        Names of the k profile parameters (default ``"q0"``, ``"q1"``, ...).
+    params : sequence of str
+        Further parameters of :data:`PARAMETERS` (``"Bx"``, ``"Bz"``, ``"volume_fraction"``, ...), after the
+        profile's columns.
+    exact_eigenvalue : bool
+        True: the smallest eigenvalue of the second variation is computed (an eigensolve) and reported in
+        ``min_eigenvalue``. False: only a Cholesky test decides whether it exceeds :data:`FOLD_EIGENVALUE`
+        (several times cheaper than the eigensolve, for optimizers) and ``min_eigenvalue`` is NaN.
+
+    Returns
+    -------
+    Sensitivity
+        Columns in the order ``names`` then ``params``; the unit of a profile parameter is its own ("q").
+
+    Raises
+    ------
+    ValueError
+        On a wrongly shaped or non-finite ``dbeta`` / ``dlog_moment``, neither given nor ``params``, repeated names,
+        what :func:`sensitivities` refuses, or an equilibrium at a fold.
+
+    Examples
+    --------
+    >>> import magsoft_env as ms
+    >>> from magsoft_env.theory.sensitivity import profile_sensitivities
+    >>> beam = ms.Beam(length=25e-3, width=5e-3, thickness=1.13e-3)
+    >>> r = ms.solve_equilibrium(beam, (0.0, 5e-3))
+    >>> d = profile_sensitivities(r, lambda s: 1.0 + 0.0 * s, names=["beta0"])   # turn all of beta together
+    >>> bool(d["beta0"]["tip_angle"] < 0)   # magnetization turned toward +z: less torque from a field along +z
+    True
+    """
+    mdl, th, load = _state(result)
+    s_eval = mdl.grid.s_eval
+    db = _profile_array("dbeta", dbeta, s_eval)
+    dl = _profile_array("dlog_moment", dlog_moment, s_eval)
+    k = db.shape[1] if db is not None else (dl.shape[1] if dl is not None else 0)
+    if db is not None and dl is not None and db.shape[1] != dl.shape[1]:
+        raise ValueError(f"dbeta and dlog_moment must describe the same parameters: {db.shape[1]} against "
+                         f"{dl.shape[1]} columns.")
+    try:
+        extra = (params,) if isinstance(params, str) else tuple(params)
+    except TypeError:
+        raise ValueError(f"params must be a sequence of parameter names, got {params!r}.") from None
+    extra = _check_params(extra) if extra else ()
+    if k == 0 and not extra:
+        raise ValueError("give dbeta, dlog_moment or params: there is nothing to differentiate with respect to.")
+    if names is None:
+        names = tuple(f"q{j}" for j in range(k))
+    else:
+        if isinstance(names, str):
+            names = (names,)
+        names = tuple(str(n) for n in names)
+        if len(names) != k:
+            raise ValueError(f"names must name the {k} profile parameters, got {len(names)}.")
+    allnames = names + extra
+    if len(set(allnames)) != len(allnames):
+        raise ValueError(f"parameter names must not repeat, got {list(allnames)}.")
+    if exact_eigenvalue:
+        lam = float(result.min_eigenvalue)
+        at_fold = not lam > FOLD_EIGENVALUE
+    else:
+        lam = math.nan
+        at_fold = mdl.cholesky(mdl.f_fth_at(th, load)[1], clamped=True, tol=-FOLD_EIGENVALUE) is None
+    if at_fold:
+        shown = f"{lam:.3g}" if exact_eigenvalue else "(Cholesky test)"
+        raise ValueError(f"the equilibrium is at (or past) a fold: smallest eigenvalue {shown} EI/L^2 <= "
+                         f"{FOLD_EIGENVALUE:g}; the shape's derivative does not exist there.")
+    cols = []
+    if k:
+        # d mc, d ms per unit change of each parameter, at the collocation nodes
+        rotated = result._eig[4] == "rotated"
+        msin = mdl.ms if rotated else mdl.beam.moment_per_length(s_eval) * np.sin(mdl.beam.beta(s_eval))
+        dmc = np.zeros((s_eval.size, k))
+        dms = np.zeros((s_eval.size, k))
+        if db is not None:
+            dmc -= msin[:, None] * db
+            if rotated:
+                dms += mdl.mc[:, None] * db
+        if dl is not None:
+            dmc += mdl.mc[:, None] * dl
+            dms += mdl.ms[:, None] * dl
+        c, sn = np.cos(th)[:, None], np.sin(th)[:, None]
+        Bx, Bz = load.Bx, load.Bz
+        df = (dms * Bx - dmc * Bz) * c + (dms * Bz + dmc * Bx) * sn
+        cols.extend((mdl.P @ df).T)
+    cols.extend(_param_columns(mdl, th, load, extra))
+    units = {n: "q" for n in names} | {p: _UNITS[p] for p in extra}
+    return _solve(mdl, th, load, np.column_stack(cols), allnames, units, lam)
+
+
+def _param_columns(mdl: BeamModel, th, load: Load, params) -> list:
+    """dR/dp for each named parameter (see the module's table)."""
     beam = mdl.beam
     P = mdl.P
 
@@ -208,8 +366,12 @@ def sensitivities(result, params=("E0", "particle_magnetization")) -> Sensitivit
         else:  # volume_fraction: central differences of the residual alone
             d = _residual_difference(mdl, th, load, beam)
         cols.append(d)
-    dR = np.column_stack(cols)
-    J = np.eye(th.size) + P * mdl.f_fth_at(th, load)[1][None, :]
+    return cols
+
+
+def _solve(mdl: BeamModel, th, load: Load, dR, params, units, lam) -> Sensitivity:
+    """d theta / d p = -J^-1 dR/dp for the columns of ``dR``, and the centreline's derivatives."""
+    J = np.eye(th.size) + mdl.P * mdl.f_fth_at(th, load)[1][None, :]
     dth = -scipy.linalg.lu_solve(scipy.linalg.lu_factor(J), dR)
     c, sn = np.cos(th), np.sin(th)
     Q0 = mdl.grid.Q0
@@ -219,7 +381,7 @@ def sensitivities(result, params=("E0", "particle_magnetization")) -> Sensitivit
     u = mdl.uniq
     return Sensitivity(params=params, theta=dth[u], tip_position=np.vstack([dx, np.zeros_like(dx), dz]),
                        tip_angle=dth[-1].copy(), s=mdl.grid.s[u], min_eigenvalue=lam,
-                       units={p: _UNITS[p] for p in params}, _positions=(mdl.grid, dx_all, dz_all))
+                       units=units, _positions=(mdl.grid, dx_all, dz_all))
 
 
 def _residual_difference(mdl: BeamModel, th, load: Load, beam) -> np.ndarray:
@@ -240,4 +402,5 @@ def _residual_difference(mdl: BeamModel, th, load: Load, beam) -> np.ndarray:
     return (out[0] - out[1]) / (2.0 * h)
 
 
-__all__ = ["FOLD_EIGENVALUE", "PARAMETERS", "Sensitivity", "sensitivities"]
+__all__ = ["FOLD_EIGENVALUE", "PARAMETERS", "Sensitivity", "collocation_nodes", "profile_sensitivities",
+           "sensitivities"]
