@@ -3,7 +3,7 @@ optimizer, the jig as SVG. Checking a design in MuJoCo is :func:`magsoft_env.com
 writing it to files is :func:`magsoft_env.render.design.write_design`.
 """
 
-from .distance import point_to_polyline
+from .distance import point_to_polyline, point_to_polyline_jacobian
 from .families import FAMILIES, BasisProfile, ProfileFamily
 from .optimize import STATUS_MESSAGES, DesignResult, design_profile
 from .targets import (
@@ -27,6 +27,7 @@ __all__ = [
     "curve_length",
     "design_profile",
     "point_to_polyline",
+    "point_to_polyline_jacobian",
     "prepare_target",
     "read_curve_csv",
     "resample",

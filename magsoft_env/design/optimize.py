@@ -15,13 +15,16 @@ from ..spec.loading import check_loading
 from ..spec.material import MAX_VOLUME_FRACTION
 from ..threads import single_threaded_blas
 from ..validate import boolean, choice, finite_number, integer, pair
-from .distance import point_to_polyline
+from .distance import point_to_polyline, point_to_polyline_jacobian
 from .families import FAMILIES, ProfileFamily
 from .targets import MAX_POINTS, MIN_POINTS, curve_length, prepare_target, tangent_angle
 
 _CENTRELINE_SAMPLES = 241  # points of the predicted centreline polyline (spectral interpolation)
 _DEFAULT_SIZE = {"polynomial": 6, "fourier": 7, "piecewise_linear": 8, "spline": 7}
 _START_NOISE_RAD = 0.35  # spread (rad) of the random starts around the aligned guess
+_DIFF_STEP = 1e-4  # relative step of the forward-difference Jacobian
+#: How :func:`design_profile` takes the objective's Jacobian.
+JACOBIANS = ("exact", "2-point")
 #: Ranges of the integer options of :func:`design_profile` (``max_nfev`` and ``n_starts`` bound the run time).
 MAX_STARTS = 1000
 MAX_NFEV = 100_000
@@ -172,6 +175,7 @@ def design_profile(
     coupling: str = "rotated",
     extensible: bool = False,
     progress: bool = False,
+    jacobian: str = "exact",
 ) -> DesignResult:
     """Design the magnetization profile and field that make ``beam`` follow ``target_xz``.
 
@@ -185,7 +189,8 @@ def design_profile(
     then the field ramped from zero) and d_i is the distance to the curve (to its polyline
     through 241 points, spectrally interpolated), not to its nodes. Solved by
     ``scipy.optimize.least_squares(method="trf")`` with box bounds (the same interior
-    trust-region family as the paper's fmincon), from several starts: the first aligns the
+    trust-region family as the paper's fmincon) and the residuals' exact Jacobian (``jacobian``), from several
+    starts: the first aligns the
     magnetization with the field along the target (beta = alpha - theta_target, the
     strong-field limit), the others perturb it with a seeded random generator. Optionally a
     global stage (``scipy.optimize.differential_evolution``) runs first when the local starts
@@ -235,6 +240,15 @@ def design_profile(
         target's initial tangent (for strokes that start downward, like the letters J and U).
     progress : bool
         Show a tqdm progress bar over the starts.
+    jacobian : {"exact", "2-point"}
+        How the optimizer gets the residuals' Jacobian. ``"exact"`` (default): from the equilibrium's exact
+        sensitivities (:func:`magsoft_env.theory.sensitivity.profile_sensitivities`, one linear solve on the
+        collocation Jacobian the solver has factored) and the exact derivative of the point-to-curve distance
+        (:func:`magsoft_env.design.point_to_polyline_jacobian`): one equilibrium solve per optimizer iteration.
+        Where that derivative does not exist (a failed equilibrium, an equilibrium at a fold) or is not
+        implemented (``extensible=True``) that iteration falls back to forward differences. ``"2-point"``: forward
+        differences throughout (relative step 1e-4; one more solve per design variable and iteration), the
+        method before exact gradients, kept to reproduce earlier designs.
 
     Returns
     -------
@@ -277,6 +291,9 @@ def design_profile(
         raise ValueError(f"match_length must be True or False, got {match_length!r}.")
     global_stage = boolean("global_stage", global_stage)
     progress = boolean("progress", progress)
+    if not isinstance(jacobian, str):
+        raise ValueError(f"jacobian must be one of {list(JACOBIANS)}, got {jacobian!r}.")
+    jac_method = choice("jacobian", jacobian, JACOBIANS)
     n_points = integer("n_points", n_points, MIN_POINTS, MAX_POINTS)
     n_starts = integer("n_starts", n_starts, 1, MAX_STARTS)
     max_nfev = integer("max_nfev", max_nfev, 2, MAX_NFEV)
@@ -312,7 +329,7 @@ def design_profile(
 
     problem = _Problem(
         target=target, beam=beam, family=fam, b_range=(b_lo, b_hi), direction=direction, vf=vf,
-        gravity=g, coupling=coupling, extensible=bool(extensible), clamp_angle=th0,
+        gravity=g, coupling=coupling, extensible=bool(extensible), clamp_angle=th0, jacobian=jac_method,
     )
     lo, hi = problem.bounds(p_lo, p_hi)
     with single_threaded_blas():  # ~100 x 100 systems: threads only cost time
@@ -332,16 +349,18 @@ def design_profile(
         for k in starts:
             x0 = x_guess if k == 0 else problem.perturb(x_guess, lo, hi, rng)
             t0 = time.perf_counter()
+            solves0, fb0 = problem.nfev, problem.fallbacks
             r0 = problem.rms(x0)
             ls = least_squares(
-                problem.residuals, x0, bounds=(lo, hi), method="trf", jac="2-point", diff_step=1e-4,
+                problem.residuals, x0, bounds=(lo, hi), method="trf", **problem.jac_kwargs(),
                 x_scale=1.0, max_nfev=max_nfev, ftol=1e-9, xtol=1e-9, gtol=1e-9,
             )
             rms = problem.rms(ls.x)
             history.append({
                 "start": k, "stage": "local", "initial_rms_m": r0 * L, "rms_m": rms * L,
                 "field_T": problem.field(ls.x).as_array().tolist(), "nfev": int(ls.nfev), "status": int(ls.status),
-                "message": ls.message, "time_s": time.perf_counter() - t0,
+                "message": ls.message, "time_s": time.perf_counter() - t0, "solves": problem.nfev - solves0,
+                "jacobian_fallbacks": problem.fallbacks - fb0,
             })
             if best is None or rms < best[0]:
                 best = (rms, ls.x, ls)
@@ -371,6 +390,9 @@ def design_profile(
                                     clamp_angle=th0, options=problem.options)
             note = (" The final equilibrium used the optimizer's solver settings (resolution 1e-6 rad) because the "
                     f"default settings failed: {first}")
+        if problem.fallbacks and jac_method == "exact" and not extensible:
+            note += (f" {problem.fallbacks} Jacobians were taken by finite differences (a failed equilibrium or one "
+                     "at a fold, where the exact derivative does not exist).")
         if problem.failed:
             note += (f" {problem.failed} of {problem.nfev} equilibrium solves failed during the search and counted "
                      "as an error of L at every point.")
@@ -406,7 +428,7 @@ def design_profile(
                 "seed": seed, "rms_tol": rms_tol, "max_nfev": max_nfev, "global_stage": bool(global_stage),
                 "gravity_m_s2": g, "clamp_angle_rad": th0, "coupling": coupling, "extensible": bool(extensible),
                 "family": fam.kind,
-                "size": fam.size, "target_length_m": raw_length,
+                "size": fam.size, "target_length_m": raw_length, "jacobian": jac_method,
             },
         )
 
@@ -414,7 +436,8 @@ def design_profile(
 class _Problem:
     """Design variables x = [profile params (rad), B / B_max, (alpha, rad), (volume fraction)] and residuals."""
 
-    def __init__(self, *, target, beam, family, b_range, direction, vf, gravity, coupling, extensible, clamp_angle):
+    def __init__(self, *, target, beam, family, b_range, direction, vf, gravity, coupling, extensible, clamp_angle,
+                 jacobian="exact"):
         from ..theory import SolverOptions
 
         self.target, self.beam, self.family = target, beam, family
@@ -432,7 +455,12 @@ class _Problem:
                                          split_at_knots=False)
         self.nfev = 0
         self.failed = 0
+        self.fallbacks = 0  # Jacobians taken by differences where the exact one was asked for
+        self.method = jacobian
+        self._box = (-np.inf, np.inf)
+        self._samples = np.linspace(0.0, beam.length, _CENTRELINE_SAMPLES)
         self._cache: dict[bytes, np.ndarray] = {}
+        self._eqs: dict = {}  # x -> equilibrium (None when failed) of the last few evaluations
 
     # layout
     def bounds(self, p_lo, p_hi):
@@ -444,6 +472,7 @@ class _Problem:
         if self.vf is not None:
             lo.append(self.vf[0])
             hi.append(self.vf[1])
+        self._box = (np.array(lo), np.array(hi))
         return np.array(lo), np.array(hi)
 
     def alpha(self, x) -> float:
@@ -501,6 +530,7 @@ class _Problem:
         if eq is None or not eq.success:
             self.failed += 1
             r = np.full(self.n, 1.0 / math.sqrt(self.n))  # as if every point were L away
+            eq = None
         else:
             _, xs, zs, _ = eq.sample(_CENTRELINE_SAMPLES)
             d = point_to_polyline(self.target, np.column_stack([xs, zs]), signed=True)
@@ -508,7 +538,63 @@ class _Problem:
         if len(self._cache) > 4096:
             self._cache.clear()
         self._cache[key] = r
+        if len(self._eqs) > 8:  # the Jacobian is asked for at the last point evaluated, or close to it
+            self._eqs.pop(next(iter(self._eqs)))
+        self._eqs[key] = eq
         return r
+
+    def jac_kwargs(self) -> dict:
+        """The Jacobian arguments of ``least_squares``."""
+        if self.method == "exact":
+            return {"jac": self.jacobian}
+        return {"jac": "2-point", "diff_step": _DIFF_STEP}
+
+    def jacobian(self, x) -> np.ndarray:
+        """d residuals / d x: exact (one linear solve on the equilibrium's collocation Jacobian), or forward
+        differences (``jacobian="2-point"``, and where the exact one does not exist: a failed equilibrium, an
+        extensible beam, a fold)."""
+        x = np.asarray(x, dtype=float)
+        if self.method == "exact":
+            key = x.tobytes()
+            if key not in self._eqs:
+                self.residuals(x)
+            eq = self._eqs.get(key)
+            if eq is not None:
+                try:
+                    return self._exact_jacobian(x, eq)
+                except ValueError:  # at a fold: no derivative
+                    pass
+            self.fallbacks += 1
+        from scipy.optimize._numdiff import approx_derivative
+
+        return approx_derivative(self.residuals, x, method="2-point", rel_step=_DIFF_STEP, f0=self.residuals(x),
+                                 bounds=self._box)
+
+    def _exact_jacobian(self, x, eq) -> np.ndarray:
+        from ..theory.sensitivity import profile_sensitivities
+
+        m, L = self.family.size, self.beam.length
+        free = self.direction == "free"
+        extra = ["Bx", "Bz"] if free else ["Bz"]
+        if self.vf is not None:
+            extra.append("volume_fraction")
+        S = profile_sensitivities(eq, lambda s: self.family.basis(s / L), params=extra, exact_eigenvalue=False)
+        dpos = S.positions(self._samples)[:, [0, 2], :]  # (241, 2, m + len(extra))
+        cols = [dpos[..., :m]]
+        b = float(np.clip(x[m], self.b_lo / self.b_hi, 1.0)) * self.b_hi
+        if free:
+            a = self.alpha(x)
+            dBx, dBz = dpos[..., m], dpos[..., m + 1]
+            cols.append((self.b_hi * (math.cos(a) * dBx + math.sin(a) * dBz))[..., None])
+            cols.append((b * (-math.sin(a) * dBx + math.cos(a) * dBz))[..., None])
+        else:
+            cols.append(self.b_hi * dpos[..., m : m + 1])
+        if self.vf is not None:
+            cols.append(dpos[..., -1:])
+        dcurve = np.concatenate(cols, axis=2)
+        _, xs, zs, _ = eq.sample(_CENTRELINE_SAMPLES)
+        _, jac = point_to_polyline_jacobian(self.target, np.column_stack([xs, zs]), dcurve)
+        return jac / (L * math.sqrt(self.n))
 
     def rms(self, x) -> float:
         """RMS distance as a fraction of L."""
@@ -525,7 +611,7 @@ def _global(problem, lo, hi, best, seed, max_nfev, history, L):
         tol=1e-8, polish=False, init="sobol", x0=best[1],
     )
     ls = least_squares(
-        problem.residuals, np.clip(de.x, lo, hi), bounds=(lo, hi), method="trf", jac="2-point", diff_step=1e-4,
+        problem.residuals, np.clip(de.x, lo, hi), bounds=(lo, hi), method="trf", **problem.jac_kwargs(),
         max_nfev=max_nfev, ftol=1e-9, xtol=1e-9, gtol=1e-9,
     )
     rms = problem.rms(ls.x)
