@@ -88,6 +88,12 @@ def point_to_polyline_jacobian(points, curve, dcurve) -> tuple[np.ndarray, np.nd
     dc = np.asarray(dcurve, dtype=float)
     if dc.ndim != 3 or dc.shape[:2] != c.shape:
         raise ValueError(f"dcurve must have shape ({len(c)}, 2, k), got {dc.shape}.")
+    dist, foot = _signed_foot(p, c)
+    return dist, _foot_jacobian(foot, dc)
+
+
+def _signed_foot(p, c):
+    """Signed distances and what their derivative needs: (segment index, t, unit vector g)."""
     k, t, d, rel, dist = _closest(p, c)
     side = d[k, 0] * rel[:, 1] - d[k, 1] * rel[:, 0]
     sign = np.where(side < 0.0, -1.0, 1.0)
@@ -96,5 +102,10 @@ def point_to_polyline_jacobian(points, curve, dcurve) -> tuple[np.ndarray, np.nd
     normal = np.column_stack([-d[k, 1], d[k, 0]]) / np.where(nd > 0, nd, 1.0)[:, None]
     tiny = dist <= 1e-12 * max(float(np.abs(c).max()), 1e-300)
     g = np.where(tiny[:, None], normal, sign[:, None] * off / np.where(tiny, 1.0, dist)[:, None])
+    return sign * dist, (k, t, g)
+
+
+def _foot_jacobian(foot, dc):
+    k, t, g = foot
     dfoot = (1.0 - t)[:, None, None] * dc[k] + t[:, None, None] * dc[k + 1]  # (n, 2, k)
-    return sign * dist, -np.einsum("nj,njk->nk", g, dfoot)
+    return -np.einsum("nj,njk->nk", g, dfoot)
