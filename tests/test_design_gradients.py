@@ -88,3 +88,93 @@ def test_profile_sensitivities_refuse_bad_input():
         profile_sensitivities(r, lambda s: s, names=["Bz"], params=["Bz"])
     with pytest.raises(ValueError, match="inextensible"):
         profile_sensitivities(ms.solve_equilibrium(BEAM, (0, 5e-3), extensible=True), lambda s: s)
+
+
+# ---- the design objective's Jacobian -------------------------------------------------------------------------------
+def _problem(direction="perpendicular", vf=None, coupling="rotated"):
+    from magsoft_env.design.optimize import _Problem
+    from magsoft_env.design.targets import prepare_target
+
+    target = prepare_target(ms.design.builtin_target("ball"), 30)
+    beam = BEAM.replace(length=ms.design.curve_length(target))
+    pr = _Problem(target=target, beam=beam, family=FAM, b_range=(1e-3, 20e-3), direction=direction, vf=vf,
+                  gravity=9.81, coupling=coupling, extensible=False, clamp_angle=0.0)
+    pr.fast = True  # one fixed grid: the objective is a smooth function of x, as its differences need
+    pr.fast_options = SolverOptions(nodes=48, tol=1e-14, resolution_tol=1e-3, verify_tol=1e-3,
+                                    split_at_knots=False)
+    lo, hi = pr.bounds(-np.pi, np.pi)
+    return pr, pr.initial_guess(lo, hi)
+
+
+@pytest.mark.parametrize(("direction", "vf", "coupling"), [("perpendicular", None, "rotated"),
+                                                           ("free", (0.1, 0.3), "rotated"),
+                                                           ("perpendicular", None, "paper")])
+def test_design_jacobian_equals_differences_of_the_objective(direction, vf, coupling):
+    pr, x = _problem(direction, vf, coupling)
+    x = x + np.linspace(-0.05, 0.05, x.size)  # a generic point, not the aligned guess
+    J = pr.jacobian(x)
+    assert pr.fallbacks == 0
+    h = 1e-5
+    for j in range(x.size):
+        e = np.zeros_like(x)
+        e[j] = h
+        fd = (pr.residuals(x + e) - pr.residuals(x - e)) / (2 * h)
+        assert np.abs(J[:, j] - fd).max() <= 1e-5 * np.abs(J).max(), j
+    # the sum of squares' gradient, what the optimizer descends
+    g = 2 * J.T @ pr.residuals(x)
+    e = 1e-5 * g / np.linalg.norm(g)
+    df = (np.sum(pr.residuals(x + e) ** 2) - np.sum(pr.residuals(x - e) ** 2)) / 2
+    assert df == pytest.approx(g @ e, rel=1e-5)
+
+
+def test_design_jacobian_falls_back_to_differences_at_a_failed_solve():
+    pr, x = _problem()
+    pr.residuals(x)
+    pr._eqs[bytes([True]) + x.tobytes()] = None  # as if this equilibrium had failed
+    J = pr.jacobian(x)
+    assert pr.fallbacks == 1 and J.shape == (30, x.size) and np.all(np.isfinite(J))
+
+
+def test_exact_design_at_least_as_good_as_differences():
+    fam = ProfileFamily("spline", 5)
+    target = ms.solve_equilibrium(BEAM.replace(magnetization=fam.profile(P0, L)), (0.0, 12e-3)).sample(40)
+    target = np.column_stack(target[1:3])
+    kw = dict(field_bounds=(1e-3, 30e-3), family=fam, n_points=30, n_starts=1, rms_tol=0.0)
+    old = ms.design_profile(target, BEAM, jacobian="2-point", **kw)
+    new = ms.design_profile(target, BEAM, **kw)
+    assert new.settings["jacobian"] == "exact" and old.settings["jacobian"] == "2-point"
+    assert new.rms_error <= old.rms_error * (1 + 1e-3) + 1e-9 * L
+    assert new.nfev < old.nfev / 3  # one solve an iteration instead of one per variable and one
+    # the same ball as design_bench, a handful of iterations: the exact method is ahead after as many iterations
+    ball = ms.design.builtin_target("ball")
+    kw = dict(field_bounds=(1e-3, 20e-3), n_points=20, n_starts=1, max_nfev=8, size=5, rms_tol=0.0)
+    a = ms.design_profile(ball, BEAM, jacobian="2-point", **kw)
+    b = ms.design_profile(ball, BEAM, **kw)
+    assert b.rms_error <= a.rms_error * 1.05
+
+
+def test_jacobian_option_is_checked():
+    target = ms.design.builtin_target("ball")
+    for bad in ("exakt", 3, None):
+        with pytest.raises(ValueError, match="jacobian must be one of"):
+            ms.design_profile(target, BEAM, field_bounds=(1e-3, 20e-3), jacobian=bad)
+
+
+def test_extensible_design_takes_differences():
+    target = ms.design.builtin_target("ball")
+    res = ms.design_profile(target, BEAM, field_bounds=(1e-3, 20e-3), n_points=15, n_starts=1, max_nfev=3, size=5,
+                            extensible=True)
+    assert res.history[0]["jacobian_fallbacks"] >= 1 and np.isfinite(res.rms_error)
+
+
+def test_at_a_fold_no_derivative_and_the_design_takes_differences(monkeypatch):
+    import magsoft_env.theory.sensitivity as sens
+
+    pr, x = _problem()
+    r = _solve(P0)
+    monkeypatch.setattr(sens, "FOLD_EIGENVALUE", 1e9)  # every equilibrium counts as at a fold
+    for exact in (True, False):
+        with pytest.raises(ValueError, match="fold"):
+            profile_sensitivities(r, lambda s: FAM.basis(s / L), exact_eigenvalue=exact)
+    J = pr.jacobian(x)
+    assert pr.fallbacks == 1 and np.all(np.isfinite(J))
