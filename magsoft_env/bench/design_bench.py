@@ -7,6 +7,13 @@ its length set to the curve length. Prints, per object, the RMS and largest poin
 baseline the paper's Fig. S11 compares against: the beam magnetized straight from the contour
 (beta = pi/2 - theta_target, the strong-field alignment guess, no optimization) under the best
 field of the same range. Optionally writes the table as Markdown.
+
+``--compare`` (the default ``--methods 2-point exact``) also runs each design with the forward-difference Jacobian
+(``jacobian="2-point"``, the method before exact gradients) and the exact one, in the same process, each
+``--repeat`` times (the best time counts: the designs are deterministic, the machine's load is not), and prints them
+side by side: wall time, equilibrium solves, RMS and largest error, and the speed-up. ``--gripper`` takes the grasp
+scene's hanging fingers (:func:`magsoft_env.compare.grasp.design_gripper`, the contour mirrored, beta within
+[-2 pi, 2 pi]) instead of the upright half-contours.
 """
 
 from __future__ import annotations
@@ -39,6 +46,57 @@ def _baseline(target, beam, b_hi, family, coupling):
             d = point_to_polyline(tgt, np.column_stack([x, z]))
             best = min(best, float(np.sqrt(np.mean(d**2))))
     return best
+
+
+def _design(name, *, field_max_mT, family, starts, seed, coupling, gripper, jacobian):
+    import magsoft_env as ms
+    from magsoft_env.design import builtin_target, curve_length
+
+    kw = dict(field_bounds=(1e-3, field_max_mT * 1e-3), family=family, n_starts=starts, seed=seed, coupling=coupling,
+              jacobian=jacobian)
+    if gripper:
+        from magsoft_env.compare.grasp import design_gripper
+
+        return design_gripper(name, **kw)
+    target = builtin_target(name)
+    beam = ms.Beam(length=curve_length(target), width=5e-3, thickness=1.13e-3, volume_fraction=0.2)
+    return ms.design_profile(target, beam, **kw)
+
+
+def compare(objects, *, field_max_mT: float, family: str, starts: int, seed: int, coupling: str,
+            gripper: bool = False, methods=("2-point", "exact"), repeat: int = 1) -> list[dict]:
+    """Each object designed by each Jacobian ``method`` in turn (``repeat`` times, best time kept): one row per
+    object and method, with the speed-up over the first method and the RMS error relative to it."""
+    rows = []
+    for name in objects:
+        first = None
+        for method in methods:
+            best = None
+            for _ in range(repeat):
+                t0 = time.perf_counter()
+                res = _design(name, field_max_mT=field_max_mT, family=family, starts=starts, seed=seed,
+                              coupling=coupling, gripper=gripper, jacobian=method)
+                wall = time.perf_counter() - t0
+                best = wall if best is None else min(best, wall)
+            L = res.beam.length
+            row = {"object": name, "target": "gripper" if gripper else "contour", "jacobian": method,
+                   "time_s": best, "solves": res.nfev, "starts": len(res.history), "B_mT": res.field.magnitude / MT,
+                   "rms_mm": res.rms_error / MM, "rms_pct": 100 * res.rms_error / L, "max_pct": 100 * res.max_error / L,
+                   "status": res.status}
+            if first is None:
+                first = row
+            row["speedup"] = first["time_s"] / best
+            row["rms_ratio"] = row["rms_mm"] / first["rms_mm"]
+            rows.append(row)
+    return rows
+
+
+COMPARE_COLUMNS = [
+    ("object", "object", ""), ("target", "target", ""), ("jacobian", "jacobian", ""), ("time_s", "time (s)", ".3f"),
+    ("speedup", "speed-up", ".1f"), ("solves", "solves", "d"), ("starts", "starts", "d"), ("B_mT", "B (mT)", ".2f"),
+    ("rms_mm", "RMS (mm)", ".5f"), ("rms_pct", "RMS (% L)", ".4f"), ("rms_ratio", "RMS / first", ".5f"),
+    ("max_pct", "max (% L)", ".3f"), ("status", "status", "d"),
+]
 
 
 def run(objects, *, field_max_mT: float, family: str, starts: int, seed: int, coupling: str,
@@ -91,8 +149,8 @@ def _columns(rows):
     return COLUMNS + (MUJOCO_COLUMNS if rows and "mj_max_mm" in rows[0] else [])
 
 
-def markdown(rows) -> str:
-    cols = _columns(rows)
+def markdown(rows, cols=None) -> str:
+    cols = _columns(rows) if cols is None else cols
     head = "| " + " | ".join(h for _, h, _ in cols) + " |"
     sep = "|" + "|".join("---" for _ in cols) + "|"
     body = ["| " + " | ".join(format(r[k], f) if f else str(r[k]) for k, _, f in cols) + " |" for r in rows]
@@ -111,19 +169,34 @@ def main(argv=None) -> int:
     p.add_argument("--coupling", default="rotated", choices=("rotated", "paper"))
     p.add_argument("--mujoco", action="store_true", help="also simulate each design in MuJoCo (20 segments)")
     p.add_argument("--markdown", metavar="FILE", help="also write the table as Markdown to FILE")
+    p.add_argument("--compare", action="store_true",
+                   help="time the Jacobian methods (--methods) side by side instead of the fit table")
+    p.add_argument("--methods", nargs="+", default=["2-point", "exact"], choices=["2-point", "exact"],
+                   help="Jacobians to compare (the first is the reference of speed-up and RMS ratio)")
+    p.add_argument("--repeat", type=int, default=1, help="runs of each design with --compare (best time kept)")
+    p.add_argument("--gripper", action="store_true",
+                   help="with --compare: the grasp scene's hanging fingers (design_gripper) instead of the contours")
     a = p.parse_args(argv)
-    rows = run(a.objects, field_max_mT=a.field_max_mT, family=a.family, starts=a.starts, seed=a.seed,
-               coupling=a.coupling, mujoco=a.mujoco)
     from magsoft_env.io import format_table
 
     env = (f"{platform.processor() or platform.machine()}, {os.cpu_count()} CPUs visible, "
            f"python {platform.python_version()}, numpy {np.__version__}")
     print(f"inverse design, field 1-{a.field_max_mT:g} mT along +z, {a.family} profile, coupling {a.coupling}, "
           f"seed {a.seed}; {env}")
-    print(format_table(rows, _columns(rows)))
+    if a.compare:
+        if a.repeat < 1:
+            p.error("--repeat must be at least 1")
+        rows = compare(a.objects, field_max_mT=a.field_max_mT, family=a.family, starts=a.starts, seed=a.seed,
+                       coupling=a.coupling, gripper=a.gripper, methods=a.methods, repeat=a.repeat)
+        cols = COMPARE_COLUMNS
+    else:
+        rows = run(a.objects, field_max_mT=a.field_max_mT, family=a.family, starts=a.starts, seed=a.seed,
+                   coupling=a.coupling, mujoco=a.mujoco)
+        cols = _columns(rows)
+    print(format_table(rows, cols))
     if a.markdown:
         with open(a.markdown, "w", encoding="utf-8") as fh:
-            fh.write(markdown(rows) + "\n")
+            fh.write(markdown(rows, cols) + "\n")
     return 0
 
 

@@ -232,7 +232,7 @@ def design_profile(
         RMS error (fraction of L, in [0, 1]) that counts as a fit.
     max_nfev : int
         Objective evaluations per local start (each one equilibrium solve plus its Jacobian), in
-        [2, 100000].
+        [2, 100000]; with ``jacobian="exact"`` per stage (the fast stage and the polish, see ``jacobian``).
     global_stage : bool
         Run differential evolution when the local starts miss ``rms_tol``.
     gravity, coupling, extensible
@@ -247,7 +247,9 @@ def design_profile(
         sensitivities (:func:`magsoft_env.theory.sensitivity.profile_sensitivities`, one linear solve on the
         collocation Jacobian the solver has factored) and the exact derivative of the point-to-curve distance
         (:func:`magsoft_env.design.point_to_polyline_jacobian`): one equilibrium solve per optimizer iteration.
-        Where that derivative does not exist (a failed equilibrium, an equilibrium at a fold) or is not
+        The search runs first with the solver on one fixed grid (48 Chebyshev nodes, about 3 times cheaper a
+        solve), then continues at the optimizer's usual settings (the polish) only where a Gauss-Newton step
+        there, checked by a solve, gains more than 1e-4 of the RMS error. Where that derivative does not exist (a failed equilibrium, an equilibrium at a fold) or is not
         implemented (``extensible=True``) that iteration falls back to forward differences. ``"2-point"``: forward
         differences throughout (relative step 1e-4; one more solve per design variable and iteration), the
         method before exact gradients, kept to reproduce earlier designs.
@@ -555,9 +557,9 @@ class _Problem:
         With forward differences, at the optimizer's solver settings (:attr:`options`) throughout. With the exact
         Jacobian, first on one fixed grid (:attr:`fast_options`, no refinement: about 3 times cheaper a solve),
         then, from where that stage stopped, at :attr:`options`: the residuals and their Jacobian there give the
-        Gauss-Newton step within the bounds, and when that step would lower the RMS error by more than
-        ``_POLISH_GAIN`` of itself the search continues at :attr:`options` (the polish). ``nfev`` counts both
-        stages."""
+        Gauss-Newton step within the bounds, and when that step does lower the RMS error by more than
+        ``_POLISH_GAIN`` of itself (predicted, then checked by a solve) the search continues from there at
+        :attr:`options` (the polish). ``nfev`` counts both stages."""
         from scipy.optimize import least_squares, lsq_linear
 
         kw = dict(bounds=(lo, hi), method="trf", x_scale=1.0, ftol=1e-9, xtol=1e-9, gtol=1e-9)
@@ -575,14 +577,17 @@ class _Problem:
         now = float(np.linalg.norm(r))
         J = self.jacobian(x)
         step = lsq_linear(J, -r, bounds=(lo - x, hi - x)).x if np.all(np.isfinite(J)) else np.zeros_like(x)
-        if now - float(np.linalg.norm(r + J @ step)) <= _POLISH_GAIN * now:
+        first.nfev += 1
+        if now - float(np.linalg.norm(r + J @ step)) > _POLISH_GAIN * now:
+            # the linear model promises a gain: check it (at a jump of the objective, where the loading path
+            # switches branches, it does not hold and a polish would only walk along the jump)
+            y = np.clip(x + step, lo, hi)
             first.nfev += 1
-            first.polished = False
-            return first
-        ls = least_squares(self.residuals, x, jac=self.jacobian, max_nfev=max_nfev, **kw)
-        ls.nfev += first.nfev
-        ls.polished = True
-        return ls
+            if now - float(np.linalg.norm(self.residuals(y))) > _POLISH_GAIN * now:
+                ls = least_squares(self.residuals, y, jac=self.jacobian, max_nfev=max_nfev, **kw)
+                ls.nfev += first.nfev
+                return ls
+        return first
 
     def jacobian(self, x) -> np.ndarray:
         """d residuals / d x: exact (one linear solve on the equilibrium's collocation Jacobian), or forward
