@@ -178,3 +178,13 @@ def test_at_a_fold_no_derivative_and_the_design_takes_differences(monkeypatch):
             profile_sensitivities(r, lambda s: FAM.basis(s / L), exact_eigenvalue=exact)
     J = pr.jacobian(x)
     assert pr.fallbacks == 1 and np.all(np.isfinite(J))
+
+
+def test_a_failed_fast_solve_hands_the_search_to_the_usual_settings():
+    pr, x = _problem()
+    pr.fast_options = SolverOptions(nodes=8, verify_tol=1e-14, split_at_knots=False)  # never verifies
+    r = pr.residuals(x)
+    assert pr.fast_misses == 1 and not pr.fast and pr.failed == 0
+    pr.fast = False
+    assert np.array_equal(r, pr.residuals(x))  # the usual settings' residuals, now cached under them
+    assert pr.fallbacks == 0 and np.all(np.isfinite(pr.jacobian(x)))

@@ -247,10 +247,12 @@ def design_profile(
         sensitivities (:func:`magsoft_env.theory.sensitivity.profile_sensitivities`, one linear solve on the
         collocation Jacobian the solver has factored) and the exact derivative of the point-to-curve distance
         (:func:`magsoft_env.design.point_to_polyline_jacobian`): one equilibrium solve per optimizer iteration.
-        The search runs first with the solver on one fixed grid (48 Chebyshev nodes, about 3 times cheaper a
-        solve), then continues at the optimizer's usual settings (the polish) only where a Gauss-Newton step
-        there, checked by a solve, gains more than 1e-4 of the RMS error. Where that derivative does not exist (a failed equilibrium, an equilibrium at a fold) or is not
-        implemented (``extensible=True``) that iteration falls back to forward differences. ``"2-point"``: forward
+        Each start searches first with the solver on one fixed grid (48 Chebyshev nodes, about 3 times cheaper
+        a solve; where a solve fails on it, the rest of that search runs at the usual settings), then continues
+        at the optimizer's usual settings (the polish) only where a Gauss-Newton step there, checked by a solve,
+        gains more than 1e-4 of the RMS error. Where the derivative does not exist (a failed equilibrium, an
+        equilibrium at a fold) or is not implemented (``extensible=True``) that iteration falls back to forward
+        differences. ``"2-point"``: forward
         differences throughout (relative step 1e-4; one more solve per design variable and iteration), the
         method before exact gradients, kept to reproduce earlier designs.
 
@@ -460,6 +462,7 @@ class _Problem:
         self.nfev = 0
         self.failed = 0
         self.fallbacks = 0  # Jacobians taken by differences where the exact one was asked for
+        self.fast_misses = 0  # fast-stage solves that failed and were repeated at the usual settings
         self.method = jacobian
         self._box = (-np.inf, np.inf)
         self._samples = np.linspace(0.0, beam.length, _CENTRELINE_SAMPLES)
@@ -522,15 +525,24 @@ class _Problem:
             return hit
         from ..theory import solve_equilibrium
 
-        self.nfev += 1
-        try:
-            eq = solve_equilibrium(
-                self.beam_for(x), self.field(x), gravity=self.gravity, coupling=self.coupling,
-                clamp_angle=self.clamp_angle,
-                extensible=self.extensible, options=self.fast_options if self.fast else self.options,
-            )
-        except ValueError:
-            eq = None
+        beam, fld = self.beam_for(x), self.field(x)
+
+        def solve(options):
+            self.nfev += 1
+            try:
+                return solve_equilibrium(beam, fld, gravity=self.gravity, coupling=self.coupling,
+                                         clamp_angle=self.clamp_angle, extensible=self.extensible, options=options)
+            except ValueError:
+                return None
+
+        eq = solve(self.fast_options if self.fast else self.options)
+        if self.fast and (eq is None or not eq.success):
+            # the fixed grid cannot resolve this shape (or the path on it fails): the rest of this search runs
+            # at the usual settings
+            self.fast_misses += 1
+            self.fast = False
+            key = bytes([self.fast]) + key[1:]
+            eq = solve(self.options)
         if eq is None or not eq.success:
             self.failed += 1
             r = np.full(self.n, 1.0 / math.sqrt(self.n))  # as if every point were L away
