@@ -17,18 +17,27 @@ def _check(points, curve):
 
 def _closest(p, c):
     """For each point: the nearest segment k, its parameter t in [0, 1], the segment vectors d, the offsets
-    rel = p - c[k] and the distance."""
+    rel = p - c[k] and the distance (component arrays: several times faster than 3D einsums)."""
     a = c[:-1]  # (m-1, 2)
     d = c[1:] - a
-    dd = np.einsum("ij,ij->i", d, d)
+    dx, dz = d[:, 0], d[:, 1]
+    dd = dx * dx + dz * dz
     dd = np.where(dd > 0.0, dd, 1.0)
-    rel = p[:, None, :] - a[None, :, :]  # (n, m-1, 2)
-    t = np.clip(np.einsum("nmj,mj->nm", rel, d) / dd, 0.0, 1.0)
-    diff = rel - t[..., None] * d[None, :, :]
-    dist2 = np.einsum("nmj,nmj->nm", diff, diff)
-    k = np.argmin(dist2, axis=1)
+    rx = p[:, 0:1] - a[:, 0]  # (n, m-1)
+    rz = p[:, 1:2] - a[:, 1]
+    t = rx * dx
+    t += rz * dz
+    t /= dd
+    np.clip(t, 0.0, 1.0, out=t)
+    ex = rx - t * dx
+    ez = rz - t * dz
+    ex *= ex
+    ez *= ez
+    ex += ez
+    k = np.argmin(ex, axis=1)
     rows = np.arange(len(p))
-    return k, t[rows, k], d, rel[rows, k], np.sqrt(dist2[rows, k])
+    rel = np.column_stack([rx[rows, k], rz[rows, k]])
+    return k, t[rows, k], d, rel, np.sqrt(ex[rows, k])
 
 
 def point_to_polyline(points, curve, *, signed: bool = False) -> np.ndarray:

@@ -468,6 +468,7 @@ class _Problem:
         self._samples = np.linspace(0.0, beam.length, _CENTRELINE_SAMPLES)
         self._cache: dict[bytes, np.ndarray] = {}
         self._eqs: dict = {}  # x -> equilibrium (None when failed) of the last few evaluations
+        self._basis: dict = {}  # collocation nodes -> the family's basis there
 
     # layout
     def bounds(self, p_lo, p_hi):
@@ -630,7 +631,14 @@ class _Problem:
         extra = ["Bx", "Bz"] if free else ["Bz"]
         if self.vf is not None:
             extra.append("volume_fraction")
-        S = profile_sensitivities(eq, lambda s: self.family.basis(s / L), params=extra, exact_eigenvalue=False)
+        s_eval = eq._eig[0].grid.s_eval  # the collocation nodes (collocation_nodes without the checks)
+        k = s_eval.tobytes()
+        basis = self._basis.get(k)
+        if basis is None:  # d beta / d p at the nodes: the same few grids again and again
+            if len(self._basis) > 16:
+                self._basis.clear()
+            basis = self._basis[k] = self.family.basis(s_eval / L)
+        S = profile_sensitivities(eq, basis, params=extra, exact_eigenvalue=False)
         dpos = S.positions(self._samples)[:, [0, 2], :]  # (241, 2, m + len(extra))
         cols = [dpos[..., :m]]
         b = float(np.clip(x[m], self.b_lo / self.b_hi, 1.0)) * self.b_hi

@@ -87,7 +87,9 @@ class Sensitivity:
         L = float(grid.edges[-1])
         if not np.all(np.isfinite(s)) or np.any(s < 0) or np.any(s > L * (1 + 1e-12)):
             raise ValueError(f"s must lie in [0, {L:g}] m, got {s.tolist()}.")
-        ix, iz = grid.interpolate(dx, s), grid.interpolate(dz, s)
+        k = dx.shape[1]
+        both = grid.interpolate(np.concatenate([dx, dz], axis=1), s)  # one interpolation for x and z
+        ix, iz = both[:, :k], both[:, k:]
         return np.stack([ix, np.zeros_like(ix), iz], axis=1)
 
     def __getitem__(self, name: str) -> dict:
