@@ -188,3 +188,16 @@ def test_a_failed_fast_solve_hands_the_search_to_the_usual_settings():
     pr.fast = False
     assert np.array_equal(r, pr.residuals(x))  # the usual settings' residuals, now cached under them
     assert pr.fallbacks == 0 and np.all(np.isfinite(pr.jacobian(x)))
+
+
+def test_design_bench_compares_methods_side_by_side(capsys, tmp_path):
+    from magsoft_env.bench import design_bench
+
+    rows = design_bench.compare(["dumbbell"], field_max_mT=20.0, family="spline", starts=1, seed=0,
+                                coupling="rotated", gripper=True, methods=("exact", "exact"))
+    assert [r["jacobian"] for r in rows] == ["exact", "exact"] and rows[1]["rms_ratio"] == 1.0
+    assert rows[0]["target"] == "gripper" and rows[0]["speedup"] == 1.0
+    md = tmp_path / "t.md"
+    assert design_bench.main(["--compare", "--methods", "exact", "--objects", "dumbbell", "--markdown", str(md)]) == 0
+    out = capsys.readouterr().out
+    assert "speed-up" in out and "dumbbell" in out and "| exact |" in md.read_text()

@@ -77,7 +77,9 @@ class DesignResult:
         The analytical solution behind ``predicted_xz``.
     history : list of dict
         One record per start (local, then the global stage if run): initial and final RMS
-        error (m), field (T), evaluations, status, time (s); the unit is in each key that has one.
+        error (m), field (T), evaluations, status, time (s), equilibrium solves and (local starts)
+        Jacobians taken by differences where the exact one did not exist; the unit is in each key
+        that has one.
     nfev : int
         Equilibrium solves in total (dimensionless count).
     wall_time : float
