@@ -31,8 +31,10 @@ wp, _ = require_warp()
 
 
 @wp.func
-def _dipoles_at(w: int, p: wp.vec3, spos: wp.array2d[wp.vec3], smom: wp.array2d[wp.vec3]) -> wp.mat33:
-    """The gradient (T/m, ``G[a, b] = dB_a / dx_b``) of world ``w``'s dipoles (moments in T m^3) at ``p`` (m)."""
+def _field_and_gradient(w: int, p: wp.vec3, spos: wp.array2d[wp.vec3], smom: wp.array2d[wp.vec3]):
+    """The field (T) and gradient (T/m, ``G[a, b] = dB_a / dx_b``) of world ``w``'s dipoles (moments in T m^3) at
+    ``p`` (m), one pass over the dipoles."""
+    B = wp.vec3(0.0)
     G = wp.mat33(0.0)
     for k in range(spos.shape[1]):
         mk = smom[w, k]
@@ -40,11 +42,13 @@ def _dipoles_at(w: int, p: wp.vec3, spos: wp.array2d[wp.vec3], smom: wp.array2d[
             continue
         r = p - spos[w, k]
         inv_r2 = 1.0 / wp.dot(r, r)
-        c = 3.0 * inv_r2 * inv_r2 * wp.sqrt(inv_r2)  # 3 / r^5
+        inv_r3 = inv_r2 * wp.sqrt(inv_r2)
+        c = 3.0 * inv_r3 * inv_r2  # 3 / r^5
         a = c * wp.dot(mk, r)  # 3 (m . r) / r^5
+        B += a * r - inv_r3 * mk
         G += c * (wp.outer(mk, r) + wp.outer(r, mk)) + a * wp.identity(n=3, dtype=float) \
             - (5.0 * a * inv_r2) * wp.outer(r, r)
-    return G
+    return B, G
 
 
 @wp.func
@@ -82,8 +86,7 @@ def _source_loads(xpos: wp.array2d[wp.vec3], xmat: wp.array2d[wp.mat33], xipos: 
     w, i = wp.tid()
     b = b0 + i
     m, p = _piece(w, b, i, xpos, xmat, mx, mz, half)
-    B = _field_at(w, p, spos, smom)
-    G = _dipoles_at(w, p, spos, smom)
+    B, G = _field_and_gradient(w, p, spos, smom)
     fx = G[0, 0] * m[0] + G[2, 0] * m[2]
     fz = G[0, 2] * m[0] + G[2, 2] * m[2]
     r = p - xipos[w, b]
