@@ -202,3 +202,12 @@ def test_set_sources_refuses_bad_shapes_and_non_dipole_sources():
     pos, mom = b.source_dipoles()
     assert pos.shape == (3, 1, 3)
     assert np.allclose(mom[:, 0, 2], 1e-10)  # mu0/(4 pi) folded in
+
+
+def test_warp_source_bench_prints_the_table(capsys):
+    from magsoft_env.bench import warp_source_bench
+
+    assert warp_source_bench.main(["--worlds", "2", "--segments", "4", "--substeps", "5"]) == 0
+    out = capsys.readouterr().out
+    assert "| warp | cpu | CardioMag (8 coils, 59 dipoles) | 2 |" in out
+    assert "| C | cpu (1 thread) | PointDipole | 1 |" in out
