@@ -176,6 +176,17 @@ class RodBackend(Protocol):
     def apply_external(self, data: mujoco.MjData, wrench: np.ndarray | None) -> None:
         """Write a constant world-frame wrench per piece ``(npieces, 6)`` (None: none); clear other applied forces."""
 
+    def set_source(self, data: mujoco.MjData, source) -> None:
+        """Apply a non-uniform field source (:class:`~magsoft_env.sim.sources.SourceField`; None: none) besides the
+        uniform field from now on: before every step (Python per step, :class:`~magsoft_env.sim.stepping.PythonSteps`)
+        its field ``B`` and gradient ``G`` at the pieces' magnetic centres (one call for all pieces) give each piece
+        the couple ``m x B`` and the force ``G^T m``; its energy ``-sum m . B`` is in :meth:`energy` and
+        :meth:`energies`, its couples in :meth:`magnetic_couples`."""
+
+    def source_field(self, data: mujoco.MjData) -> np.ndarray:
+        """The source's field (T) at the pieces' magnetic centres of the state in ``data``, ``(npieces, 3)`` (zeros
+        without a source)."""
+
     def settle_damping(self, retardation: float) -> tuple[np.ndarray, np.ndarray]:
         """``(dofs, damping)``: the dof damping that settles the rod (for a retardation time ``retardation``, s,
         where the rod uses one)."""

@@ -294,6 +294,8 @@ class CableRod:
         self.weight = float(lay.vertex_mass.sum()) * float(options.gravity)
         self._field = np.zeros(3)
         self._external: np.ndarray | None = None
+        #: a non-uniform field source (:meth:`set_source`) or None
+        self._source = None
         #: couples written from Python this call: a transverse magnetization, or an external couple
         self._from_python = self.couples != "native"
         # the axial net moment sum_i m_a,i t_i of recorded positions (the energy balance of native blocks)
@@ -342,6 +344,13 @@ class CableRod:
         Python (:attr:`couples`, an external couple) the couples of the state in ``data`` plus the external
         wrench into ``xfrc_applied`` / ``qfrc_applied`` (before every step, and whenever the field is set)."""
         self._field[:] = field3
+        if self._source is not None:
+            # every couple and force from Python (the poles' motors off): the uniform field plus the source at
+            # each edge's midpoint, the axial part too
+            if self._native is not None:
+                data.ctrl[:] = 0.0
+            self._writer.write_source(data, self._field, self._source, self._external, self.moment)
+            return
         if self._native is not None:
             data.ctrl[:] = self._field[self._ctrl_axes]
             self._native.written(self._field)
@@ -370,7 +379,8 @@ class CableRod:
         vertex), the couple applied as the magnetic ones are, as a force pair that turns with the edge (written
         with the couples before every step: a call with external couples runs from Python)."""
         self._external = None if wrench is None else np.array(wrench, dtype=float)
-        self._from_python = self.couples != "native" or (wrench is not None and bool(np.any(self._external[:, 3:])))
+        self._from_python = (self.couples != "native" or self._source is not None
+                             or (wrench is not None and bool(np.any(self._external[:, 3:]))))
         if self._from_python:
             # cleared here; the couples of each step's start state are written before it (and by write_field)
             data.xfrc_applied[:] = 0.0
@@ -387,6 +397,28 @@ class CableRod:
         data.xfrc_applied[:] = 0.0
         data.xfrc_applied[body[body > 0], :3] = fv[body > 0]
         data.qfrc_applied[:] = 0.0
+
+    def set_source(self, data: mujoco.MjData, source) -> None:
+        """Apply a non-uniform field source (:class:`~magsoft_env.sim.sources.SourceField`; None: none) from now on.
+        With one, every load is written from Python before every step
+        (:meth:`~magsoft_env.sim.cable_frames.CoupleWriter.write_source`: each edge's couple in the uniform field
+        plus the source's field at its midpoint, and the source's force ``G^T M`` there, half to each vertex), the
+        poles' motors (an axial magnetization's native couples) off; without, the couples go as :attr:`couples`
+        says. The caller writes the field's inputs next (:meth:`write_field`)."""
+        self._source = source
+        self.apply_external(data, self._external)
+
+    def _source_state(self, data: mujoco.MjData):
+        """``(M, B)``: the edges' world moments (A m^2) and the source's field (T) at their midpoints."""
+        x = vertices(self.rod, data)
+        M = world_moments(self.rod, data, x)
+        return M, self._source(0.5 * (x[1:] + x[:-1]), float(data.time))[0]
+
+    def source_field(self, data: mujoco.MjData) -> np.ndarray:
+        """The source's field (T) at the edges' midpoints, ``(N + 1, 3)`` (zeros without a source)."""
+        if self._source is None:
+            return np.zeros((self.npieces, 3))
+        return self._source_state(data)[1]
 
     def settle_damping(self, retardation: float) -> tuple[np.ndarray, np.ndarray]:
         """``(all dofs, mass-proportional damping)``: every mode decays at the first weak-bending rate
@@ -454,7 +486,10 @@ class CableRod:
         x = vertices(self.rod, data)
         elastic = elastic_energy(self.rod, data)
         grav = float(self.rod.layout.vertex_mass @ x[:, 2]) * float(self.options.gravity)
-        mag = -float(np.sum(world_moments(self.rod, data, x) @ np.asarray(field3, dtype=float)))
+        M = world_moments(self.rod, data, x)
+        mag = -float(np.sum(M @ np.asarray(field3, dtype=float)))
+        if self._source is not None:  # -sum M . B_s at the edges' midpoints
+            mag -= float(np.sum(M * self._source(0.5 * (x[1:] + x[:-1]), float(data.time))[0]))
         return {"kinetic": kinetic, "elastic": elastic, "gravity": grav, "magnetic": mag,
                 "total": kinetic + elastic + grav + mag}
 
@@ -523,7 +558,11 @@ class CableRod:
         return -(e[:, 2] * dv[:, 0] - e[:, 0] * dv[:, 2]) / l2
 
     def magnetic_couples(self, data: mujoco.MjData, field3: np.ndarray) -> np.ndarray:
-        """Couples ``(R m) x B`` on the edges, world frame, shape ``(N + 1, 3)`` (N m)."""
+        """Couples ``(R m) x B`` on the edges, world frame, shape ``(N + 1, 3)`` (N m); with a source, in the field
+        plus the source's at each edge's midpoint."""
+        if self._source is not None:
+            M, Bs = self._source_state(data)
+            return np.cross(M, Bs + np.asarray(field3, dtype=float))
         return np.cross(world_moments(self.rod, data), np.asarray(field3, dtype=float))
 
 

@@ -149,12 +149,11 @@ class CoupleWriter:
         d[np.arange(ne), np.arange(ne)] = -1.0
         self._pairs = np.ascontiguousarray(d[f0:])
 
-    def write(self, data: mujoco.MjData, field3: np.ndarray, extra: np.ndarray | None = None,
-              net_moment: np.ndarray | None = None, *, clear: bool = True) -> None:
-        """Write the couples of the field ``(B_x, B_y, B_z)`` (T) at the state in ``data`` (see :func:`apply_field`).
-        ``clear`` False: leave the entries it never writes (vertex torques, non-twist dofs of ``qfrc_applied``) as
-        they are, zero since the last clearing write (the 3D rod clears once per call, not every step)."""
-        B = field3
+    def frames(self, data: mujoco.MjData):
+        """The geometry of the state in ``data`` the couples need: ``(x, inv, t, u, v, alpha, beta, mperp)``, the
+        vertices ``(N + 2, 3)`` (m; an array this writer reuses), the edges' inverse lengths (1/m), unit tangents,
+        transported reference frame ``(u, v = t x u)``, the transverse moment's components along ``u`` and ``v``
+        (A m^2) and the transverse moment ``alpha u + beta v`` itself."""
         one = self._one
         x = self._x
         q = data.qpos
@@ -174,6 +173,45 @@ class CoupleWriter:
         alpha = self._r * np.cos(psi)
         beta = self._r * np.sin(psi)
         mperp = alpha[:, None] * u + beta[:, None] * v
+        return x, inv, t, u, v, alpha, beta, mperp
+
+    def write_source(self, data: mujoco.MjData, field3: np.ndarray, source, extra: np.ndarray | None = None,
+                     net_moment: np.ndarray | None = None) -> None:
+        """Write the loads of the uniform field ``(B_x, B_y, B_z)`` (T) plus a non-uniform ``source``
+        (:class:`~magsoft_env.sim.sources.SourceField`) at the state in ``data``: every edge's world moment ``M_i``
+        (axial part included, whatever :attr:`axial` says) in the field ``B_i = B + B_s(p_i)`` at its midpoint
+        ``p_i`` (one call of the source for all edges), its couple ``M_i x B_i`` written as :meth:`write` writes the
+        couples, and the force ``G_s(p_i)^T M_i`` at the midpoint, half to each vertex (the midpoint is their
+        centroid: no moment arm). ``extra`` and ``net_moment`` as :meth:`write`; the entries it never writes are left
+        as they are (``clear=False``)."""
+        one = self._one
+        x, inv, t, u, v, alpha, beta, mperp = self.frames(data)
+        mw = self._ma * t + mperp
+        if net_moment is not None:
+            net_moment[:] = mw.sum(axis=0)
+        Bs, Gs = source(0.5 * (x[1:] + x[:-1]), float(data.time))
+        B = Bs + field3
+        bt = (t * B) @ one
+        F = self._ma * B - bt[:, None] * mw
+        twist = alpha * ((v * B) @ one) - beta * ((u * B) @ one)
+        force = np.matmul(mw[:, None, :], Gs)[:, 0, :]  # G^T M
+        if extra is not None:
+            F += (extra[:, 3:, None] * t[:, None, :]).reshape(-1, 9) @ self._eps
+            twist += (extra[:, 3:] * t) @ one
+            force += extra[:, :3]
+        F *= inv[:, None]
+        fv = self._pairs @ F + np.abs(self._pairs) @ (0.5 * force)
+        data.xfrc_applied[self._body, :3] = fv
+        data.qfrc_applied[self._td] = twist[self._t0:]
+
+    def write(self, data: mujoco.MjData, field3: np.ndarray, extra: np.ndarray | None = None,
+              net_moment: np.ndarray | None = None, *, clear: bool = True) -> None:
+        """Write the couples of the field ``(B_x, B_y, B_z)`` (T) at the state in ``data`` (see :func:`apply_field`).
+        ``clear`` False: leave the entries it never writes (vertex torques, non-twist dofs of ``qfrc_applied``) as
+        they are, zero since the last clearing write (the 3D rod clears once per call, not every step)."""
+        B = field3
+        one = self._one
+        _, inv, t, u, v, alpha, beta, mperp = self.frames(data)
         bt = t @ B
         # force pair times l: m_a B - (B . t) M; without the axial part: -(B . t) M_perp
         if self.axial or net_moment is not None:

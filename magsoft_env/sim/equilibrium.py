@@ -22,6 +22,7 @@ from .backend import rod_class
 from .health import MAX_STEPS, check_steps
 from .model import RodOptions
 from .simulator import SettleResult, Simulator
+from .sources import Blend, SourceField, check_source, field_bound, split_source
 
 #: A state is unstable when the largest eigenvalue of ``d qacc / d qpos`` at rest exceeds this fraction of the
 #: square of the beam's first bending frequency (:func:`static_stability`); the finite-difference noise of the
@@ -105,6 +106,8 @@ class SimEquilibrium:
         The rod (``RodOptions.rod``).
     field_axes : tuple of int
         The components of ``(B_x, B_y, B_z)`` the rod takes (``(0, 2)``: ``field_T`` is ``(B_x, B_z)``).
+    source : field source or None
+        The non-uniform source of this load (its uniform parts are in ``field``), or None.
     """
 
     success: bool
@@ -127,6 +130,7 @@ class SimEquilibrium:
     stability: Stability | None = field(default=None, repr=False)
     rod: str = "planar"
     field_axes: tuple = (0, 2)
+    source: object = field(default=None, repr=False)
 
     def to_dict(self) -> dict:
         """Metrics as plain numbers (SI and degrees), for JSON."""
@@ -148,6 +152,7 @@ class SimEquilibrium:
             "edge_strain": float(self.edge_strain),
             "steps": int(self.steps),
             "stable": self.stable,
+            "source": None if self.source is None else type(self.source).__name__,
         }
         if self.stability is not None:
             out["stability_eigenvalue_per_s2"] = float(self.stability.eigenvalue)
@@ -261,7 +266,7 @@ def _leave_along(sim: Simulator, mode: np.ndarray, branch: int) -> None:
 
 
 def _snapshot(sim: Simulator, rod: str, ok: bool, msg: str, res: float, steps: int,
-              stab: Stability | None) -> SimEquilibrium:
+              stab: Stability | None, source=None) -> SimEquilibrium:
     p = sim.pose()
     c = p.centreline
     s = sim.arc_length()
@@ -271,8 +276,55 @@ def _snapshot(sim: Simulator, rod: str, ok: bool, msg: str, res: float, steps: i
         centreline=c.copy(), theta=sim.angles(), tip_angle=sim.tip_angle(), tip_deflection=float(c[-1, 2]),
         tip_position=c[-1].copy(), tip_twist=sim.tip_twist(), residual=res, steps=steps, edge_strain=strain,
         stable=None if stab is None else stab.stable, stability=stab, rod=rod,
-        field_axes=tuple(sim.backend.field_axes),
+        field_axes=tuple(sim.backend.field_axes), source=source,
     )
+
+
+def _between(prev, nxt, a: float):
+    """The source ``(1 - a) prev + a nxt`` (either may be None: none); ``nxt`` itself at ``a = 1``."""
+    if a == 1.0:
+        return nxt
+    return Blend([(w, s) for w, s in ((1.0 - a, prev), (a, nxt)) if s is not None])
+
+
+def _loads(fields, cls, beam: Beam, clamp_angle: float) -> list[tuple[np.ndarray, object, float]]:
+    """The loads of a path as ``(uniform (3,) T, rest source or None, largest field of the rest (T) along the
+    straight clamped beam)``: every entry a field (Field, pair, triple) or a field source."""
+    if isinstance(fields, np.ndarray) or isinstance(fields, Field) or hasattr(fields, "field_and_gradient"):
+        if hasattr(fields, "field_and_gradient"):
+            raise ValueError("fields must be a sequence of loads (fields or field sources), got a single "
+                             f"{type(fields).__name__}; wrap it in a list (or call mujoco_equilibrium).")
+        entries = as_fields(fields)
+    else:
+        try:
+            entries = list(fields)
+        except TypeError:
+            entries = as_fields(fields)  # its error
+        if not entries or isinstance(fields, (str, bytes, dict)):
+            entries = as_fields(fields)  # its error
+    # where the loads are measured: the straight beam from the clamp (RodOptions checks the angle)
+    a = float(clamp_angle) if isinstance(clamp_angle, (int, float, np.floating)) and math.isfinite(clamp_angle) else 0.0
+    pts = np.outer(np.linspace(0.0, beam.length, 41), [math.cos(a), 0.0, math.sin(a)])
+    out = []
+    for i, e in enumerate(entries):
+        if hasattr(e, "field_and_gradient"):
+            uni, rest = split_source(check_source(e, f"fields[{i}]"))
+            uni = np.zeros(3) if uni is None else uni
+            cls.check_field(Field(*uni))
+            big = 0.0
+            if rest is not None:
+                sf = SourceField(rest)
+                if sf.moves:
+                    raise ValueError(f"fields[{i}]: a static path needs a source fixed in time, got a "
+                                     f"{type(rest).__name__} whose field changes with t (use its pose at one time, "
+                                     "e.g. MovingSource.at(t)).")
+                big = field_bound(sf(pts, 0.0)[0])
+            out.append((uni, rest, big))
+        else:
+            f = as_field(e, f"fields[{i}]")
+            cls.check_field(f)
+            out.append((f.vector(), None, 0.0))
+    return out
 
 
 def mujoco_path(
@@ -307,8 +359,14 @@ def mujoco_path(
     Parameters
     ----------
     beam : Beam
-    fields : sequence of Field, (B_x, B_y, B_z) or (B_x, B_z)
-        Fields (T) in loading order (a pair means ``(B_x, B_z)``; a rod in the x-z plane refuses ``B_y``).
+    fields : sequence of loads: Field, (B_x, B_y, B_z), (B_x, B_z) or a field source
+        Loads in loading order: uniform fields (T; a pair means ``(B_x, B_z)``; a rod in the x-z plane refuses
+        ``B_y``) or field sources (:mod:`magsoft_env.fields`, fixed in time: a :class:`~magsoft_env.fields.Uniform`
+        is its field, bit for bit; any other is applied as :meth:`Simulator.set_source` says, couples and gradient
+        forces on every piece). Between two loads the field moves on a straight line: the uniform parts
+        interpolated, the sources weighed ``(1 - a) S_prev + a S_next``
+        (:class:`~magsoft_env.sim.sources.Blend`), in sub-steps that change neither the uniform field nor the
+        sources' field along the straight beam by more than ``max_field_step``.
     rod : str
         The rod (``RodOptions.rod``): ``"planar"`` (the hinge chain, default) or ``"cable"`` (the 3D strip).
     gravity : float
@@ -358,9 +416,7 @@ def mujoco_path(
         raise ValueError(f"beam must be a Beam, got {type(beam).__name__}.")
     cls = rod_class(rod)
     cls.check_beam(beam)
-    flist = [as_field(f) for f in as_fields(fields)]
-    for f in flist:
-        cls.check_field(f)
+    loads = _loads(fields, cls, beam, clamp_angle)
     nonnegative("gravity", gravity, unit="m/s^2")
     mstep = positive("max_field_step", max_field_step, unit="T")
     tol = cls.static_tol if tol is None else tol
@@ -380,41 +436,43 @@ def mujoco_path(
     # the worst-case work, before any: every settle may use its whole budget
     budget = math.ceil(check_steps(f"max_time / timestep = {max_time:g} s / {opts.timestep:g} s per settle",
                                    max_time / opts.timestep, "Use a larger timestep or a shorter max_time."))
-    prev = np.zeros(3)
+    prev, prev_big = np.zeros(3), 0.0
     substeps = []
     seed = np.array([0.0, 0.0, imperfection])
-    for f in flist:
-        target = f.vector()
-        n = max(1, math.ceil(float(np.max(np.abs(target - prev))) / mstep)) + (1 if imperfection else 0)
+    for target, rest, big in loads:
+        f = Field(*target)
+        change = max(float(np.max(np.abs(target - prev))), big + prev_big)  # a bound of the sources' change
+        n = max(1, math.ceil(change / mstep)) + (1 if imperfection else 0)
         extra = MAX_BRANCH_SWITCHES if stability else 0
         if (n + extra) * budget > MAX_STEPS:
-            need = float(np.max(np.abs(target - prev))) * budget / MAX_STEPS
+            need = change * budget / MAX_STEPS
             check_steps(
                 f"the path segment to {_mt(f, cls.field_axes)}: {n + extra:.3g} settles (max_field_step = "
                 f"{mstep:g} T) x up to {budget} steps each", float(n + extra) * budget,
                 f"Use max_field_step >= {need:.3g} T, or fewer steps per settle (larger timestep, shorter max_time).",
             )
         substeps.append(n)
-        prev = target
+        prev, prev_big = target, big
     sim = Simulator(beam, opts)
     steps = 0
     r: SettleResult = sim.settle(tol=tol, max_time=max_time)
     steps += r.steps
     ok, msgs = r.success, [] if r.success else [f"gravity: {r.message}"]
     out = []
-    prev = np.zeros(3)
-    for f, n in zip(flist, substeps, strict=True):
-        target = f.vector()
+    prev, prev_src = np.zeros(3), None
+    for (target, rest, _), n in zip(loads, substeps, strict=True):
         ramp = n - 1 if imperfection else n
         for k in range(1, n + 1):
             b = prev + (target - prev) * min(k, ramp) / ramp
+            if rest is not None or prev_src is not None:
+                sim.set_source(_between(prev_src, rest, min(k, ramp) / ramp))
             sim.set_field(tuple(b + seed) if imperfection and k < n else tuple(b))
             r = sim.settle(tol=tol, max_time=max_time)
             steps += r.steps
             if not r.success:
                 ok = False
                 msgs.append(f"field {_mt(sim.field, cls.field_axes)}: {r.message}")
-        prev = target
+        prev, prev_src = target, rest
         stab = static_stability(sim) if stability else None
         switches = 0
         while stab is not None and stab.stable is False and switches < MAX_BRANCH_SWITCHES:
@@ -430,7 +488,8 @@ def mujoco_path(
             stab = Stability(stab.stable, stab.eigenvalue, stab.scale, stab.mode,
                              f"{stab.message} (reached after leaving {switches} unstable state"
                              f"{'s' if switches > 1 else ''} along the unstable mode, branch {branch:+d})")
-        out.append(_snapshot(sim, rod, ok, "; ".join(msgs) if msgs else "converged", r.residual, steps, stab))
+        out.append(_snapshot(sim, rod, ok, "; ".join(msgs) if msgs else "converged", r.residual, steps, stab,
+                             rest))
     return out
 
 
@@ -440,7 +499,8 @@ def _mt(f: Field, axes) -> str:
 
 
 def mujoco_equilibrium(beam: Beam, field, **kwargs) -> SimEquilibrium:
-    """Static equilibrium of the clamped MuJoCo rod under ``field`` (T), reached like the
+    """Static equilibrium of the clamped MuJoCo rod under ``field``: a uniform field (T) or a field source
+    (:mod:`magsoft_env.fields`, fixed in time; ``Uniform(B)`` is ``B`` bit for bit), reached like the
     analytical solver: gravity first, then the field ramped from zero in straight-line steps
     of at most ``max_field_step`` (T), each settled, then tested for stability (an unstable state
     leaves along its unstable mode to the stable branch). See :func:`mujoco_path` for the keywords
@@ -460,7 +520,7 @@ def mujoco_equilibrium(beam: Beam, field, **kwargs) -> SimEquilibrium:
     >>> bool(eq.success), bool(eq.stable), round(eq.tip_angle, 2)
     (True, True, 1.57)
     """
-    return mujoco_path(beam, [as_field(field)], **kwargs)[0]
+    return mujoco_path(beam, [field if hasattr(field, "field_and_gradient") else as_field(field)], **kwargs)[0]
 
 
 __all__ = ["MAX_BRANCH_SWITCHES", "MODE_KICK", "UNSTABLE_EIGENVALUE", "SimEquilibrium", "Stability",

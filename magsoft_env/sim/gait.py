@@ -245,7 +245,7 @@ def direction_of(speed: float, *, threshold: float = 1e-5) -> str:
 def run_gait(
     preset, seconds: float = 4.0, *, segments: int | None = None, timestep: float | None = None,
     warmup_cycles: float = 1.0, sample_dt: float = 0.01, fidelity: str | None = None, progress: bool = False,
-    rod: str = "planar", rod_options: dict | None = None,
+    rod: str = "planar", rod_options: dict | None = None, source=None,
 ) -> GaitResult:
     """Run a gait on the floor and measure the centre-of-mass speed.
 
@@ -288,6 +288,11 @@ def run_gait(
         More :class:`~magsoft_env.sim.RodOptions` keywords for the rod (contact and solver settings, e.g.
         ``{"solver_iterations": 20, "noslip_iterations": 0}``), winning over the gait's own
         (:func:`gait_rod_options`): a slow robot can trade accuracy for speed, knowingly.
+    source : field source or None
+        A field source (:mod:`magsoft_env.fields`: a magnet, a coil system at its currents, a
+        :class:`~magsoft_env.fields.MovingSource` evaluated at each step's time) besides the drive's uniform field
+        (:meth:`~magsoft_env.sim.Simulator.set_source`): couples and gradient forces on every piece, each step from
+        Python. ``Uniform(B)`` adds ``B`` to the drive, bit for bit the uniform-field path.
 
     Returns
     -------
@@ -306,7 +311,7 @@ def run_gait(
                                **(rod_options or {}))
     nsteps = int(round(check_steps(f"seconds / timestep = {seconds:g} s / {options.timestep:g} s",
                                    seconds / options.timestep, "Use fewer seconds or a larger timestep.")))
-    sim = Simulator(preset.beam, options)
+    sim = Simulator(preset.beam, options, source=source)
     sim.set_waveform(as_waveform(preset.wave))
     every = max(1, int(round(sample_dt / sim.timestep)))
     s_pts = sim.arc_length()

@@ -35,7 +35,7 @@ from .model import (
     native_controls,
 )
 from .readouts import ChainOrientation
-from .stepping import NativeSteps
+from .stepping import NativeSteps, PythonSteps
 
 
 class PlanarRod:
@@ -137,6 +137,14 @@ class PlanarRod:
         #: the longest native block: the contact history (every step of a block is checked from it)
         self.block_limit = CONTACT_HISTORY if self.has_contact else MAX_STEPS
         self._steps = NativeSteps(self.model, NATIVE_CONTROL_SPEC, self.controls)
+        #: a non-uniform field source (:meth:`set_source`), its per-step stepping, the external wrench (body-id
+        #: order) its loads are written with, and the net moment (world x, z; A m^2) of the state they were written at
+        self._source = None
+        self._python: PythonSteps | None = None
+        self._external: np.ndarray | None = None
+        self.moment = np.zeros(2)
+        self._m_ids = np.ascontiguousarray(self.m_body[self.order])
+        self._half_ids = np.ascontiguousarray(0.5 * disc.piece_length[self.order])
         self.has_feature = rod.feature_sensor >= 0
         self.contact_adr = max(rod.contact_sensor, 0)
         self.feature_adr = max(rod.feature_sensor, 0)
@@ -219,6 +227,70 @@ class PlanarRod:
         mq = data.mocap_quat[self.rod.field_mocap]
         mq[0], mq[1], mq[2], mq[3] = w, 0.0, y, 0.0
         self._steps.written(field3)
+        if self._source is not None:
+            self._write_source(data)
+
+    # ------------------------------------------------------------------ a non-uniform field source
+    def set_source(self, data: mujoco.MjData, source) -> None:
+        """Apply a non-uniform field source (:class:`~magsoft_env.sim.sources.SourceField`; None: none) from now on:
+        its loads go into ``xfrc_applied`` before every step (:meth:`write_field`), so blocks run one step at a time
+        from Python (:class:`~magsoft_env.sim.stepping.PythonSteps`); the uniform field stays native."""
+        self._source = source
+        if source is None:
+            data.xfrc_applied[self.b0:self.b1] = 0.0 if self._external is None else self._external
+            return
+        if self._python is None:
+            self._python = PythonSteps(self.model, self, records=False)
+
+    def _source_state(self, data: mujoco.MjData):
+        """``(p, m, B, G)`` of the pieces (body-id order) at the positions in ``xpos`` / ``xmat``: magnetic centres
+        (the pieces' midpoints, m), world moments (A m^2) and the source's field and gradient there, one call."""
+        b0, b1 = self.b0, self.b1
+        R = data.xmat[b0:b1]  # rows: R00 R01 R02 R10 ... R22
+        m = np.zeros((b1 - b0, 3))  # R (m_x, 0, m_z): the body moments lie in the x-z plane, every R turns about y
+        m[:, 0] = R[:, 0] * self._mx + R[:, 2] * self._mz
+        m[:, 2] = R[:, 6] * self._mx + R[:, 8] * self._mz
+        # a body's frame starts at its piece's first point, x along the piece: the midpoint is half a piece along x
+        p = data.xpos[b0:b1] + self._half_ids[:, None] * R[:, 0::3]
+        B, G = self._source(p, float(data.time))
+        return p, m, B, G
+
+    def _write_source(self, data: mujoco.MjData) -> None:
+        """The source's loads of the state in ``qpos`` into ``xfrc_applied`` (with the external wrench), and its net
+        moment into :attr:`moment`.
+
+        In the x-z plane the chain takes the forces' x and z components and the couples' y component; the rest
+        (a force along y, couples about x and z, from a source's out-of-plane field or gradient) is carried by its
+        joints (hinges about y, slides in x and z), which it would not move anyway. MuJoCo applies an
+        ``xfrc_applied`` force at the body's centre of mass (``xipos``), not at the magnetic centre ``p``: the
+        moment arm ``(p - xipos) x f`` is added to the couple (its y component)."""
+        # after mj_step, xpos / xmat are those of the step's start: the state in qpos needs its own kinematics
+        mujoco.mj_kinematics(self.model, data)
+        p, m, B, G = self._source_state(data)
+        mx, mz = m[:, 0], m[:, 2]
+        # in the plane (m_y = 0): f = G^T m has f_x = G_xx m_x + G_zx m_z, f_z = G_xz m_x + G_zz m_z; (m x B)_y
+        fx = G[:, 0, 0] * mx + G[:, 2, 0] * mz
+        fz = G[:, 0, 2] * mx + G[:, 2, 2] * mz
+        r = p - data.xipos[self.b0:self.b1]
+        xf = data.xfrc_applied[self.b0:self.b1]
+        xf[:] = 0.0 if self._external is None else self._external
+        xf[:, 0] += fx
+        xf[:, 2] += fz
+        xf[:, 4] += mz * B[:, 0] - mx * B[:, 2] + r[:, 2] * fx - r[:, 0] * fz
+        self.moment[0] = m[:, 0].sum()
+        self.moment[1] = m[:, 2].sum()
+
+    def _source_energy(self, data: mujoco.MjData) -> float:
+        """``-sum m . B(p)`` (J) of the source at the positions in ``xpos`` / ``xmat`` (in the plane: x and z)."""
+        _, m, B, _ = self._source_state(data)
+        return -float(np.sum(m[:, 0] * B[:, 0] + m[:, 2] * B[:, 2]))
+
+    def source_field(self, data: mujoco.MjData) -> np.ndarray:
+        """The source's field (T) at the pieces' midpoints, piece order, ``(N + 1, 3)`` (zeros without a source)."""
+        out = np.zeros((self.npieces, 3))
+        if self._source is not None:
+            out[self.order] = self._source_state(data)[2]
+        return out
 
     def controls(self, fields: np.ndarray) -> np.ndarray:
         """Per-step inputs of the fields ``(k, 3)`` (B_x, B_y, B_z; T; B_y unused), rows for ``mujoco.rollout``
@@ -227,8 +299,10 @@ class PlanarRod:
 
     def advance(self, data: mujoco.MjData, field3: np.ndarray, fields: np.ndarray | None, k: int, health) -> None:
         """``k`` steps inside MuJoCo: ``mj_step(m, d, k)`` under a held field, one ``mujoco.rollout`` under
-        per-step ``fields`` ``(k, 3)`` (T) (:class:`~magsoft_env.sim.stepping.NativeSteps`)."""
-        self._steps.advance(data, field3, fields, k, health)
+        per-step ``fields`` ``(k, 3)`` (T) (:class:`~magsoft_env.sim.stepping.NativeSteps`); with a source
+        (:meth:`set_source`), one step at a time with its loads written before each
+        (:class:`~magsoft_env.sim.stepping.PythonSteps`)."""
+        (self._steps if self._source is None else self._python).advance(data, field3, fields, k, health)
 
     def settle_damping(self, retardation: float) -> tuple[np.ndarray, np.ndarray]:
         """``(hinge dofs, retardation * k_j)``: Kelvin-Voigt hinges with the retardation time ``retardation`` (s)."""
@@ -249,6 +323,7 @@ class PlanarRod:
         then couple), or none, into ``xfrc_applied``; clear ``qfrc_applied`` (the couples are actuator forces)."""
         data.qfrc_applied[:] = 0.0
         data.xfrc_applied[self.b0:self.b1] = 0.0 if wrench is None else wrench[self.order]
+        self._external = None if wrench is None else np.array(wrench[self.order], dtype=float)
 
     # ------------------------------------------------------------------ energies
     def net_moment(self, data: mujoco.MjData) -> np.ndarray:
@@ -274,9 +349,12 @@ class PlanarRod:
         q = data.qpos[self._hq]
         q = q - self.model.opt.timestep * data.qvel[self._hd] if staggered else q
         mom = self.net_moment(data)
-        return (kinetic + 0.5 * float(self._hinge_k @ (q * q))
-                + float(self._mass_g_ids @ data.xipos[self.b0:self.b1, 2])
-                - float(mom[0] * field[0] + mom[1] * field[2]))
+        e = (kinetic + 0.5 * float(self._hinge_k @ (q * q))
+             + float(self._mass_g_ids @ data.xipos[self.b0:self.b1, 2])
+             - float(mom[0] * field[0] + mom[1] * field[2]))
+        if self._source is not None:
+            e += self._source_energy(data)
+        return e
 
     def energy_scale(self, bmax: float) -> float:
         """Energy scale (J) of the rod in fields up to ``bmax`` (T): twice the largest magnetic energy and
@@ -285,11 +363,14 @@ class PlanarRod:
         return slope * bmax + rest
 
     def energies(self, data: mujoco.MjData, field3: np.ndarray, kinetic: float) -> dict[str, float]:
-        """Kinetic, elastic, gravitational (from z = 0), magnetic (``-sum (R m) . B``) and total energy (J)."""
+        """Kinetic, elastic, gravitational (from z = 0), magnetic (``-sum (R m) . B``, with a source's ``B`` at each
+        piece added) and total energy (J)."""
         q = data.qpos[self.hinge_qpos]
         elastic = 0.5 * float(np.sum(self.stiffness * q**2))
         grav = float(np.sum(self.disc.mass * data.xipos[self.bodies, 2])) * self.options.gravity
         mag = magnetics.energy(magnetics.world_moments(data.xmat[self.bodies], self.m_body), field3)
+        if self._source is not None:
+            mag += self._source_energy(data)
         return {"kinetic": kinetic, "elastic": elastic, "gravity": grav, "magnetic": mag,
                 "total": kinetic + elastic + grav + mag}
 
@@ -337,8 +418,13 @@ class PlanarRod:
         return base + float(np.sum(data.qpos[self.hinge_qpos[self.options.base_piece:]]))
 
     def magnetic_couples(self, data: mujoco.MjData, field3: np.ndarray) -> np.ndarray:
-        """Couples ``(R m) x B`` on the pieces, world frame, shape ``(N + 1, 3)`` (N m)."""
-        return magnetics.couples(magnetics.world_moments(data.xmat[self.bodies], self.m_body), field3)
+        """Couples ``(R m) x B`` on the pieces, world frame, shape ``(N + 1, 3)`` (N m); with a source, its couples
+        ``m x B(p)`` added (the y component, the one the chain takes)."""
+        out = magnetics.couples(magnetics.world_moments(data.xmat[self.bodies], self.m_body), field3)
+        if self._source is not None:
+            _, m, B, _ = self._source_state(data)
+            out[self.order, 1] += m[:, 2] * B[:, 0] - m[:, 0] * B[:, 2]
+        return out
 
     def pose(self, data: mujoco.MjData) -> Pose:
         """The :class:`~magsoft_env.sim.backend.Pose`: the chain's points and link frames (y = 0, widths +y)."""

@@ -29,6 +29,7 @@ from .health import (
     check_steps,
 )
 from .model import RodOptions, contact_timeconst
+from .sources import SourceField, field_bound, split_source
 from .waveforms import Waveform, as_waveform, lift3
 
 #: Scalar types :meth:`Simulator.set_field` accepts without building a Field.
@@ -150,6 +151,8 @@ class Simulator:
         Scene, segments, integrator, timestep (``magnetics`` must be ``"native"``, the default).
     field : Field or (B_x, B_z), optional
         Initial applied field (T).
+    source : field source, optional
+        A field source (:mod:`magsoft_env.fields`) besides the uniform field: :meth:`set_source`.
     check_every : int
         Steps between energy checks (the state is checked after every block of steps).
     penetration_limit : float
@@ -181,7 +184,7 @@ class Simulator:
 
     def __init__(
         self, beam: Beam, options: RodOptions | None = None, *, field=(0.0, 0.0), check_every: int = 50,
-        penetration_limit: float = PENETRATION_LIMIT,
+        penetration_limit: float = PENETRATION_LIMIT, source=None,
     ):
         if not isinstance(beam, Beam):
             raise ValueError(f"beam must be a Beam, got {type(beam).__name__}.")
@@ -218,8 +221,18 @@ class Simulator:
         self._wf_t0 = 0.0
         self._stale = False  # positions in data (xpos, xmat, ...) are those of the last step's start
         self.nstep = 0
+        # a source (set_source): its uniform part (T, folded into the uniform field; None: none), the field set
+        # without it, the rest as the backend evaluates it, and the largest field of that rest at the pieces (T)
+        self._offset: np.ndarray | None = None
+        self._held = np.zeros(3)
+        self._source: SourceField | None = None
+        self._source_given = None
+        self._source_bmax = 0.0
         self.set_field(field)
         self.reset()
+        if source is not None:
+            self.set_source(source)
+            self.reset()
 
     # ------------------------------------------------------------------ state
     @property
@@ -364,9 +377,15 @@ class Simulator:
             self._B3[:] = f.vector()
         else:
             self._B3[0], self._B3[1], self._B3[2] = bx, 0.0, bz
+        if self._offset is not None:  # a uniform source's field, added
+            self._held[:] = self._B3
+            self._B3 += self._offset
         self._waveform = None
         self._write_inputs()
-        self._health.energy_scale = self.backend.energy_scale(max(math.hypot(*self._B3), FIELD_FLOOR))
+        bmax = math.hypot(*self._B3)
+        if self._source is not None:
+            bmax += self._source_bmax
+        self._health.energy_scale = self.backend.energy_scale(max(bmax, FIELD_FLOOR))
 
     def set_waveform(self, waveform, *, start_time: float | None = None) -> None:
         """Let the field follow ``waveform(t - start_time)`` (T); ``start_time`` defaults to now. A rod in the x-z
@@ -378,11 +397,62 @@ class Simulator:
         self._waveform = wf
         self._wf_t0 = self.time if start_time is None else finite_number("start_time", start_time, unit="s")
         self._B3[:] = lift3(self._waveform.sample(np.array([self.time - self._wf_t0])))[0]
+        if self._offset is not None:  # a uniform source's field, added
+            self._B3 += self._offset
+            probe = probe + self._offset
         self._write_inputs()
         # a bound of the peak field: the hypotenuse of each component's peak
         px, py, pz = np.abs(probe).max(axis=0)
-        self._health.energy_scale = self.backend.energy_scale(max(float(np.hypot(px, np.hypot(py, pz))),
-                                                                  FIELD_FLOOR))
+        bmax = float(np.hypot(px, np.hypot(py, pz)))
+        if self._source is not None:
+            bmax += self._source_bmax
+        self._health.energy_scale = self.backend.energy_scale(max(bmax, FIELD_FLOOR))
+
+    @property
+    def source(self):
+        """The field source given to :meth:`set_source` (or the constructor), or None."""
+        return self._source_given
+
+    def set_source(self, source) -> None:
+        """Apply a field source (:mod:`magsoft_env.fields`) besides the uniform field from now on; None: the uniform
+        field alone again.
+
+        The field on a piece is the uniform field (:meth:`set_field`, :meth:`set_waveform`) plus the source's at the
+        piece. The source's uniform parts (a :class:`~magsoft_env.fields.Uniform`, or the uniform terms of a
+        :class:`~magsoft_env.fields.SourceSum`) are added to the uniform field and run its path: ``source=Uniform(B)``
+        is bit for bit ``field=B`` (:attr:`field` reports the sum). Any other source is evaluated before every
+        physics step at the pieces' magnetic centres, in one call for all pieces, at the step's simulation time if
+        its ``field_and_gradient`` takes ``t=`` (a :class:`~magsoft_env.fields.MovingSource`); each piece of world
+        moment ``m`` gets the couple ``m x B`` and the force ``G^T m``, applied by the rod's backend
+        (:meth:`~magsoft_env.sim.backend.RodBackend.set_source`; docs/sim.md, "Field sources"). Those steps run one
+        at a time from Python. The energy checks count the source's energy ``-sum m . B(p)``; the energy balance
+        of the contact scenes is off (:attr:`energy_drift` NaN) under a source that moves, whose work it does not
+        count. A ValueError when the source's field at a piece of the present state exceeds 1 T in a component (or
+        at any later step; see :class:`~magsoft_env.sim.sources.SourceField`), or (a rod in the x-z plane) a
+        uniform part has a y component.
+        """
+        uniform, rest = split_source(source)
+        if uniform is not None:
+            self.backend.check_field(as_field(tuple(float(b) for b in uniform), "source (its uniform part)"))
+        held = self._B3.copy() if self._offset is None else self._held.copy()
+        src = None if rest is None else SourceField(rest)
+        bmax = 0.0
+        if src is not None:
+            self._sync()
+            self.backend.set_source(self.data, src)
+            try:
+                bmax = field_bound(self.backend.source_field(self.data))
+            except ValueError:
+                self.backend.set_source(self.data, self._source)
+                raise
+        else:
+            self.backend.set_source(self.data, None)
+        self._source, self._source_given, self._source_bmax = src, source, bmax
+        self._offset = uniform
+        if self._waveform is not None:
+            self.set_waveform(self._waveform, start_time=self._wf_t0)
+        else:
+            self.set_field(tuple(float(b) for b in held))
 
     def _write_inputs(self) -> None:
         self.backend.write_field(self.data, self._B3)
@@ -440,9 +510,13 @@ class Simulator:
         fields = None
         if self._waveform is not None:  # all fields of this call in one vectorized sample
             fields = lift3(self._waveform.sample(d.time - self._wf_t0 + self.timestep * np.arange(n)))
+            if self._offset is not None:  # a uniform source's field, added
+                fields = fields + self._offset
             self.backend.check_fields(fields, self._waveform)
         health = self._health
-        if health.begin_call(self.nstep, None if fields is not None else self._B3.copy(), external=external,
+        # the work of a moving source is not booked: its energy balance is off, as with an external wrench
+        moving = self._source is not None and self._source.moves
+        if health.begin_call(self.nstep, None if fields is not None else self._B3.copy(), external=external or moving,
                              stale=self._stale):
             self._stale = False
         self.backend.apply_external(d, self.external_wrench if external else None)
