@@ -1,4 +1,4 @@
-"""MagSoftCoils-v0: the 3D strip on a floor steered to a goal by the currents of a real coil system (Navion, CardioMag)."""
+"""MagSoftCoils-v0: the 3D strip on a floor steered to a goal by the currents of a coil system (Navion, CardioMag)."""
 
 from __future__ import annotations
 
