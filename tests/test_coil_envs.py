@@ -105,6 +105,19 @@ def test_magnet_stays_in_its_workspace(tilt):
     env.close()
 
 
+def test_strip_at_the_magnet_ends_the_episode(monkeypatch):
+    env = MagSoftMagnetEnv(**FAST)
+    env.reset(seed=6)
+    assert not env._touching()  # the magnet starts 0.2 m up
+    com = env.com_position()
+    monkeypatch.setattr(env, "_p1", com + [0.0, 0.0, 0.019])  # 18.4 mm from the centre: within 17.7 + 2 mm
+    assert env._touching()
+    monkeypatch.setattr(env, "_touching", lambda: True)
+    _, _, terminated, truncated, info = env.step(env.action_of_pose(env.magnet_position))
+    assert terminated and not truncated and info["magnet_contact"]
+    env.close()
+
+
 def test_magnet_field_is_the_posed_magnet():
     from magsoft_env.fields import PosedMagnet
 

@@ -33,6 +33,9 @@ DEFAULT_MAX_TURN_RATE = 2.0 * math.pi
 #: The hand controller's lead (m): with the axis vertical, the magnet's centre this far ahead of the strip's
 #: centre of mass toward the goal, at the lowest height.
 CONTROLLER_LEAD = 0.02
+#: The episode ends (``info["magnet_contact"]``) when a point of the strip's centreline comes this close to the
+#: magnet's bounding sphere (m): pulled up to the magnet (the simulator has no contact with it).
+CONTACT_MARGIN = 2e-3
 _MU0 = 4e-7 * math.pi
 
 
@@ -137,7 +140,9 @@ class MagSoftMagnetEnv(SourceSteerEnv):
     ## Episode End
 
     As :class:`~magsoft_env.envs.steer.MagSoftSteerEnv`'s (goal reached, lost, crawl limits, time limit: 250
-    steps = 5 s, unstable or unphysical simulation).
+    steps = 5 s, unstable or unphysical simulation); and termination when a point of the strip comes within 2 mm
+    of the magnet's bounding sphere (``info["magnet_contact"]``, checked at the end of each step): pulled up to
+    it (the simulator has no contact with the magnet, the strip would pass through it).
 
     ``info`` has the steer env's keys (``field``: the magnet's field at the centre of mass, T) and
     ``magnet_position`` (m), ``magnet_axis`` and ``magnet_target`` (the commanded position, m).
@@ -305,6 +310,21 @@ class MagSoftMagnetEnv(SourceSteerEnv):
     def _actuator_info(self) -> dict:
         return {"magnet_position": self._p1.copy(), "magnet_axis": self._a1.copy(),
                 "magnet_target": self._target.copy()}
+
+    def _stepping(self, action, block: int | None = None):
+        obs, reward, terminated, truncated, info = yield from super()._stepping(action, block)
+        if not truncated and self._touching():
+            # the simulator has no contact with the magnet: a strip pulled up to it would pass through it
+            info["magnet_contact"] = True
+            terminated = True
+        return obs, reward, terminated, truncated, info
+
+    def _touching(self) -> bool:
+        """Whether a point of the strip lies within the magnet's bounding sphere plus :data:`CONTACT_MARGIN`."""
+        x, y, z = self.sim.centerline()
+        d = np.linalg.norm(np.stack([x, y, z], axis=1) - self._p1, axis=1)
+        reach = math.hypot(0.5 * self.magnet_diameter, 0.5 * self.magnet_length) + CONTACT_MARGIN
+        return bool(d.min() < reach)
 
     # ------------------------------------------------------------------ the hand controller
     def baseline_action(self, obs=None) -> np.ndarray:
