@@ -141,8 +141,9 @@ class MagSoftMagnetEnv(SourceSteerEnv):
 
     As :class:`~magsoft_env.envs.steer.MagSoftSteerEnv`'s (goal reached, lost, crawl limits, time limit: 250
     steps = 5 s, unstable or unphysical simulation); and termination when a point of the strip comes within 2 mm
-    of the magnet's bounding sphere (``info["magnet_contact"]``, checked at the end of each step): pulled up to
-    it (the simulator has no contact with the magnet, the strip would pass through it).
+    of the magnet's bounding sphere or as high as its bottom (``info["magnet_contact"]``, checked at the end of each
+    step): pulled up to it (the simulator has no contact with the magnet: the strip would pass through it). That
+    step is no success even if the goal lies below the strip.
 
     ``info`` has the steer env's keys (``field``: the magnet's field at the centre of mass, T) and
     ``magnet_position`` (m), ``magnet_axis`` and ``magnet_target`` (the commanded position, m).
@@ -314,17 +315,24 @@ class MagSoftMagnetEnv(SourceSteerEnv):
     def _stepping(self, action, block: int | None = None):
         obs, reward, terminated, truncated, info = yield from super()._stepping(action, block)
         if not truncated and self._touching():
-            # the simulator has no contact with the magnet: a strip pulled up to it would pass through it
+            # the simulator has no contact with the magnet: a strip pulled up to it would pass through it; a goal
+            # "reached" on the way up (the distance is horizontal) is no success
             info["magnet_contact"] = True
             terminated = True
+            if info["is_success"]:
+                reward -= info["reward_success"]
+                info.update(is_success=False, reward_success=0.0, reward=reward)
+                info.pop("time_to_goal", None)
+                self._success = False
         return obs, reward, terminated, truncated, info
 
     def _touching(self) -> bool:
-        """Whether a point of the strip lies within the magnet's bounding sphere plus :data:`CONTACT_MARGIN`."""
+        """Whether a point of the strip lies within the magnet's bounding sphere plus :data:`CONTACT_MARGIN`, or
+        as high as that sphere's bottom (it flew up to the magnet, maybe through it within the step)."""
         x, y, z = self.sim.centerline()
         d = np.linalg.norm(np.stack([x, y, z], axis=1) - self._p1, axis=1)
         reach = math.hypot(0.5 * self.magnet_diameter, 0.5 * self.magnet_length) + CONTACT_MARGIN
-        return bool(d.min() < reach)
+        return bool(d.min() < reach or z.max() > self._p1[2] - reach)
 
     # ------------------------------------------------------------------ the hand controller
     def baseline_action(self, obs=None) -> np.ndarray:
