@@ -80,13 +80,7 @@ def run(worlds=(1, 16, 64), *, segments: int = 49, substeps: int = 100, device: 
 
 
 def _kernel_calls(batch, k: int) -> None:
-    import warp as wp
-
-    with wp.ScopedDevice(batch.device):
-        for _ in range(k):
-            batch._armed = True
-            batch._source_callback(batch.m, batch.d)
-        wp.synchronize_device(batch.device)
+    batch.run_source_kernel(k)
 
 
 def table(rows) -> str:

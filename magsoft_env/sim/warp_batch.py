@@ -613,6 +613,17 @@ class WarpRodBatch:
             self._source_callback(self.m, self.d)
         return self.d.xfrc_applied.numpy()[:, np.asarray(self.rod.body_ids)].astype(float)
 
+    def run_source_kernel(self, k: int = 1) -> None:
+        """Launch the dipoles' load kernel ``k`` times at the present positions and wait for the device (what a
+        benchmark times: the kernel's own cost per substep)."""
+        if self._spos is None:
+            raise ValueError("run_source_kernel: no sources (set_sources first).")
+        with wp.ScopedDevice(self.device):
+            for _ in range(int(k)):
+                self._armed = True
+                self._source_callback(self.m, self.d)
+            wp.synchronize_device(self.device)
+
     def _drop_source_graphs(self) -> None:
         for key in [k for k in self._graphs if isinstance(k, tuple) and k and k[0] == "sources"]:
             del self._graphs[key]
