@@ -96,12 +96,12 @@ class MagSoftMagnetEnv(SourceSteerEnv):
 
     ## Action Space
 
-    ``Box(-1, 1, (3,), float32)`` (``tilt=True``: ``(5,)``): the commanded pose.
+    ``Box(-1, 1, (5,), float32)`` (``tilt=False``: ``(3,)``, the position only): the commanded pose.
 
     | Num | Action | Min | Max | Type (Unit) |
     |-----|--------|-----|-----|-------------|
     | 0 .. 2 | the magnet's centre, mapped linearly onto the workspace box (x, y, z) | -1 | 1 | position (m) |
-    | 3, 4 | ``tilt=True``: the axis, tilted ``max_tilt min(1, r)`` from +z toward (a3, a4) | -1 | 1 | dimensionless |
+    | 3, 4 | the axis (``tilt``), tilted ``max_tilt min(1, r)`` from +z toward (a3, a4) | -1 | 1 | dimensionless |
 
     (r the length of (a3, a4); the azimuth its direction.)
 
@@ -156,7 +156,7 @@ class MagSoftMagnetEnv(SourceSteerEnv):
     | ``remanence`` | 1.2 | its remanence B_r (T), in (0, 1.5]: magnetization B_r / mu0 along its axis |
     | ``workspace_bounds`` | None | the box of the magnet's centre, ((3, 2), m); None: 0.1 m either side of the |
     | | | strip's starting centre of mass in x and y, 0.10-0.20 m above the floor |
-    | ``tilt`` | False | the action also sets the magnet's axis |
+    | ``tilt`` | True | the action also sets the magnet's axis (False: its position only) |
     | ``max_tilt`` | pi | ``tilt=True``: largest angle of the axis from +z (rad) |
     | ``max_speed`` | 0.1 | largest speed of the magnet's centre (m/s) |
     | ``max_turn_rate`` | 2 pi | largest turn rate of its axis (rad/s) |
@@ -168,14 +168,15 @@ class MagSoftMagnetEnv(SourceSteerEnv):
 
     ## Version History
 
-    - v0: initial version.
+    - v0: initial version (the axis is part of the action by default, ``tilt=True``: with the position alone the
+      hand controller reaches 0 of 10 shared goals, tilting 10 of 10).
     """
 
     cost_key = "reward_motion"
 
     def __init__(self, robot="paper-5c", *, magnet_diameter: float = DEFAULT_MAGNET_DIAMETER,
                  magnet_length: float = DEFAULT_MAGNET_LENGTH, remanence: float = DEFAULT_REMANENCE,
-                 workspace_bounds=None, tilt: bool = False, max_tilt: float = math.pi,
+                 workspace_bounds=None, tilt: bool = True, max_tilt: float = math.pi,
                  max_speed: float = DEFAULT_MAX_SPEED, max_turn_rate: float = DEFAULT_MAX_TURN_RATE,
                  field_scale: float = DEFAULT_FIELD_SCALE, motion_cost_weight: float = 0.0, **kwargs):
         from ..fields import CylinderMagnet, MagnetWorkspace

@@ -116,6 +116,14 @@ class SourceField:
         field at a piece is not finite or beyond :data:`~magsoft_env.spec.field.MAX_FIELD` (1 T) in a component
         (the range the uniform field is held to)."""
         src = self.source
+        finite = np.isfinite(points).all(axis=1)
+        if not finite.all():
+            # a state gone non-finite: no load there; the health checks report the state itself (a SimulationError
+            # naming it), which a ValueError from the source would hide
+            B, G = np.zeros((len(points), 3)), np.zeros((len(points), 3, 3))
+            if finite.any():
+                B[finite], G[finite] = self(points[finite], t)
+            return B, G
         B, G = src.field_and_gradient(points, t=t) if self.moves else src.field_and_gradient(points)
         big = float(np.abs(B).max())
         if not big <= MAX_FIELD or not np.isfinite(G).all():
