@@ -134,6 +134,19 @@ class SourceField:
         return B, G
 
 
+def robot_source(robot):
+    """The field source of a robot's ``field_source`` block (:class:`~magsoft_env.cases.robots.Robot`), read by
+    :func:`magsoft_env.fields.source_from_dict` (relative ``file`` paths from the robot file's folder); None
+    without one. A ValueError names the robot and the key."""
+    block = getattr(robot, "field_source", None)
+    if block is None:
+        return None
+    from ..fields import source_from_dict
+
+    return source_from_dict(block, where=f"robot {robot.name!r} field_source",
+                            base_dir=getattr(robot, "field_source_dir", "") or None)
+
+
 def piece_loads(m: np.ndarray, B: np.ndarray, G: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Couples ``m x B`` (N m) and forces ``G^T m`` (N) of pieces with world moments ``m`` ``(n, 3)`` (A m^2) in
     fields ``B`` ``(n, 3)`` (T) with gradients ``G`` ``(n, 3, 3)`` (T/m), each ``(n, 3)``."""
@@ -173,4 +186,4 @@ def field_bound(B: np.ndarray) -> float:
 
 
 __all__ = ["MAGNET_CASE_MOMENT", "Blend", "SourceField", "check_source", "field_bound", "magnet_case",
-           "piece_loads", "split_source", "takes_time"]
+           "piece_loads", "robot_source", "split_source", "takes_time"]
