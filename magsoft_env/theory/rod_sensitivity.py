@@ -55,6 +55,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
+from ..threads import single_threaded_blas
 from .rod import _H, Load3, qmat, qmul
 from .sensitivity import _UNITS, FOLD_EIGENVALUE, Sensitivity
 
@@ -380,10 +381,11 @@ def rod_sensitivities(result, params=("E0", "particle_magnetization")) -> RodSen
     (True, True)
     """
     params = _check_params(params, ROD_PARAMETERS, "3D sensitivities")
-    mdl, q, load, lam = _check_result(result, source=False)
-    beam = mdl.beam
-    cols = [_residual_rate(mdl, q, load, _direction(p, mdl, beam), source=False) for p in params]
-    return _sensitivity(mdl, q, load, np.column_stack(cols), params, lam)
+    with single_threaded_blas():  # small dense problems: threads only cost (as in the solver)
+        mdl, q, load, lam = _check_result(result, source=False)
+        beam = mdl.beam
+        cols = [_residual_rate(mdl, q, load, _direction(p, mdl, beam), source=False) for p in params]
+        return _sensitivity(mdl, q, load, np.column_stack(cols), params, lam)
 
 
 def source_rod_sensitivities(result, params=("E0", "particle_magnetization")) -> RodSensitivity:
@@ -403,15 +405,16 @@ def source_rod_sensitivities(result, params=("E0", "particle_magnetization")) ->
         Any of :data:`SOURCE_ROD_PARAMETERS`.
     """
     params = _check_params(params, SOURCE_ROD_PARAMETERS, "3D sensitivities in a source")
-    mdl, q, load, lam = _check_result(result, source=True)
-    beam = mdl.beam
-    cols = []
-    for p in params:
-        if p.startswith("source_"):
-            cols.append(_source_offset_rate(mdl, q, load, "xyz".index(p[-1])))
-        else:
-            cols.append(_residual_rate(mdl, q, load, _direction(p, mdl, beam), source=True))
-    return _sensitivity(mdl, q, load, np.column_stack(cols), params, lam)
+    with single_threaded_blas():
+        mdl, q, load, lam = _check_result(result, source=True)
+        beam = mdl.beam
+        cols = []
+        for p in params:
+            if p.startswith("source_"):
+                cols.append(_source_offset_rate(mdl, q, load, "xyz".index(p[-1])))
+            else:
+                cols.append(_residual_rate(mdl, q, load, _direction(p, mdl, beam), source=True))
+        return _sensitivity(mdl, q, load, np.column_stack(cols), params, lam)
 
 
 __all__ = ["ROD_PARAMETERS", "SOURCE_ROD_PARAMETERS", "RodSensitivity", "rod_sensitivities",
