@@ -122,8 +122,13 @@ def _state(result):
     from .solver import EquilibriumResult
 
     if not isinstance(result, EquilibriumResult):
+        hint = ""
+        from .rod_solver import RodResult
+
+        if isinstance(result, RodResult):
+            hint = " (a 3D result: magsoft_env.theory.rod_sensitivities, or source_rod_sensitivities in a source)"
         raise ValueError("sensitivities take a planar EquilibriumResult (magsoft_env.solve_equilibrium with a "
-                         f"uniform field and model='planar'), got {type(result).__name__}.")
+                         f"uniform field and model='planar'), got {type(result).__name__}{hint}.")
     if not result.success:
         raise ValueError(f"the equilibrium was not found (status {result.status}): no sensitivities. "
                          f"{result.message}")
