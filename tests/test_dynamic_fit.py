@@ -107,7 +107,8 @@ def test_friction_round_trip_within_its_uncertainty(monkeypatch):
     assert res.details["roughness"][0] > 0
 
 
-@pytest.mark.xfail(reason="issue 32's check, friction within 5 % from one crawl speed, is not met by paper-5a at the "
+@pytest.mark.slow
+@pytest.mark.xfail(reason="the fitting check, friction within 5 % from one crawl speed, is not met by paper-5a at the "
                           "'fast' numerics: its speed is rough in friction (step-like, 2.5 % about a quadratic); "
                           "measured -6.2 % (one drive) and -6.3 % (2 and 3 Hz) for a true 0.55", strict=False)
 def test_friction_round_trip_within_5_percent(monkeypatch):
