@@ -60,6 +60,8 @@ _LAZY = {
     "run_gait": "magsoft_env.sim.gait",
     "crosscheck_preset": "magsoft_env.compare",
     "mujoco_check": "magsoft_env.compare",
+    "fit_decay": "magsoft_env.compare",
+    "fit_friction": "magsoft_env.compare",
 }
 
 
@@ -107,6 +109,8 @@ __all__ = [
     "crosscheck_preset",
     "design_profile",
     "fit",
+    "fit_decay",
+    "fit_friction",
     "gait_preset",
     "jig_curve",
     "jig_from_function",

@@ -119,3 +119,54 @@ def test_fit_refuses_bad_input_and_unidentifiable_sets():
         ms.fit(BEAM, [data[0], ((0, 1e-3), (1.0, 2.0, 3.0, 4.0))])
     with pytest.raises(ValueError, match="in metres"):
         ms.fit(BEAM, [((0, 1e-3), (20.0, 5.0))])
+
+
+def test_fit_a_magnets_position_offset_with_the_modulus():
+    """Measurements under a magnet at commanded positions that are all off by one unknown offset: the fit finds
+    the offset and E0 within their uncertainties (the exact sensitivities in a source, checked below)."""
+    from magsoft_env.fields import PointDipole, Transformed
+
+    truth = dataclasses.replace(BEAM, material=dataclasses.replace(BEAM.material, E0=0.07e6))
+    off = np.array([0.8e-3, 0.0, -0.5e-3])
+    data = [((0, 0), ms.solve_equilibrium(truth, (0, 0)).tip_position)]
+    for x in (15e-3, 25e-3, 35e-3):
+        for z in (-40e-3, 12e-3):
+            src = PointDipole(position=(x, 0, z), moment=(0, 0, 3e-3))
+            data.append((src, ms.solve_equilibrium(truth, Transformed(src, position=off), model="planar").tip_position))
+    res = ms.fit(BEAM, data, params=("E0", "source_x", "source_z"), restarts=0)
+    assert res.success, res.message
+    assert abs(res.values["E0"] / 0.07e6 - 1) < 1e-6
+    assert abs(res.values["source_x"] - off[0]) < 1e-7 and abs(res.values["source_z"] - off[2]) < 1e-7
+
+
+def test_source_sensitivities_equal_differences_of_full_solves():
+    from magsoft_env.fields import PointDipole
+    from magsoft_env.theory.sensitivity import SOURCE_PARAMETERS, source_sensitivities
+
+    def solve(beam=BEAM, pos=(30e-3, 0, -10e-3), g=9.81, th0=0.1):
+        src = PointDipole(position=pos, moment=(0, 0, 5e-3))
+        return ms.solve_equilibrium(beam, src, gravity=g, clamp_angle=th0, options=OPTS, model="planar")
+
+    r = solve()
+    S = source_sensitivities(r, SOURCE_PARAMETERS)
+    mat = BEAM.material
+    for k, p in enumerate(SOURCE_PARAMETERS):
+        v0 = {"E0": mat.E0, "particle_magnetization": mat.particle_magnetization, "density": mat.density,
+              "gravity": 9.81, "clamp_angle": 0.1, "thickness": BEAM.thickness, "source_x": 30e-3,
+              "source_z": -10e-3}[p]
+        h = 1e-3 * abs(v0)
+
+        def tip(v, p=p):
+            if p in ("E0", "particle_magnetization", "density"):
+                return solve(beam=dataclasses.replace(BEAM, material=dataclasses.replace(mat, **{p: v})))
+            if p == "thickness":
+                return solve(beam=dataclasses.replace(BEAM, thickness=v))
+            if p == "gravity":
+                return solve(g=v)
+            if p == "clamp_angle":
+                return solve(th0=v)
+            return solve(pos=(v, 0, -10e-3) if p == "source_x" else (30e-3, 0, v))
+
+        f = [tip(v0 + m * h).tip_position for m in (-2, -1, 1, 2)]
+        fd = (f[0] - 8 * f[1] + 8 * f[2] - f[3]) / (12 * h)
+        assert np.abs(S.tip_position[:, k] - fd).max() <= 1e-7 * np.abs(fd).max(), p

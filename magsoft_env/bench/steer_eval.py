@@ -1,7 +1,7 @@
 """Steering evaluation: success rate and time to goal of controllers in ``MagSoftSteer-v0`` and
-``MagSoftSteerWaveform-v0``, on the same goals.
+``MagSoftSteerWaveform-v0`` (with ``--sources`` also ``MagSoftCoils-v0`` and ``MagSoftMagnet-v0``), on the same goals.
 
-Run: ``python -m magsoft_env.bench.steer_eval [--episodes 20] [--run RUN ...] [--sim-dt 2e-4] [--json]``.
+Run: ``python -m magsoft_env.bench.steer_eval [--episodes 20] [--run RUN ...] [--sim-dt 2e-4] [--sources] [--json]``.
 
 Controllers: the hand-designed baseline of each id (:func:`magsoft_env.envs.steer.steer_controller`, the field
 turning at 1 Hz in the vertical plane through the goal), zero field and random actions (seeded), and every
@@ -26,6 +26,14 @@ from pathlib import Path
 import numpy as np
 
 IDS = ("MagSoftSteer-v0", "MagSoftSteerWaveform-v0")
+#: ``--sources``: the steer task through a field source, each with its hand controller (``baseline_action``):
+#: (id, env arguments, name)
+SOURCE_CASES = (
+    ("MagSoftCoils-v0", {}, "hand controller (navion)"),
+    ("MagSoftCoils-v0", {"coils": "cardiomag"}, "hand controller (cardiomag)"),
+    ("MagSoftMagnet-v0", {}, "hand controller (pull)"),
+    ("MagSoftMagnet-v0", {"tilt": True}, "hand controller (tilt)"),
+)
 
 
 def run_controller(env_id: str, act, *, episodes: int, seed: int, env_kwargs: dict | None = None,
@@ -83,6 +91,8 @@ def main(argv=None) -> int:
     p.add_argument("--sim-dt", type=float, default=2e-4, help="simulation step of the baselines (s; default 0.2 ms)")
     p.add_argument("--best", action="store_true", help="also each run's best evaluated model (best_model.zip)")
     p.add_argument("--no-baselines", action="store_true", help="only the runs")
+    p.add_argument("--sources", action="store_true",
+                   help="also the coil and magnet ids' hand controllers (slower: every physics step from Python)")
     p.add_argument("--json", action="store_true", help="print the rows as JSON")
     args = p.parse_args(argv)
     if args.episodes < 1:
@@ -101,6 +111,9 @@ def main(argv=None) -> int:
                                    name="zero field"))
         rows.append(run_controller(IDS[0], _random, episodes=args.episodes, seed=args.seed, env_kwargs=kw,
                                    name="random actions"))
+        for env_id, extra, name in SOURCE_CASES if args.sources else ():
+            rows.append(run_controller(env_id, _baseline, episodes=args.episodes, seed=args.seed,
+                                       env_kwargs={**kw, **extra}, name=name))
     for run in args.run:
         from magsoft_env.rl import find_run, load_policy
 

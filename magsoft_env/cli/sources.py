@@ -58,15 +58,10 @@ def _flag_words(message: str) -> str:
 
 
 def robot_field_source(robot):
-    """The field source of a robot's ``field_source`` block (:class:`~magsoft_env.cases.robots.Robot`), read by
-    :func:`magsoft_env.fields.source_from_dict` (relative ``file`` paths from the robot file's folder); None
-    without one. A ValueError names the robot and the key."""
-    from magsoft_env.fields import source_from_dict
+    """The field source of a robot's ``field_source`` block, or None (:func:`magsoft_env.sim.sources.robot_source`)."""
+    from magsoft_env.sim.sources import robot_source
 
-    if robot.field_source is None:
-        return None
-    return source_from_dict(robot.field_source, where=f"robot {robot.name!r} field_source",
-                            base_dir=robot.field_source_dir or None)
+    return robot_source(robot)
 
 
 def source_description(source) -> dict | None:

@@ -10,12 +10,16 @@ Ids (see each class docstring for the spec sheet):
 - ``MagSoftSteer-v0``: the 3D strip on a floor, steered to a goal point (x, y) by the field (B_x, B_y, B_z).
 - ``MagSoftSteerWaveform-v0``: the same task, action = the vertical plane, magnitude and frequency of a rotating
   field each 0.1 s.
+- ``MagSoftCoils-v0``: the same task, action = the currents of a real coil system (Navion; CardioMag by
+  ``coils="cardiomag"``), through a current drive (lag, slew rate), gradient forces included.
+- ``MagSoftMagnet-v0``: the same task, action = the pose of a permanent magnet held above the floor by a robot arm
+  (moved at a bounded speed), gradient forces included.
 
 The floor ids' v0 (crawl limits checked only at the end of each control step; the channel and obstacle
 observing 48 numbers) are no longer registered: ``gym.make("MagSoftCrawl-v0")`` raises Gymnasium's
 ``DeprecatedEnv``, which names the v1 id.
 
-The floor ids (crawl, waveform, channel, obstacle, steer) also have a ``vector_entry_point``:
+The floor ids (crawl, waveform, channel, obstacle, steer, coils, magnet) also have a ``vector_entry_point``:
 ``gym.make_vec(id, num_envs=n)`` returns a :class:`~magsoft_env.envs.vector.MagSoftCrawlVecEnv`, which
 steps all robots per call on a thread pool (``vectorization_mode="sync"`` / ``"async"`` still give
 Gymnasium's own vector envs).
@@ -38,6 +42,9 @@ ENV_SPECS = {
     # the field turning in a vertical plane chosen each 0.1 s step (direction, magnitude, frequency): 5 s
     "MagSoftSteerWaveform-v0": ("magsoft_env.envs.steer:MagSoftSteerEnv", 50, {"action_mode": "waveform",
                                                                                "ctrl_dt": 0.1}),
+    # the steer task through a field source: coil currents (a drive with lag and slew) or a magnet's pose; 5 s
+    "MagSoftCoils-v0": ("magsoft_env.envs.coils:MagSoftCoilsEnv", 250, {}),
+    "MagSoftMagnet-v0": ("magsoft_env.envs.magnet:MagSoftMagnetEnv", 250, {}),
 }
 #: id -> vector entry point (``gym.make_vec``): the floor envs, batched on threads (envs/vector.py)
 VECTOR_ENTRY_POINTS = {
@@ -47,6 +54,8 @@ VECTOR_ENTRY_POINTS = {
     "MagSoftObstacle-v1": "magsoft_env.envs.vector:MagSoftObstacleVecEnv",
     "MagSoftSteer-v0": "magsoft_env.envs.vector:MagSoftSteerVecEnv",
     "MagSoftSteerWaveform-v0": "magsoft_env.envs.vector:MagSoftSteerVecEnv",
+    "MagSoftCoils-v0": "magsoft_env.envs.coils:MagSoftCoilsVecEnv",
+    "MagSoftMagnet-v0": "magsoft_env.envs.magnet:MagSoftMagnetVecEnv",
 }
 
 

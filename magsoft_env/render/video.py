@@ -129,6 +129,10 @@ def render_gait(
     from .frames import dial_scale
     from .views import make_renderer
 
+    if source is None:
+        from ..sim.sources import robot_source
+
+        source = robot_source(preset)  # the robot file's field_source block, if it has one
     sim = Simulator(preset.beam, gait_rod_options(preset, scene=scene, segments=segments, timestep=timestep,
                                                  render=True, rod=rod, **(rod_options or {})), source=source)
     wave = as_waveform(preset.wave)

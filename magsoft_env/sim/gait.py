@@ -292,7 +292,8 @@ def run_gait(
         A field source (:mod:`magsoft_env.fields`: a magnet, a coil system at its currents, a
         :class:`~magsoft_env.fields.MovingSource` evaluated at each step's time) besides the drive's uniform field
         (:meth:`~magsoft_env.sim.Simulator.set_source`): couples and gradient forces on every piece, each step from
-        Python. ``Uniform(B)`` adds ``B`` to the drive, bit for bit the uniform-field path.
+        Python. ``Uniform(B)`` adds ``B`` to the drive, bit for bit the uniform-field path. None: the robot's own
+        ``field_source`` block, if its file has one (docs/robots.md), else none.
 
     Returns
     -------
@@ -311,6 +312,10 @@ def run_gait(
                                **(rod_options or {}))
     nsteps = int(round(check_steps(f"seconds / timestep = {seconds:g} s / {options.timestep:g} s",
                                    seconds / options.timestep, "Use fewer seconds or a larger timestep.")))
+    if source is None:
+        from .sources import robot_source
+
+        source = robot_source(preset)  # the robot file's field_source block, if it has one
     sim = Simulator(preset.beam, options, source=source)
     sim.set_waveform(as_waveform(preset.wave))
     every = max(1, int(round(sample_dt / sim.timestep)))

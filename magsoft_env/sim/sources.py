@@ -116,6 +116,14 @@ class SourceField:
         field at a piece is not finite or beyond :data:`~magsoft_env.spec.field.MAX_FIELD` (1 T) in a component
         (the range the uniform field is held to)."""
         src = self.source
+        finite = np.isfinite(points).all(axis=1)
+        if not finite.all():
+            # a state gone non-finite: no load there; the health checks report the state itself (a SimulationError
+            # naming it), which a ValueError from the source would hide
+            B, G = np.zeros((len(points), 3)), np.zeros((len(points), 3, 3))
+            if finite.any():
+                B[finite], G[finite] = self(points[finite], t)
+            return B, G
         B, G = src.field_and_gradient(points, t=t) if self.moves else src.field_and_gradient(points)
         big = float(np.abs(B).max())
         if not big <= MAX_FIELD or not np.isfinite(G).all():
@@ -124,6 +132,19 @@ class SourceField:
                              f"{B[i].tolist()!r} T: beyond the +-{MAX_FIELD:g} T a field component may have (or not "
                              "finite, or its gradient is not). Is a piece inside or on top of the source?")
         return B, G
+
+
+def robot_source(robot):
+    """The field source of a robot's ``field_source`` block (:class:`~magsoft_env.cases.robots.Robot`), read by
+    :func:`magsoft_env.fields.source_from_dict` (relative ``file`` paths from the robot file's folder); None
+    without one. A ValueError names the robot and the key."""
+    block = getattr(robot, "field_source", None)
+    if block is None:
+        return None
+    from ..fields import source_from_dict
+
+    return source_from_dict(block, where=f"robot {robot.name!r} field_source",
+                            base_dir=getattr(robot, "field_source_dir", "") or None)
 
 
 def piece_loads(m: np.ndarray, B: np.ndarray, G: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -165,4 +186,4 @@ def field_bound(B: np.ndarray) -> float:
 
 
 __all__ = ["MAGNET_CASE_MOMENT", "Blend", "SourceField", "check_source", "field_bound", "magnet_case",
-           "piece_loads", "split_source", "takes_time"]
+           "piece_loads", "robot_source", "split_source", "takes_time"]

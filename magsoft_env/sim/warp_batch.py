@@ -27,6 +27,8 @@ import math
 import mujoco
 import numpy as np
 
+from ..fields.base import MU0_4PI
+from . import magnetics
 from .health import (
     ENERGY_DRIFT_LIMIT,
     PENETRATION_HINT,
@@ -47,6 +49,7 @@ from .health import (
 )
 from .model import contact_timeconst, field_controls
 from .warp_extra import require_warp
+from .warp_sources import _source_energy, _source_loads, dipole_arrays
 
 wp, mjw = require_warp()
 
@@ -198,13 +201,15 @@ def _energy(qpos: wp.array2d[float], qvel: wp.array2d[float], mqvel: wp.array2d[
             mass_g: wp.array[wp.float64], b0: int, mx: wp.array[wp.float64], mz: wp.array[wp.float64],
             applied: wp.array2d[wp.float64], dt: wp.float64, staggered: int, rebase: int, mask: wp.array[int],
             step: wp.array[int], nsub: wp.array[int], scale: wp.array[wp.float64], e0: wp.array[wp.float64],
-            work: wp.array[wp.float64], ke_max: wp.array[wp.float64], drift_max: wp.array[wp.float64]):
+            work: wp.array[wp.float64], ke_max: wp.array[wp.float64], drift_max: wp.array[wp.float64],
+            sourced: int, source_e: wp.array[wp.float64]):
     """Every world's energy (kinetic + elastic + gravitational + magnetic, J) under the field it applied last.
 
     ``rebase``: the worlds of ``mask`` start their balance here (``e0``, the work and the records zeroed);
     else the worlds whose period covered the whole block (``step <= nsub``) record their largest kinetic energy
     and energy drift ``(E - e0 - work) / scale``. ``staggered``: positions of the last substep's start paired
-    with the new velocities (after ``mjw.step``), the hinge angles then ``qpos - dt qvel``."""
+    with the new velocities (after ``mjw.step``), the hinge angles then ``qpos - dt qvel``. ``sourced``: add the
+    energy in the dipole sources, ``source_e`` (:func:`~magsoft_env.sim.warp_sources._source_energy`)."""
     w = wp.tid()
     if rebase != 0:
         if mask[w] == 0:
@@ -226,6 +231,8 @@ def _energy(qpos: wp.array2d[float], qvel: wp.array2d[float], mqvel: wp.array2d[
         gr += mass_g[i] * wp.float64(xipos[w, b0 + i][2])
     mom = _net_moment(xmat, w, b0, mx, mz)
     e = ke + wp.float64(0.5) * el + gr - (mom[0] * applied[w, 0] + mom[1] * applied[w, 1])
+    if sourced != 0:
+        e = e + source_e[w]
     if rebase != 0:
         e0[w] = e
         work[w] = wp.float64(0.0)
@@ -446,6 +453,20 @@ class WarpRodBatch:
             self._scale = wp.ones(n, dtype=wp.float64)
             self.ke_max = wp.zeros(n, dtype=wp.float64)
             self.drift_max = wp.zeros(n, dtype=wp.float64)
+            # field sources (set_sources): the pieces' body moments (A m^2) and half lengths (m), body-id order
+            # (float32), the dipoles per world (None: no source) and their energy per world (J)
+            order = np.argsort(np.asarray(rod.body_ids))
+            mb = magnetics.body_moments_3d(rod.disc.moment)[order]
+            self._src_b0 = int(np.min(rod.body_ids))
+            self._src_mx = wp.array(mb[:, 0].astype(np.float32), dtype=float)
+            self._src_mz = wp.array(mb[:, 2].astype(np.float32), dtype=float)
+            self._src_half = wp.array((0.5 * np.asarray(rod.disc.piece_length, dtype=float)[order]).astype(np.float32),
+                                      dtype=float)
+            self._spos = self._smom = None
+            self._src_energy = wp.zeros(n, dtype=wp.float64)
+            self._armed = False
+            # the batch writes no external wrench: loads the start state carried (a source's in C) are not held
+            self.d.xfrc_applied.zero_()
             disc = rod.disc
             lim = dict(limits or {})
             #: the rod's pieces' lengths (m): the backend's pose's (the crawl env's) where there is one
@@ -504,6 +525,125 @@ class WarpRodBatch:
         <magsoft_env.sim.planar.PlanarRod.energy_scale>` of its field), for the runaway and drift records."""
         self._scale.assign(np.asarray(scale, dtype=float).reshape(self.nworld))
 
+    # ------------------------------------------------------------------ field sources (point dipoles per world)
+    def set_sources(self, positions, moments, *, scale: float = MU0_4PI) -> None:
+        """Apply point dipoles per world besides the held field, from the next :meth:`advance` on.
+
+        ``positions`` (m) and ``moments`` (A m^2 with the default ``scale`` mu0/(4 pi); ``scale=1``: moments with
+        mu0/(4 pi) folded in, T m^3, the MPEM ``B_Coeff`` convention), each of shape ``(nworld, K, 3)`` (or
+        ``(K, 3)``: the same dipoles in every world). A dipole whose moment is zero is none: a world with fewer
+        than ``K`` dipoles pads its rows with zero moments, a world with all zero has no source.
+        :func:`~magsoft_env.sim.warp_sources.dipole_arrays` makes these arrays (``scale=1``) from sources
+        (``PointDipole``, ``DipoleSet``, ``CoilSystem.at_currents(I)``, a magnet at a pose, ...):
+        :meth:`set_field_sources`.
+
+        Every substep, after MJWarp's kinematics of the state it starts from (the ``control`` callback of
+        ``mjw.step``: no extra kinematics), a kernel sums each world's dipoles' field and gradient at its pieces'
+        midpoints and writes the couples ``m x B`` and forces ``G^T m`` into ``xfrc_applied`` (in the x-z plane, with
+        the moment arm to each body's centre of mass), as the C simulator's ``source=`` does before every step. The
+        energy records count the dipoles' energy ``-sum m . B``. ``field_scale`` does not scale the dipoles. The
+        field at the pieces is not checked during the steps (C refuses more than 1 T in a component at any step):
+        keep the pieces off the dipoles.
+        """
+        pos = np.asarray(positions, dtype=float)
+        mom = np.asarray(moments, dtype=float)
+        n = self.nworld
+        want = f"(nworld, K, 3) = ({n}, K, 3) or (K, 3), K >= 1"
+        if pos.ndim == 2:
+            pos = np.broadcast_to(pos, (n, *pos.shape))
+        if mom.ndim == 2:
+            mom = np.broadcast_to(mom, (n, *mom.shape))
+        if pos.ndim != 3 or pos.shape[0] != n or pos.shape[2] != 3 or pos.shape[1] < 1:
+            raise ValueError(f"set_sources positions must have shape {want} (m), got {np.shape(positions)}.")
+        if mom.shape != pos.shape:
+            raise ValueError(f"set_sources moments must have the shape of positions {pos.shape} (A m^2), got "
+                             f"{np.shape(moments)}.")
+        if not (np.isfinite(pos).all() and np.isfinite(mom).all()):
+            raise ValueError("set_sources positions and moments must be finite.")
+        scale = float(scale)
+        if not (math.isfinite(scale) and scale > 0.0):
+            raise ValueError(f"set_sources scale must be a finite number > 0, got {scale!r}.")
+        if self.m.opt.disableflags & mjw.DisableBit.ACTUATION:
+            raise ValueError("set_sources needs MJWarp's control callback, which a model with actuation disabled "
+                             "never calls.")
+        pos32 = pos.astype(np.float32)
+        mom32 = (scale * mom).astype(np.float32)
+        with wp.ScopedDevice(self.device):
+            if self._spos is None or tuple(self._spos.shape) != pos.shape[:2]:
+                self._drop_source_graphs()
+                self._spos = wp.array(pos32, dtype=wp.vec3)
+                self._smom = wp.array(mom32, dtype=wp.vec3)
+            else:  # the same arrays: the recorded graphs stay valid
+                self._spos.assign(pos32)
+                self._smom.assign(mom32)
+        self.m.callback.control = self._source_callback
+
+    def set_field_sources(self, sources) -> None:
+        """:meth:`set_sources` from one source per world (a sequence of ``nworld``; None: none in that world), each
+        a point-dipole source :func:`~magsoft_env.sim.warp_sources.source_dipoles` takes."""
+        sources = list(sources)
+        if len(sources) != self.nworld:
+            raise ValueError(f"set_field_sources takes one source (or None) per world ({self.nworld}), got "
+                             f"{len(sources)}.")
+        pos, mom = dipole_arrays(sources)
+        self.set_sources(pos, mom, scale=1.0)
+
+    def clear_sources(self) -> None:
+        """No dipoles from now on: the held field alone, the plain path again (no source kernel, its graphs)."""
+        self.m.callback.control = None
+        self._spos = self._smom = None
+        self._drop_source_graphs()
+        with wp.ScopedDevice(self.device):
+            self.d.xfrc_applied.zero_()
+
+    def source_dipoles(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The dipoles held, ``(positions m, moments T m^3)`` each ``(nworld, K, 3)`` (float32 values), or None."""
+        if self._spos is None:
+            return None
+        return self._spos.numpy().astype(float), self._smom.numpy().astype(float)
+
+    def write_source_loads(self) -> np.ndarray:
+        """Compute the dipoles' loads at the present positions (``xpos`` / ``xmat`` / ``xipos``) into
+        ``xfrc_applied`` and return a host copy of its rod rows, ``(nworld, pieces, 6)`` (force N at the CoM, then
+        torque N m; chain order), as a substep writes them (a check of the kernel)."""
+        if self._spos is None:
+            raise ValueError("write_source_loads: no sources (set_sources first).")
+        with wp.ScopedDevice(self.device):
+            self._armed = True
+            self._source_callback(self.m, self.d)
+        return self.d.xfrc_applied.numpy()[:, np.asarray(self.rod.body_ids)].astype(float)
+
+    def run_source_kernel(self, k: int = 1) -> None:
+        """Launch the dipoles' load kernel ``k`` times at the present positions and wait for the device (what a
+        benchmark times: the kernel's own cost per substep)."""
+        if self._spos is None:
+            raise ValueError("run_source_kernel: no sources (set_sources first).")
+        with wp.ScopedDevice(self.device):
+            for _ in range(int(k)):
+                self._armed = True
+                self._source_callback(self.m, self.d)
+            wp.synchronize_device(self.device)
+
+    def _drop_source_graphs(self) -> None:
+        for key in [k for k in self._graphs if isinstance(k, tuple) and k and k[0] == "sources"]:
+            del self._graphs[key]
+
+    def _source_callback(self, m, d) -> None:
+        """MJWarp's ``control`` callback (after the kinematics of ``forward``): the source kernel, once a substep
+        (RK4 calls ``forward`` at every stage; C's loads are those of the step's start, held over the stages)."""
+        if not self._armed:
+            return
+        self._armed = False
+        wp.launch(_source_loads, dim=(self.nworld, self._src_mx.shape[0]), inputs=[
+            d.xpos, d.xmat, d.xipos, self._src_b0, self._src_mx, self._src_mz, self._src_half, self._spos,
+            self._smom, d.xfrc_applied])
+
+    def _substep(self) -> None:
+        """One ``mjw.step`` of every world; with sources, their kernel runs inside it (:meth:`_source_callback`)."""
+        self._armed = self._spos is not None
+        mjw.step(self.m, self.d)
+        self._armed = False
+
     def _limit_launch(self, column: int, count: int, step=None, nsub=None) -> None:
         wp.launch(_limits, dim=self.nworld, inputs=[
             self.d.xpos, self.d.xmat, self._bodies, self._inv_len, self._tip_len, self._half_h,
@@ -527,10 +667,15 @@ class WarpRodBatch:
             return
         d = self.d
         mjw.mul_m(self.m, d, self.mqvel, d.qvel)
+        sourced = self._spos is not None
+        if sourced:  # the dipoles' energy at the positions in xpos / xmat (those the energy below reads)
+            wp.launch(_source_energy, dim=self.nworld, inputs=[d.xpos, d.xmat, self._src_b0, self._src_mx,
+                                                               self._src_mz, self._src_half, self._spos, self._smom,
+                                                               self._src_energy])
         wp.launch(_energy, dim=self.nworld, inputs=[
             d.qpos, d.qvel, self.mqvel, d.xipos, d.xmat, self._hq, self._hd, self._hinge_k, self._mass_g, self._b0,
             self._mx, self._mz, self._applied, self._dt, int(staggered), int(rebase), self._mask, step, nsub,
-            self._scale, self._e0, self._work, self.ke_max, self.drift_max])
+            self._scale, self._e0, self._work, self.ke_max, self.drift_max, int(sourced), self._src_energy])
 
     def _clear(self) -> None:
         wp.launch(_clear_records, dim=self.nworld, inputs=[self.clear_max, self.cos_min, self.airborne,
@@ -546,7 +691,7 @@ class WarpRodBatch:
                                                                  d.mocap_quat])
         self._clear()
         for j in range(k):
-            mjw.step(m, d)
+            self._substep()
             # xpos / xmat and the contacts now hold the state this substep started from (MuJoCo's history buffers
             # in C): its deepest contact, then its crawl limits (which keep the substep of the deepest contact)
             self._deepest_launch(self._zero, self._never)
@@ -567,6 +712,8 @@ class WarpRodBatch:
         if not self.graph:
             launches()
             return
+        if self._spos is not None:  # a graph with the source kernel (and its arrays) is another graph
+            key = ("sources", key)
         g = self._graphs.get(key)
         if g is None:
             with wp.ScopedCapture() as capture:
@@ -602,12 +749,12 @@ class WarpRodBatch:
         self._clear()
 
     def _wave_block(self) -> None:
-        m, d, n = self.m, self.d, self.nworld
+        d, n = self.d, self.nworld
         step, nsub = self._step, self._nsub
         for _ in range(self.block):
             wp.launch(_wave_inputs, dim=n, inputs=[step, nsub, self._wave, self._dt, self._mocap, self._field,
                                                    d.ctrl, d.mocap_quat])
-            mjw.step(m, d)
+            self._substep()
             self._deepest_launch(step, nsub)
             self._limit_launch(0, 1, step, nsub)
             self._work_launch(step, nsub)

@@ -2,6 +2,7 @@
 
 from .elastica import elastica_tip, prandtl_field
 from .fit import FitResult, fit
+from .rod_sensitivity import RodSensitivity, rod_sensitivities, source_rod_sensitivities
 from .rod_solver import CriticalField, RodResult, critical_field
 from .sensitivity import Sensitivity, sensitivities
 from .solver import TERMINATION_MESSAGES, EquilibriumResult, SolverOptions, solve_equilibrium, solve_path
@@ -13,6 +14,7 @@ __all__ = [
     "EquilibriumResult",
     "FitResult",
     "RodResult",
+    "RodSensitivity",
     "Sensitivity",
     "SolverOptions",
     "SourceResult",
@@ -20,8 +22,10 @@ __all__ = [
     "elastica_tip",
     "fit",
     "prandtl_field",
+    "rod_sensitivities",
     "sensitivities",
     "shoot",
     "solve_equilibrium",
     "solve_path",
+    "source_rod_sensitivities",
 ]

@@ -25,11 +25,13 @@ import scipy.optimize
 
 from ..spec import Beam, as_field
 from .options import SolverOptions
-from .sensitivity import sensitivities
+from .sensitivity import sensitivities, source_sensitivities
 
 #: Parameters :func:`fit` can fit (SI units), and whether each is positive (fitted in its logarithm).
 FIT_PARAMETERS = {"E0": True, "particle_magnetization": True, "density": True, "thickness": True,
-                  "volume_fraction": True, "clamp_angle": False}
+                  "volume_fraction": True, "clamp_angle": False, "source_x": False, "source_z": False}
+#: Parameters that move every measurement's field source (its pose offset, m), starting from 0.
+SOURCE_OFFSETS = ("source_x", "source_z")
 #: Largest |correlation| between two fitted parameters before they count as not identifiable from the data.
 MAX_CORRELATION = 0.9999
 #: Restarts of the fit lie this factor above and below the guess of each positive parameter.
@@ -40,8 +42,8 @@ MAX_MEASUREMENTS = 500
 
 @dataclass(frozen=True)
 class Measurement:
-    """One measured shape: the field (T), the reference arc lengths (m) of the tracked points and their
-    measured positions ``(n, 2)`` (x, z) in m, clamp at the origin."""
+    """One measured shape: the field (T, a pair) or a field source, the reference arc lengths (m) of the tracked
+    points and their measured positions ``(n, 2)`` (x, z) in m, clamp at the origin."""
 
     field: tuple
     s: np.ndarray
@@ -110,6 +112,8 @@ def _value(beam: Beam, p: str, clamp_angle: float) -> float:
         return float(beam.material.density)
     if p == "thickness":
         return float(beam.thickness)
+    if p in SOURCE_OFFSETS:
+        return 0.0
     if p == "volume_fraction":
         phi = beam.volume_fraction
         if not isinstance(phi, Constant):
@@ -143,10 +147,16 @@ def as_measurements(measurements, length: float) -> list[Measurement]:
             continue
         if not isinstance(m, (tuple, list)) or len(m) not in (2, 3):
             raise ValueError(f"measurements[{i}] must be (field, tip_position) or (field, s, points), got {m!r}.")
-        fld = as_field(m[0], f"measurements[{i}] field")
-        if not fld.is_planar:
-            raise ValueError(f"measurements[{i}] field has B_y = {fld.By:g} T: the fit uses the planar model "
-                             "(fields in the x-z plane).")
+        from .sources import is_source
+
+        if is_source(m[0]) and not hasattr(m[0], "at_currents"):
+            load = m[0]
+        else:
+            fld = as_field(m[0], f"measurements[{i}] field")
+            if not fld.is_planar:
+                raise ValueError(f"measurements[{i}] field has B_y = {fld.By:g} T: the fit uses the planar model "
+                                 "(fields in the x-z plane).")
+            load = (fld.Bx, fld.Bz)
         if len(m) == 2:
             s = np.array([length])
             pts = np.atleast_2d(np.asarray(m[1], dtype=float))
@@ -163,7 +173,7 @@ def as_measurements(measurements, length: float) -> list[Measurement]:
         if np.max(np.abs(pts)) > 10 * length:
             raise ValueError(f"measurements[{i}] positions reach {np.max(np.abs(pts)):g} m, more than 10 beam lengths "
                              f"({10 * length:g} m): positions are in metres.")
-        out.append(Measurement(field=(fld.Bx, fld.Bz), s=s, points=pts))
+        out.append(Measurement(field=load, s=s, points=pts))
     return out
 
 
@@ -177,12 +187,13 @@ def fit(beam: Beam, measurements, params=("E0", "particle_magnetization"), *, gr
     beam : Beam
         The starting guess (and every parameter not fitted).
     measurements : list
-        ``(field, tip_position)`` (field as in :func:`~magsoft_env.solve_equilibrium`, T; tip ``(x, z)`` or
-        ``(x, y, z)`` in m) or ``(field, s, points)`` with reference arc lengths ``s`` (m) and ``points``
-        ``(len(s), 2 or 3)`` (m), or :class:`Measurement`.
+        ``(field, tip_position)`` (field as in :func:`~magsoft_env.solve_equilibrium`, T, or a field source such as
+        a magnet at a commanded pose; tip ``(x, z)`` or ``(x, y, z)`` in m) or ``(field, s, points)`` with
+        reference arc lengths ``s`` (m) and ``points`` ``(len(s), 2 or 3)`` (m), or :class:`Measurement`.
     params : sequence of str
         Any of ``E0``, ``particle_magnetization``, ``density``, ``thickness``, ``volume_fraction``,
-        ``clamp_angle``.
+        ``clamp_angle``, and ``source_x`` / ``source_z``: one offset (m) of every measurement's source from its
+        given pose (a magnet's position error); ``volume_fraction`` with uniform fields only.
     gravity : float
         Gravitational acceleration during the measurements (m/s^2, along -z).
     clamp_angle : float
@@ -246,9 +257,14 @@ def fit(beam: Beam, measurements, params=("E0", "particle_magnetization"), *, gr
     options = options if options is not None else SolverOptions()
     sens_params = tuple(params)
     cache: dict = {}
+    failed: list = []  # (measurement, message) whose equilibrium the last evaluation did not find
+
+    # positive parameters are fitted in their logarithm, the others in units of a natural scale: the beam's length
+    # for a source's offset, 1 rad for the clamp angle
+    unit = [1.0 if lg else (beam.length if p in SOURCE_OFFSETS else 1.0) for p, lg in zip(params, logs, strict=True)]
 
     def unpack(u):
-        return {p: (math.exp(v) if lg else v) for p, v, lg in zip(params, u, logs, strict=True)}
+        return {p: (math.exp(v) if lg else v * k) for p, v, lg, k in zip(params, u, logs, unit, strict=True)}
 
     def evaluate(u):
         key = tuple(np.round(u, 15))
@@ -258,36 +274,56 @@ def fit(beam: Beam, measurements, params=("E0", "particle_magnetization"), *, gr
         b = _with(beam, vals)
         th0 = vals.get("clamp_angle", clamp_angle)
         res, jac, ok = [], [], True
+        failed.clear()
+        offset = np.array([vals.get("source_x", 0.0), 0.0, vals.get("source_z", 0.0)])
         for m in data:
-            r = solve_equilibrium(b, m.field, gravity=gravity, clamp_angle=th0, coupling=coupling, options=options,
+            in_source = not isinstance(m.field, tuple)
+            load = m.field
+            if in_source and np.any(offset):
+                from ..fields import Transformed
+
+                load = Transformed(m.field, position=offset)
+            r = solve_equilibrium(b, load, gravity=gravity, clamp_angle=th0, coupling=coupling, options=options,
                                   model="planar")
             if not r.success:
                 ok = False
+                failed.append((len(res), r.message))
                 res.append(np.full(2 * m.s.size, 1e3))
                 jac.append(np.zeros((2 * m.s.size, len(params))))
                 continue
             x, z, _ = r.at(m.s)
             res.append(np.column_stack([x - m.points[:, 0], z - m.points[:, 1]]).ravel())
-            S = sensitivities(r, sens_params)
-            dp = S.positions(m.s)  # (n, 3, k)
+            if in_source:
+                S = source_sensitivities(r, sens_params)
+                dp = S.positions(m.s)  # (n, 3, k)
+            else:  # a uniform field: the source offsets do not act
+                own = tuple(p for p in sens_params if p not in SOURCE_OFFSETS)
+                dp = np.zeros((m.s.size, 3, len(params)))
+                if own:
+                    S = sensitivities(r, own)
+                    dp[:, :, [params.index(p) for p in own]] = S.positions(m.s)
             jac.append(dp[:, [0, 2], :].reshape(-1, len(params)))
         out = (np.concatenate(res), np.vstack(jac), ok)
         cache.clear()
         cache[key] = out
         return out
 
-    u0 = np.array([math.log(start[p]) if lg else start[p] for p, lg in zip(params, logs, strict=True)])
-    scale_u = np.array([v if lg else 1.0 for v, lg in zip(unpack(u0).values(), logs, strict=True)])
+    u0 = np.array([math.log(start[p]) if lg else start[p] / k for p, lg, k in zip(params, logs, unit, strict=True)])
 
     def fun(u):
         return evaluate(u)[0]
 
     def jac(u):
         vals = np.array(list(unpack(u).values()))
-        d = np.array([v if lg else 1.0 for v, lg in zip(vals, logs, strict=True)])
-        return evaluate(u)[1] * d[None, :]  # d/d log p = p d/dp
+        d = np.array([v if lg else k for v, lg, k in zip(vals, logs, unit, strict=True)])
+        return evaluate(u)[1] * d[None, :]  # d/d log p = p d/dp; d/d(p / k) = k d/dp
 
-    _check_identifiable(jac(u0), params)
+    J0 = jac(u0)
+    if failed:
+        i, msg = failed[0]
+        raise ValueError(f"measurements[{i}]: no equilibrium at the starting parameters ({len(failed)} measurement(s) "
+                         f"fail): {msg} Start nearer the truth, or drop measurements the model cannot reach.")
+    _check_identifiable(J0, params)
     # Equilibria along the loading path can switch branch as the parameters move (a field that pulls a hanging
     # beam over: the objective jumps there), so the fit starts from the guess and from points a factor
     # RESTART_FACTOR away along each parameter, and keeps the lowest misfit.
@@ -312,7 +348,6 @@ def fit(beam: Beam, measurements, params=("E0", "particle_magnetization"), *, gr
     if best is None:
         raise ValueError("every start of the fit left the parameters' valid range; start nearer the truth.")
     sol = best
-    del scale_u
     r, J, ok = evaluate(sol.x)
     vals = unpack(sol.x)
     dof = max(r.size - len(params), 1)

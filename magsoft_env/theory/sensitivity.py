@@ -127,8 +127,13 @@ def _state(result):
     from .solver import EquilibriumResult
 
     if not isinstance(result, EquilibriumResult):
+        hint = ""
+        from .rod_solver import RodResult
+
+        if isinstance(result, RodResult):
+            hint = " (a 3D result: magsoft_env.theory.rod_sensitivities, or source_rod_sensitivities in a source)"
         raise ValueError("sensitivities take a planar EquilibriumResult (magsoft_env.solve_equilibrium with a "
-                         f"uniform field and model='planar'), got {type(result).__name__}.")
+                         f"uniform field and model='planar'), got {type(result).__name__}{hint}.")
     if not result.success:
         raise ValueError(f"the equilibrium was not found (status {result.status}): no sensitivities. "
                          f"{result.message}")
@@ -386,6 +391,100 @@ def _solve(mdl: BeamModel, th, load: Load, dR, params, units, lam) -> Sensitivit
                        units=units, _positions=(mdl.grid, dx_all, dz_all))
 
 
+#: The parameters of an equilibrium in a field source (:class:`~magsoft_env.theory.sources.SourceResult`):
+#: the material and load ones, and the source's translation (m) along x and z (its pose offset).
+SOURCE_PARAMETERS = ("E0", "particle_magnetization", "density", "gravity", "clamp_angle", "thickness", "source_x",
+                     "source_z")
+#: Step of the central differences in the source's position (fraction of L).
+SOURCE_STEP = 1e-5
+
+
+def source_sensitivities(result, params=("E0", "particle_magnetization")) -> Sensitivity:
+    """Derivatives of a planar cantilever equilibrium in a field source with respect to ``params``.
+
+    The residual there is ``R = theta - theta_0 - P h(theta, p)`` (:mod:`magsoft_env.theory.sources`), so
+    ``d theta / d p = J^-1 P dh/dp`` with ``J`` the solver's Jacobian. ``dh/dp`` is exact for ``E0`` (P ~ 1/E0),
+    ``particle_magnetization`` (the magnetic loads scale with it), ``density`` and ``gravity`` (the weight),
+    ``thickness`` (EI ~ t^3, loads ~ t) and ``clamp_angle``; for ``source_x`` / ``source_z`` (the source
+    translated along x or z, m) it is a central difference of h alone (a step of 1e-5 L), not of the solve.
+    The Jacobian's own position derivative is the solver's (central differences of G): about 1e-8 relative.
+
+    Parameters
+    ----------
+    result : SourceResult
+        A successful planar equilibrium in a source (:func:`magsoft_env.solve_equilibrium` with a source).
+    params : sequence of str
+        Any of :data:`SOURCE_PARAMETERS`.
+    """
+    from ..fields import Transformed
+    from .sources import SourceResult, _Load, _Model, _stability
+
+    if isinstance(params, str):
+        params = (params,)
+    params = tuple(params)
+    for p in params:
+        if p not in SOURCE_PARAMETERS:
+            import difflib
+
+            close = difflib.get_close_matches(str(p), SOURCE_PARAMETERS, n=1)
+            raise ValueError(f"unknown parameter {p!r}: sensitivities in a source are available for "
+                             f"{list(SOURCE_PARAMETERS)}." + (f" Did you mean {close[0]!r}?" if close else ""))
+    if not params or len(set(params)) != len(params):
+        raise ValueError(f"params must name distinct parameters of {list(SOURCE_PARAMETERS)}, got {list(params)}.")
+    if not isinstance(result, SourceResult):
+        raise ValueError(f"source_sensitivities take a planar SourceResult, got {type(result).__name__}.")
+    if not result.success:
+        raise ValueError(f"the equilibrium was not found (status {result.status}): no sensitivities.")
+    beam, grid = result._beam, result._grid
+    th = result._full[0]
+    mdl = _Model(beam, grid, result._coupling, float(th[0]))
+    load = _Load(((1.0, result.source),), result.gravity)
+    R, h, aux = mdl.residual(th, load)
+    J = mdl.jacobian(th, load, aux)
+    mu, _ = _stability(J)
+    if not mu > FOLD_EIGENVALUE:
+        raise ValueError(f"the equilibrium is at (or past) a fold: smallest eigenvalue {mu:.3g} <= "
+                         f"{FOLD_EIGENVALUE:g}; the shape's derivative does not exist there.")
+    P = mdl.P
+    h_grav = mdl.loads(th, _Load((), result.gravity))[0]
+    h_mag = h - h_grav
+    cols = []
+    for p in params:
+        if p == "E0":
+            d = P @ h / beam.material.E0
+        elif p == "particle_magnetization":
+            d = -(P @ h_mag) / beam.material.particle_magnetization
+        elif p == "density":
+            if callable(beam.material.density):
+                raise ValueError("density is a function of the volume fraction in this beam's material.")
+            d = -(P @ h_grav) / beam.material.density
+        elif p == "gravity":
+            d = -(P @ mdl.loads(th, _Load((), 1.0))[0])
+        elif p == "clamp_angle":
+            d = -np.ones_like(th)
+        elif p == "thickness":
+            d = 2.0 * (P @ h) / beam.thickness
+        else:
+            axis = 0 if p == "source_x" else 2
+            step = SOURCE_STEP * beam.length
+            off = np.zeros(3)
+            off[axis] = step
+            hp = mdl.loads(th, _Load(((1.0, Transformed(result.source, position=off)),), result.gravity))[0]
+            hm = mdl.loads(th, _Load(((1.0, Transformed(result.source, position=-off)),), result.gravity))[0]
+            d = -(P @ ((hp - hm) / (2.0 * step)))
+        cols.append(d)
+    dth = -scipy.linalg.lu_solve(scipy.linalg.lu_factor(J), np.column_stack(cols))
+    c, sn = np.cos(th), np.sin(th)
+    dx_all = -grid.Q0 @ (sn[:, None] * dth)
+    dz_all = grid.Q0 @ (c[:, None] * dth)
+    u = grid.unique()
+    units = {**_UNITS, "source_x": "m", "source_z": "m"}
+    return Sensitivity(params=params, theta=dth[u], tip_position=np.vstack([dx_all[-1], np.zeros(len(params)),
+                                                                           dz_all[-1]]),
+                       tip_angle=dth[-1].copy(), s=grid.s[u], min_eigenvalue=float(mu),
+                       units={p: units[p] for p in params}, _positions=(grid, dx_all, dz_all))
+
+
 def _residual_difference(mdl: BeamModel, th, load: Load, beam) -> np.ndarray:
     from ..spec.profiles import Constant
 
@@ -404,5 +503,5 @@ def _residual_difference(mdl: BeamModel, th, load: Load, beam) -> np.ndarray:
     return (out[0] - out[1]) / (2.0 * h)
 
 
-__all__ = ["FOLD_EIGENVALUE", "PARAMETERS", "Sensitivity", "collocation_nodes", "profile_sensitivities",
-           "sensitivities"]
+__all__ = ["FOLD_EIGENVALUE", "PARAMETERS", "SOURCE_PARAMETERS", "Sensitivity", "collocation_nodes",
+           "profile_sensitivities", "sensitivities", "source_sensitivities"]

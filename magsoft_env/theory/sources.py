@@ -326,6 +326,7 @@ class SourceResult(PathResult):
                 "force_x": G[:, 0, 0] * mx + G[:, 2, 0] * mz, "force_z": G[:, 0, 2] * mx + G[:, 2, 2] * mz}
 
     _beam: object = dc_field(default=None, repr=False, compare=False)
+    _coupling: str = dc_field(default="rotated", repr=False, compare=False)
 
     def to_dict(self) -> dict:
         return {
@@ -618,7 +619,8 @@ class _SourceSolver:
             gravity=load.g, residual=float(np.max(np.abs(R))), resolution=max(tail, ver) if ok else math.nan,
             verification=float(ver) if ok else math.nan, nodes=int(u.size), newton_iterations=self.newton_its,
             events=list(self.events), wall_time=float(wall_time), source=source, min_eigenvalue=float(mu),
-            out_of_plane=float(oop), _grid=grid, _full=(th.copy(), x.copy(), z.copy()), _beam=self.beam)
+            out_of_plane=float(oop), _grid=grid, _full=(th.copy(), x.copy(), z.copy()), _beam=self.beam,
+            _coupling=self.coupling)
 
 
 _MESSAGES = {
