@@ -118,4 +118,36 @@ class PathResult:
         }
 
 
-__all__ = ["PathResult"]
+class PlanarShape:
+    """The planar readings of a result with ``x``, ``z`` (nodes), ``_full`` (theta, x, z on every grid node) and
+    ``_grid``: the 3D result's names (``tip_position``, ``tip_twist``, ``centreline``) and spectral sampling."""
+
+    @property
+    def tip_position(self) -> np.ndarray:
+        """(x, y, z) of the tip (m), y = 0: the same reading as the 3D :class:`RodResult`'s."""
+        return np.array([self.x[-1], 0.0, self.z[-1]])
+
+    @property
+    def tip_twist(self) -> float:
+        """0.0 (rad): a planar beam does not twist (as the 3D :class:`RodResult` reports it)."""
+        return 0.0
+
+    @property
+    def centreline(self) -> np.ndarray:
+        """(n, 3) deformed centreline (m), y = 0: the same reading as the 3D result's."""
+        return np.column_stack([self.x, np.zeros_like(self.x), self.z])
+
+    def sample(self, n: int = 101):
+        """Centreline at ``n`` evenly spaced arc lengths: (s, x, z, theta) arrays (m, m, m, rad)."""
+        s_new = self._samples(n)
+        return (s_new, *self.at(s_new))
+
+    def at(self, s):
+        """Centreline (x, z, theta) at reference arc lengths ``s`` (m), spectrally interpolated."""
+        s = self._arc(s)
+        th, xx, zz = self._full
+        vals = self._grid.interpolate(np.column_stack([th, xx, zz]), s.ravel())
+        return vals[:, 1].reshape(s.shape), vals[:, 2].reshape(s.shape), vals[:, 0].reshape(s.shape)
+
+
+__all__ = ["PathResult", "PlanarShape"]

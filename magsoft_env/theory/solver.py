@@ -24,7 +24,7 @@ from .options import (
     subdomain_edges,
     use_rod,
 )
-from .result import PathResult
+from .result import PathResult, PlanarShape
 from .rod_solver import RodResult, solve_rod_path
 from .sources import SourceResult, is_source, solve_source_path, uniform_field
 from .verify import equation_residual, outcome
@@ -64,7 +64,7 @@ _abs, _amax = np.abs, np.maximum.reduce  # max |x| without ndarray.max's Python 
 
 
 @dataclass(frozen=True, kw_only=True)
-class EquilibriumResult(PathResult):
+class EquilibriumResult(PlanarShape, PathResult):
     """Equilibrium of a beam in the x-z plane under one field (frozen): a
     :class:`~magsoft_env.theory.result.PathResult` (status, stability, tip, path) with the planar shape.
 
@@ -167,33 +167,6 @@ class EquilibriumResult(PathResult):
         fine = _model(mdl.beam, finer, coupling, mdl.extensible)
         lam = fine.min_eigen(grid.interpolate(th, finer.s), load, clamped=clamped, vector=False)[0]
         return abs(float(lam) - float(self.min_eigenvalue))
-
-    @property
-    def tip_position(self) -> np.ndarray:
-        """(x, y, z) of the tip (m), y = 0: the same reading as the 3D :class:`RodResult`'s."""
-        return np.array([self.x[-1], 0.0, self.z[-1]])
-
-    @property
-    def tip_twist(self) -> float:
-        """0.0 (rad): a planar beam does not twist (as the 3D :class:`RodResult` reports it)."""
-        return 0.0
-
-    @property
-    def centreline(self) -> np.ndarray:
-        """(n, 3) deformed centreline (m), y = 0: the same reading as the 3D result's."""
-        return np.column_stack([self.x, np.zeros_like(self.x), self.z])
-
-    def sample(self, n: int = 101):
-        """Centreline at ``n`` evenly spaced arc lengths: (s, x, z, theta) arrays (m, m, m, rad)."""
-        s_new = self._samples(n)
-        return (s_new, *self.at(s_new))
-
-    def at(self, s):
-        """Centreline (x, z, theta) at reference arc lengths ``s`` (m), spectrally interpolated."""
-        s = self._arc(s)
-        th, xx, zz = self._full
-        vals = self._grid.interpolate(np.column_stack([th, xx, zz]), s.ravel())
-        return vals[:, 1].reshape(s.shape), vals[:, 2].reshape(s.shape), vals[:, 0].reshape(s.shape)
 
     def to_dict(self) -> dict:
         """Metrics as plain numbers (SI and degrees), for JSON."""

@@ -44,7 +44,7 @@ import scipy.linalg
 from ..spec import Beam, Field
 from .collocation import Grid, _grid_cached, make_grid
 from .options import MAX_TOTAL_NODES, SolverOptions, subdomain_edges
-from .result import PathResult
+from .result import PathResult, PlanarShape
 from .verify import _points, outcome
 
 #: Step of the central differences of G for the force's position derivative (fraction of L).
@@ -243,7 +243,7 @@ def _stability(J) -> tuple[float, np.ndarray]:
 
 
 @dataclass(frozen=True, kw_only=True)
-class SourceResult(PathResult):
+class SourceResult(PlanarShape, PathResult):
     """Planar equilibrium of a cantilever in a field source (frozen): a
     :class:`~magsoft_env.theory.result.PathResult` with the planar shape, like
     :class:`~magsoft_env.theory.solver.EquilibriumResult`.
@@ -286,33 +286,6 @@ class SourceResult(PathResult):
     clamp_moment: float = math.nan
     _grid: Grid | None = dc_field(default=None, repr=False, compare=False)
     _full: tuple | None = dc_field(default=None, repr=False, compare=False)
-
-    @property
-    def tip_position(self) -> np.ndarray:
-        """(x, 0, z) of the tip (m)."""
-        return np.array([self.x[-1], 0.0, self.z[-1]])
-
-    @property
-    def tip_twist(self) -> float:
-        """0.0 (rad): a planar beam does not twist."""
-        return 0.0
-
-    @property
-    def centreline(self) -> np.ndarray:
-        """(n, 3) deformed centreline (m), y = 0."""
-        return np.column_stack([self.x, np.zeros_like(self.x), self.z])
-
-    def sample(self, n: int = 101):
-        """Centreline at ``n`` evenly spaced arc lengths: (s, x, z, theta) arrays (m, m, m, rad)."""
-        s_new = self._samples(n)
-        return (s_new, *self.at(s_new))
-
-    def at(self, s):
-        """Centreline (x, z, theta) at reference arc lengths ``s`` (m), spectrally interpolated."""
-        s = self._arc(s)
-        th, xx, zz = self._full
-        vals = self._grid.interpolate(np.column_stack([th, xx, zz]), s.ravel())
-        return vals[:, 1].reshape(s.shape), vals[:, 2].reshape(s.shape), vals[:, 0].reshape(s.shape)
 
     @cached_property
     def loads(self) -> dict:
