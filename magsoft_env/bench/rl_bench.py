@@ -165,9 +165,9 @@ def _actor(task: BenchTask, name: str, env):
 
 def evaluate(task: BenchTask, name: str) -> dict:
     """Play controller ``name`` on ``task``'s seeds: a row of the table."""
-    import gymnasium as gym
+    from ..rl.agents import quiet_make
 
-    env = gym.make(task.env_id, **task.env_kwargs)
+    env = quiet_make(task.env_id, **task.env_kwargs)
     start, act = _actor(task, name, env)
     measures, returns, airborne, modes, steps, lengths = [], [], [], {}, 0, []
     t0 = time.perf_counter()

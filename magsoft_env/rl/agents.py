@@ -80,6 +80,18 @@ def agent_model_path(env_id: str, name: str) -> Path:
     return d / f"{env_id.replace('/', '-')}.zip"
 
 
+def quiet_make(env_id: str, **kwargs):
+    """``gym.make(env_id, **kwargs)`` without Gymnasium's "out of date" DeprecationWarning: ``MagSoftCrawl-v1`` is
+    kept on purpose beside ``MagSoftCrawl-v2`` (v1's agents and trajectories stay as they were)."""
+    import warnings
+
+    import gymnasium as gym
+
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=".*is out of date", category=DeprecationWarning)
+        return gym.make(env_id, **kwargs)
+
+
 def load_agent(env_id: str, name: str, *, env=None):
     """The shipped agent ``name`` of ``env_id`` (e.g. ``load_agent("MagSoftCrawl-v1", "ppo_seed0")``) as a
     deterministic :class:`~magsoft_env.rl.evaluation.Policy` (``policy(obs) -> action``, its observation
@@ -88,8 +100,14 @@ def load_agent(env_id: str, name: str, *, env=None):
     from .evaluation import load_policy
 
     info = agent_info(env_id, name)
-    return load_policy(agent_model_path(env_id, name), algo=info.get("algo"), env=env_id if env is None else env)
+    if env is None:
+        env = quiet_make(env_id, **dict(info.get("env_kwargs") or {}))
+        try:
+            return load_policy(agent_model_path(env_id, name), algo=info.get("algo"), env=env)
+        finally:
+            env.close()
+    return load_policy(agent_model_path(env_id, name), algo=info.get("algo"), env=env)
 
 
 __all__ = ["AGENTS_FOLDER", "AGENT_FILE", "agent_dir", "agent_info", "agent_model_path", "agents_root",
-           "load_agent", "shipped_agents"]
+           "load_agent", "quiet_make", "shipped_agents"]
