@@ -172,3 +172,27 @@ V1_REWARDS = [0.00023570929, -0.522847535, -0.816240015, 0.825985027, 8.28741919
               -6.47230071, -8.30071741, 4.31091223, -10.1890707, -0.121788515, -0.667940287, -0.863952883,
               0.699514813, 0.557109881, -6.30367962, -3.17865764, 4.81366458, 7.7776811, -5.37162215, -6.6638329,
               -3.74787495, 13.8943043, 10.5193253, -1.01041571, -9.41902959, -7.24405613, -0.901901892, 1.28054752]
+
+
+@pytest.mark.slow
+def test_the_wheel_ships_every_agent_file(tmp_path):
+    # tests/test_packaging.py checks the presets, contours and fields; the agents (nested folders, and *.zip / *.pkl
+    # that .gitignore ignores elsewhere) ride on the same force-include of assets/
+    import importlib.util
+    import subprocess
+    import sys
+    import zipfile
+    from pathlib import Path
+
+    if importlib.util.find_spec("pip") is None:
+        pytest.skip("pip is not installed in this interpreter's environment")
+    pytest.importorskip("hatchling", reason="the wheel is built without isolation (pip install -e '.[test]')")
+    root = Path(__file__).resolve().parents[1]
+    subprocess.run([sys.executable, "-m", "pip", "wheel", str(root), "--no-deps", "--no-build-isolation", "-q", "-w",
+                    str(tmp_path)], check=True)
+    with zipfile.ZipFile(next(tmp_path.glob("magsoft_env-*.whl"))) as zf:
+        members = set(zf.namelist())
+    files = [p.relative_to(root / "assets").as_posix() for p in (root / "assets" / "agents").rglob("*") if p.is_file()]
+    assert any(f.endswith(".zip") for f in files) and any(f.endswith(".pkl") for f in files)
+    for f in files:
+        assert f"magsoft_env/_assets/{f}" in members, f
