@@ -4,7 +4,7 @@
 
 Left: rl-zoo3's deterministic evaluation return (``evaluations.npz``, mean over its episodes) of each seed against
 the training steps, their mean and min-max band. Right: the training episodes' returns (``monitor.csv``, the
-stochastic policy), each seed's mean in bins of 5,000 steps, the mean across seeds and the min-max band.
+stochastic policy), each seed's mean in whole bins of 5,000 steps, the mean across seeds and the min-max band.
 """
 
 from __future__ import annotations
@@ -57,8 +57,9 @@ def main(argv=None) -> int:
         steps, ret = _monitor(d / "monitor.csv")
         edges = np.arange(0, steps[-1] + args.bin, args.bin)
         idx = np.digitize(steps, edges)
-        centres = [(edges[i - 1] + args.bin / 2) for i in sorted(set(idx))]
-        means = [ret[idx == i].mean() for i in sorted(set(idx))]
+        full = [i for i in sorted(set(idx)) if edges[i - 1] + args.bin <= steps[-1]]  # whole bins only
+        centres = [(edges[i - 1] + args.bin / 2) for i in full]
+        means = [ret[idx == i].mean() for i in full]
         bins.append((np.array(centres), np.array(means)))
         ax2.plot(np.array(centres) / 1e3, means, lw=0.8, alpha=0.6)
     n = min(len(t) for t, _ in evals)
