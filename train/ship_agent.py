@@ -94,6 +94,9 @@ def main(argv=None) -> int:
                                               "gymnasium")},
         "evaluation": {k: evaluation[k] for k in ("policy", "open_loop") if k in evaluation},
     }
+    if evaluation:
+        info["evaluation_by"] = ("train/evaluate.py at the end of training (train.py --eval-episodes episodes, default "
+                                 "2, seeds from 1000); the benchmark's rows: magsoftbench-v0.json")
     if evaluation and evaluation.get("model", "").endswith("best_model.zip") != args.best:
         info["evaluation_note"] = "evaluation.json is of the run's other model (final / best)"
     (out / "agent.yml").write_text(yaml.safe_dump(info, sort_keys=False, width=120))
