@@ -118,10 +118,10 @@ def test_v2_random_episodes_last_at_least_50_steps():
     for k in range(3):
         env.reset(seed=100 + k)
         env.action_space.seed(k)
-        for n in range(1, 81):
-            _, r, term, trunc, info = env.step(env.action_space.sample())
-            if term or trunc:
-                break
+        n, done = 0, False
+        while n < 80 and not done:
+            _, _, term, trunc, info = env.step(env.action_space.sample())
+            n, done = n + 1, term or trunc
         lengths.append(n)
         violations.append(info["crawl_violations"])
     assert np.mean(lengths) >= 50 and min(lengths) == 80

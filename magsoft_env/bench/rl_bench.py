@@ -89,7 +89,8 @@ class BenchTask:
 #: use; the robots' own cost 12x and 30x as much per step), the 3D-strip crawl for 100 steps (2 s: the strip costs
 #: about 15x the chain per step).
 TASKS: tuple[BenchTask, ...] = (
-    BenchTask("crawl-planar", "MagSoftCrawl-v1", gait_reverse=True, note="paper-5c planar chain, 2 mT, crawl limits end the episode"),
+    BenchTask("crawl-planar", "MagSoftCrawl-v1", gait_reverse=True,
+              note="paper-5c planar chain, 2 mT, crawl limits end the episode"),
     BenchTask("crawl-planar-v2", "MagSoftCrawl-v2", gait_reverse=True,
               note="the same, a broken crawl limit charged (progress forfeited) instead of ending the episode"),
     BenchTask("crawl-strip", "MagSoftCrawl-v1", {"rod": "cable"}, seeds=(1000, 1001), steps=100,
@@ -199,7 +200,8 @@ def evaluate(task: BenchTask, name: str) -> dict:
             "measure": task.measure, "measure_mean": float(np.mean(measures)), "measure_std": float(np.std(measures)),
             "measures": [float(m) for m in measures],
             "return_mean": float(np.mean(returns)), "return_std": float(np.std(returns)),
-            "steps_mean": float(np.mean(lengths)), "airborne_fraction": float(np.mean(airborne)), "locomotion": dict(sorted(modes.items())),
+            "steps_mean": float(np.mean(lengths)), "airborne_fraction": float(np.mean(airborne)),
+            "locomotion": dict(sorted(modes.items())),
             "env_steps": steps, "wall_s": wall, "steps_per_s": steps / wall if wall > 0 else math.nan}
 
 
@@ -223,7 +225,7 @@ def _fmt_modes(modes: dict) -> str:
 
 def markdown(rows: list[dict]) -> str:
     """The table (markdown)."""
-    lines = [f"| task | env id | controller | measure: mean +- std | return: mean +- std | airborne fraction | "
+    lines = ["| task | env id | controller | measure: mean +- std | return: mean +- std | airborne fraction | "
              "locomotion (episodes) | episodes x steps (cap) | wall time | env steps/s |",
              "|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:

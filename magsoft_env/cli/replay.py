@@ -115,7 +115,8 @@ def _replay(args) -> int:
         return 0
     print(f"{args.env} / {args.agent} ({info.get('algo')}, training seed {info.get('seed')}, "
           f"{info.get('model_timesteps')} steps; env kwargs {env_kwargs or 'none'})")
-    print("| seed | steps | speed (mm/s) | return | airborne fraction | highest clearance (mm) | locomotion | ended by |")
+    print("| seed | steps | speed (mm/s) | return | airborne fraction | highest clearance (mm) | locomotion | "
+          "ended by |")
     print("|---|---|---|---|---|---|---|---|")
     for r in rows:
         print(f"| {r['seed']} | {r['steps']} | {r['speed_mm_s']:+.3f} | {r['return']:+.1f} | "

@@ -58,7 +58,8 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-__all__ = ["agent_dir", "agent_info", "agent_model_path", "load_agent", "shipped_agents", "ALGOS", "GYM_PACKAGE", "ZOO_KEYS", "EvalResult", "Policy", "RunRecord", "SB3VecAdapter", "ThreadedVecEnv",
+__all__ = ["agent_dir", "agent_info", "agent_model_path", "load_agent", "shipped_agents",
+           "ALGOS", "GYM_PACKAGE", "ZOO_KEYS", "EvalResult", "Policy", "RunRecord", "SB3VecAdapter", "ThreadedVecEnv",
            "algo_arguments",
            "algo_class", "check_algo_kwargs", "check_env_id", "check_env_kwargs", "check_hyperparams",
            "check_policy_env", "env_arguments", "evaluate_open_loop", "evaluate_run", "find_run", "learning_curve",
