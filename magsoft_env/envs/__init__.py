@@ -3,6 +3,8 @@
 Ids (see each class docstring for the spec sheet):
 
 - ``MagSoftCrawl-v1``: free beam on a floor, action = field (B_x, B_z) each 20 ms.
+- ``MagSoftCrawl-v2``: the same, a broken crawl limit charged (``on_violation="penalty"``) instead of ending the
+  episode.
 - ``MagSoftCrawlWaveform-v1``: the same robot, action = one period of a waveform (gait design).
 - ``MagSoftChannel-v1``: crawl through the paper's 42 x 8.5 x 7.6 mm hollow box.
 - ``MagSoftObstacle-v1``: crawl over the paper's 7 x 5.5 x 2 mm block.
@@ -32,6 +34,9 @@ from gymnasium.envs.registration import register, registry
 #: id -> (entry point, max_episode_steps, kwargs)
 ENV_SPECS = {
     "MagSoftCrawl-v1": ("magsoft_env.envs.crawl:MagSoftCrawlEnv", 250, {}),
+    # v1's task with a broken crawl limit charged (and the progress so far forfeited) instead of ending the
+    # episode: random actions run whole episodes (the crawl env's spec sheet, Version History)
+    "MagSoftCrawl-v2": ("magsoft_env.envs.crawl:MagSoftCrawlEnv", 250, {"on_violation": "penalty"}),
     # 1-4 Hz: one step (a period) lasts at most 1 s of simulated time
     "MagSoftCrawlWaveform-v1": ("magsoft_env.envs.crawl:MagSoftCrawlEnv", 20,
                                 {"action_mode": "waveform", "frequency_range": (1.0, 4.0)}),

@@ -60,6 +60,9 @@ DEFAULT_MAX_LINK_ROTATION = 2.0 * math.pi / 3.0
 #: Waveform mode: frequency range of one cycle (Hz).
 DEFAULT_FREQUENCY_RANGE = (0.5, 4.0)
 ACTION_MODES = ("field", "waveform")
+#: What a broken crawl limit does (``on_violation``): ``"end"`` ends the episode (v1), ``"penalty"`` charges the
+#: step and goes on (v2's default).
+VIOLATION_RULES = ("end", "penalty")
 
 
 class MagSoftCrawlEnv(gym.Env):
@@ -154,7 +157,9 @@ class MagSoftCrawlEnv(gym.Env):
     ## Episode End
 
     - Termination: a crawl limit is broken at any substep of the step (``info["crawl_violation"]`` says
-      which, and when).
+      which, and when). With ``on_violation="penalty"`` (``MagSoftCrawl-v2``) the episode goes on instead: the step
+      pays ``crawl_penalty`` and forfeits the forward reward earned since the last broken limit, and
+      ``info["crawl_violations"]`` counts the steps that broke one.
     - Truncation: the time limit (``max_episode_steps`` of the registered id: 250 steps = 5 s
       in field mode, 20 cycles in waveform mode), or an unstable simulation:
       ``info["truncation_reason"]`` holds the :class:`~magsoft_env.sim.SimulationError` text.
@@ -202,6 +207,8 @@ class MagSoftCrawlEnv(gym.Env):
     | ``max_clearance`` | 1e-5 | crawl modes "rotation" and "height": the episode ends when the rod's lowest point is |
     | | | higher above the floor (m) at any substep (the whole beam off the floor); None: no limit |
     | ``crawl_penalty`` | 10 | reward lost when the crawl limit is broken |
+    | ``on_violation`` | ``"end"`` | a broken crawl limit ``"end"``s the episode (v1) or is a ``"penalty"`` and the |
+    | | | episode goes on (``MagSoftCrawl-v2``); ``info["crawl_violations"]`` counts such steps |
     | ``frequency_range`` | (0.5, 4) | waveform-mode frequencies (Hz) |
     | ``clock_frequency`` | 2 | field-mode clock observed as sin/cos (Hz) |
     | ``reset_noise_scale`` | 1e-3 | initial hinge-angle noise (rad) |
@@ -239,6 +246,18 @@ class MagSoftCrawlEnv(gym.Env):
       (were checked at the end of each control step only), and the crawl modes require part of the beam on
       the floor at every substep (``max_clearance`` 0.01 mm; was 2 mm); ``info`` carries ``highest_clearance``
       and ``airborne_fraction``. ``MagSoftCrawlWaveform-v1`` plays 1-4 Hz periods (was 0.5-4 Hz).
+    - v2 (``MagSoftCrawl-v2``; v1 kept unchanged): v1's task, robot, limits, action range (2 mT) and rewards, with
+      ``on_violation="penalty"``: a step that breaks a crawl limit (airborne, or a piece past 120 deg) pays
+      ``crawl_penalty`` (10) and forfeits the episode's forward reward earned since the last broken limit (as v1's
+      end does), and the episode goes on. Why: under v1 random actions lift the whole beam off the floor within
+      6.7 steps on average (20 seeded episodes) and stock PPO learns nothing; under v2 they run all 250 steps
+      (20 of 20 episodes; 41 steps of 250 break a limit on average). The limits stay as honest as v1's: a hop
+      or tumble never pays (every broken step zeroes the progress kept so far) and ``airborne_fraction`` and
+      ``locomotion`` report it. A smaller action range (1.5 mT: 5.8 broken steps per random episode) was not
+      chosen: the paper's crawls use up to 2 mT, and v1's policies and open-loop gaits compare at the same range.
+      Measured (docs/bench.md): the project's PPO block learns a crawl on v2 (one seed, 50,176 steps: +0.78 mm/s,
+      airborne fraction 0); stock PPO (SB3 defaults, 51,200 steps) holds a field and stands still.
+      v2 has no batched vector entry point (``gym.make_vec`` gives Gymnasium's sync vector env).
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 50}
@@ -266,6 +285,7 @@ class MagSoftCrawlEnv(gym.Env):
         max_height: float = DEFAULT_MAX_HEIGHT,
         max_clearance: float | None = DEFAULT_MAX_CLEARANCE,
         crawl_penalty: float = 10.0,
+        on_violation: str = "end",
         frequency_range: tuple[float, float] = DEFAULT_FREQUENCY_RANGE,
         clock_frequency: float = 2.0,
         reset_noise_scale: float = 1e-3,
@@ -318,6 +338,7 @@ class MagSoftCrawlEnv(gym.Env):
         self.max_height = positive("max_height", max_height, unit="m")
         self.max_clearance = None if max_clearance is None else positive("max_clearance", max_clearance, unit="m")
         self.crawl_penalty = nonnegative("crawl_penalty", crawl_penalty)
+        self.on_violation = choice("on_violation", on_violation, VIOLATION_RULES)
         if isinstance(frequency_range, (str, bytes)) or not hasattr(frequency_range, "__len__") \
                 or len(frequency_range) != 2:
             raise ValueError(f"frequency_range must be (f_min, f_max) in Hz, got {frequency_range!r}.")
@@ -373,6 +394,7 @@ class MagSoftCrawlEnv(gym.Env):
         #: the episode's records (the crawl task's, n = 1)
         self._records = CrawlRecords.zeros(1)
         self._broken = False
+        self._violations = 0  # steps that broke a crawl limit this episode (on_violation="penalty")
         self._samples: list = []
 
     # ------------------------------------------------------------------ the task's parameters
@@ -447,8 +469,12 @@ class MagSoftCrawlEnv(gym.Env):
         start = self._limits(pose.centreline[:, None, :], [self.sim.floor_depth()])
         self._records.restart([True], com=pose.com[[0, 2]][None], start_limits=start[:, :, 0])
         self._broken = False
+        self._violations = 0
         self._last_obs = self._get_obs()
-        return self._last_obs, self._info(pose)
+        info = self._info(pose)
+        if self.on_violation == "penalty":
+            info["crawl_violations"] = 0
+        return self._last_obs, info
 
     def _apply(self, action) -> tuple[int, float]:
         """Apply the action's field: returns the step's substeps and mean normalized field power."""
@@ -530,6 +556,12 @@ class MagSoftCrawlEnv(gym.Env):
         reward, terms = crawl_reward(rec.com_velocity[:, 0], [power], violated, rec.episode_forward, task,
                                      self._success_reward())
         rec.episode_forward += terms["forward"]
+        penalty_rule = self.on_violation == "penalty"
+        if penalty_rule and violated[0]:
+            # the step forfeited the progress earned so far (crawl_reward): what is kept from here on is the
+            # progress after the last broken limit
+            rec.episode_forward[0] = 0.0
+            self._violations += 1
         obs = self._get_obs(task)
         if not np.all(np.isfinite(obs)):
             self._broken = True
@@ -539,7 +571,11 @@ class MagSoftCrawlEnv(gym.Env):
         if violated[0]:
             when = sim.time - (k - column) * self.sim_dt  # column j: j substeps into the step
             info["crawl_violation"] = violation_texts(figures, when, task, violated)[0]
-        terminated = bool(violated[0]) or self._is_success()
+        if penalty_rule:
+            info["crawl_violations"] = self._violations
+            terminated = self._is_success()
+        else:
+            terminated = bool(violated[0]) or self._is_success()
         return obs, float(reward[0]), terminated, False, info
 
     def _success_reward(self) -> float:

@@ -5,6 +5,7 @@ policies checked against the env they are played in (the library behind ``train/
 :class:`~magsoft_env.rl.vec.ThreadedVecEnv`, SB3's ``DummyVecEnv`` on threads (rl-zoo3 runs with ``vec="threads"``).
 Stable-Baselines3, rl-zoo3 and torch are imported only when used (``SB3VecAdapter``: on first access)."""
 
+from .agents import agent_dir, agent_info, agent_model_path, load_agent, shipped_agents
 from .evaluation import (
     EvalResult,
     Policy,
@@ -57,7 +58,8 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-__all__ = ["ALGOS", "GYM_PACKAGE", "ZOO_KEYS", "EvalResult", "Policy", "RunRecord", "SB3VecAdapter", "ThreadedVecEnv",
+__all__ = ["agent_dir", "agent_info", "agent_model_path", "load_agent", "shipped_agents",
+           "ALGOS", "GYM_PACKAGE", "ZOO_KEYS", "EvalResult", "Policy", "RunRecord", "SB3VecAdapter", "ThreadedVecEnv",
            "algo_arguments",
            "algo_class", "check_algo_kwargs", "check_env_id", "check_env_kwargs", "check_hyperparams",
            "check_policy_env", "env_arguments", "evaluate_open_loop", "evaluate_run", "find_run", "learning_curve",
