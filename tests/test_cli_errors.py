@@ -61,7 +61,7 @@ CASES = [
     ("crosscheck", ["fig3a_L2O", "--segments", "8"], "{never}", "fig3a_L20"),
     ("design", ["--target", "bal"], "{never}", "Did you mean 'ball'"),
     ("video", ["--preset", "paper-5x"], "{never}/x.gif", "Did you mean 'paper-5c'"),
-    ("video", ["--env", "MagSoftCrawl-v9"], "{never}/x.mp4", "Did you mean 'MagSoftCrawl-v1'"),
+    ("video", ["--env", "MagSoftCrawl-v9"], "{never}/x.mp4", "Did you mean 'MagSoftCrawl-v2'"),
     ("video", ["--env", "MagSoftCrawl-v1", "--policy", "missing.zip"], "{never}/x.gif", "--policy must be an existing"),
     # output paths that cannot be written
     ("video", ["--preset", "paper-5a"], "{never}/x.avi", "--out must end in one of"),
@@ -121,7 +121,7 @@ def test_the_real_command_fails_well(tmp_path):
     assert r.stdout == "" and "Traceback" not in r.stderr
     (line,) = r.stderr.strip().splitlines()
     assert line.startswith("magsoft video: error: --env must be a registered magsoft environment id (")
-    assert line.endswith("got 'MagSoftCrawl-v9'. Did you mean 'MagSoftCrawl-v1'?")
+    assert line.endswith("got 'MagSoftCrawl-v9'. Did you mean 'MagSoftCrawl-v2'?")
 
 
 def test_unknown_flag_suggests_the_closest_one(capsys):

@@ -384,7 +384,7 @@ def test_the_floor_ids_v0_are_removed_with_an_error_naming_v1(name):
     assert f"{name}-v1" in gym.registry and f"{name}-v0" not in gym.registry
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)
-        with pytest.raises(gym.error.DeprecatedEnv, match=f"Please use `{name}-v1`"):
+        with pytest.raises(gym.error.DeprecatedEnv, match=f"Please use `{name}-v[12]`"):
             gym.make(f"{name}-v0")
 
 

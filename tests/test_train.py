@@ -94,7 +94,7 @@ def test_hyperparams_refuse_yaml_exponent_strings(tmp_path):
 
 
 def test_hyperparams_errors(tmp_path):
-    with pytest.raises(ValueError, match="Did you mean 'MagSoftCrawl-v1'"):
+    with pytest.raises(ValueError, match="Did you mean 'MagSoftCrawl-v[12]'"):
         load_hyperparams(PPO_FILE, "MagSoftCrawl-v9", "ppo")
     with pytest.raises(ValueError, match="algo must be one of .*got 'ppp'.* Did you mean 'ppo'"):
         load_hyperparams(PPO_FILE, "MagSoftCrawl-v1", "ppp")
