@@ -101,7 +101,8 @@ def solve_in_source(preset, source, *, steps: int = 1, field=None):
 
 
 def check_source_case(preset, steps) -> int:
-    """The case the source solver takes, or a ValueError naming the flag: a planar cantilever, inextensible."""
+    """The case the source solvers take, or a ValueError naming the flag: a cantilever, inextensible (a beam
+    magnetized across its width, or a source that loads it out of its plane, takes the 3D rod)."""
     if steps is None:
         steps = 1
     if preset.support != "cantilever":
@@ -109,9 +110,6 @@ def check_source_case(preset, steps) -> int:
                          f"got support {preset.support!r}; give --support cantilever.")
     if preset.extensible:
         raise ValueError("--source solves the inextensible beam: give --no-extensible.")
-    if not preset.beam.is_planar:
-        raise ValueError("--source solves the planar cantilever, which cannot take a magnetization with a component "
-                         "across the width (the 3D rod takes uniform fields only).")
     if not 1 <= steps <= MAX_STEPS:
         raise ValueError(f"--steps must be an integer in [1, {MAX_STEPS}] with --source, got {steps}.")
     return steps
