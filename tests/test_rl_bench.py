@@ -196,3 +196,18 @@ def test_the_wheel_ships_every_agent_file(tmp_path):
     assert any(f.endswith(".zip") for f in files) and any(f.endswith(".pkl") for f in files)
     for f in files:
         assert f"magsoft_env/_assets/{f}" in members, f
+
+
+@pytest.mark.slow
+def test_gap_matrix_rows_and_the_strip_refusal():
+    """The gap matrix plays an agent on every variant; the strip's observation does not fit a chain agent, and the
+    row says so instead of failing."""
+    from magsoft_env.bench import gap_matrix
+
+    rows = gap_matrix.run(["ppo_seed1"], progress=None)
+    assert [r["variant"] for r in rows] == [v[0] for v in gap_matrix.variants()]
+    strip = next(r for r in rows if "strip" in r["variant"])
+    assert "observation space" in strip["not_applicable"]
+    trained = rows[0]
+    assert trained["measure_mean"] > 0.5 and trained["airborne_fraction"] == 0.0
+    assert "n/a" in gap_matrix.markdown(rows)
