@@ -316,6 +316,13 @@ class MagSoftSteerEnv(gym.Env):
     def _horizontal_distance(self) -> float:
         return float(math.hypot(*(self._goal - self._com[:2])))
 
+    def position_observation_indices(self) -> np.ndarray:
+        """Indices of the observation entries a tracking camera measures as positions (m): the goal minus the
+        centre of mass, the distance, and the strip's points relative to it (what
+        :class:`~magsoft_env.envs.sensing.SensingWrapper` puts noise on)."""
+        n = len(self.sim.centerline()[0])
+        return np.r_[0:3, 6:6 + 3 * n]
+
     def _get_obs(self) -> np.ndarray:
         x, y, z = self.sim.centerline()
         rel = np.stack([x, y, z], axis=1) - self._com
