@@ -59,8 +59,8 @@ def test_the_wrapped_env_passes_gymnasiums_checker():
 
     env = SensingWrapper(MagSoftSteerEnv(**FAST), frame_rate=25.0, latency_frames=1, position_noise=1e-4, dropout=0.1)
     with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", message=".*different from the unwrapped version")
         warnings.simplefilter("error")
+        warnings.filterwarnings("ignore", message=".*different from the unwrapped version")
         check_env(env, skip_render_check=True)  # seeded resets replay the noise and the dropped frames too
 
 
