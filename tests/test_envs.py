@@ -446,3 +446,35 @@ def _substep_clearances(env, action, half_h):
         clear.append(np.min(env.sim.centerline()[1]) - half_h)
     clear.append(np.min(env.sim.centerline()[1]) - half_h)  # the step's end state
     return clear, info
+
+
+def test_friction_range_randomizes_the_floor_per_reset_and_a_point_range_is_the_fixed_friction():
+    """Domain randomization: friction_range=(0.6, 0.6) runs exactly as friction=0.6 (the same model arrays and the
+    same trajectory: the draw comes after the reset noise), a range gives each seeded reset its own friction."""
+    from magsoft_env.envs.crawl import scene_friction
+
+    a = make("MagSoftCrawl-v1", friction=0.6)
+    b = make("MagSoftCrawl-v1", friction_range=(0.6, 0.6))
+    oa, _ = a.reset(seed=4)
+    ob, info = b.reset(seed=4)
+    assert info["friction"] == 0.6 and np.array_equal(oa, ob)
+    ma, mb = a.unwrapped.sim.model, b.unwrapped.sim.model
+    assert np.array_equal(ma.pair_friction, mb.pair_friction) and np.array_equal(ma.geom_friction, mb.geom_friction)
+    act = np.array([0.4, 0.7], dtype=np.float32)
+    for _ in range(5):
+        oa = a.step(act)[0]
+        ob = b.step(act)[0]
+    assert np.array_equal(oa, ob)
+    c = make("MagSoftCrawl-v1", friction_range=(0.3, 0.7))
+    drawn = {c.reset(seed=s)[1]["friction"] for s in range(5)}
+    assert len(drawn) == 5 and all(0.3 <= f <= 0.7 for f in drawn)
+    assert c.reset(seed=2)[1]["friction"] == scene_friction(c.unwrapped.sim.model)
+    with pytest.raises(ValueError, match="friction_range"):
+        make("MagSoftCrawl-v1", friction_range=(0.7, 0.3))
+
+
+def test_the_warp_backend_refuses_friction_range_by_name():
+    pytest.importorskip("warp")
+    pytest.importorskip("mujoco_warp")
+    with pytest.raises(ValueError, match="friction_range"):
+        gym.make_vec("MagSoftCrawl-v1", num_envs=2, backend="warp", device="cpu", friction_range=(0.4, 0.6))

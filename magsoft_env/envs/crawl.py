@@ -198,6 +198,7 @@ class MagSoftCrawlEnv(gym.Env):
     | ``fidelity`` | None | named numerics instead of ``sim_dt`` and ``segments``: ``"fast"`` (20, 0.2 ms), ``"fine"`` |
     | | | (80, 0.1 ms), ``"converged"`` (80, 0.025 ms); None: the robot's own (see "Numerics") |
     | ``friction`` | None | rod-floor sliding friction; None: the robot's (0.5 for the paper robots) |
+    | ``friction_range`` | None | domain randomization: a friction drawn from ``U(low, high)`` at every reset |
     | ``target_direction`` | 1 | +1: reward motion along +x; -1: along -x |
     | ``forward_reward_weight`` | 1000 | (s/m) |
     | ``field_cost_weight`` | 0.1 | weight of the normalized field power |
@@ -277,6 +278,7 @@ class MagSoftCrawlEnv(gym.Env):
         segments: int | None = None,
         fidelity: str | None = None,
         friction: float | None = None,
+        friction_range: tuple[float, float] | None = None,
         target_direction: int = 1,
         forward_reward_weight: float = 1000.0,
         field_cost_weight: float = 0.1,
@@ -318,6 +320,7 @@ class MagSoftCrawlEnv(gym.Env):
                                    feature_x=feature_x, rod=rod, **(rod_options or {}))
         self.sim_dt = options.timestep
         self.fidelity = fidelity
+        self.friction_range = _friction_range(friction_range)
         if self.sim_dt > MAX_TIMESTEP:
             raise ValueError(f"sim_dt must lie in (0, {MAX_TIMESTEP:g}] s, got {sim_dt!r}.")
         if self.action_mode == "field" and self.sim_dt > self.ctrl_dt:
@@ -462,6 +465,8 @@ class MagSoftCrawlEnv(gym.Env):
         sim = self.sim
         if qpos is None:
             qpos = sim.noisy_rest(self.np_random, self.reset_noise_scale)
+        if self.friction_range is not None:  # drawn after the reset noise: fixed-friction episodes draw as before
+            set_scene_friction(sim.model, float(self.np_random.uniform(*self.friction_range)))
         sim.set_field((0.0, 0.0))
         sim.reset(qpos=qpos, qvel=qvel)
         self._tracker = sim.orientation_tracker()
@@ -474,6 +479,8 @@ class MagSoftCrawlEnv(gym.Env):
         info = self._info(pose)
         if self.on_violation == "penalty":
             info["crawl_violations"] = 0
+        if self.friction_range is not None:
+            info["friction"] = scene_friction(sim.model)
         return self._last_obs, info
 
     def _apply(self, action) -> tuple[int, float]:
@@ -619,3 +626,34 @@ class MagSoftCrawlEnv(gym.Env):
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
+
+
+#: Largest sliding friction coefficient ``friction_range`` accepts.
+MAX_FRICTION = 2.0
+
+
+def _friction_range(value) -> tuple[float, float] | None:
+    """``friction_range`` checked: None or ``(low, high)`` with 0 <= low <= high <= MAX_FRICTION."""
+    if value is None:
+        return None
+    try:
+        lo, hi = (float(v) for v in value)
+    except (TypeError, ValueError):
+        raise ValueError(f"friction_range must be None or (low, high), got {value!r}.") from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0.0 <= lo <= hi <= MAX_FRICTION):
+        raise ValueError(f"friction_range must be (low, high) with 0 <= low <= high <= {MAX_FRICTION:g} (sliding "
+                         f"friction coefficients), got {value!r}.")
+    return lo, hi
+
+
+def set_scene_friction(model, mu: float) -> None:
+    """Set the sliding friction of every contact of a rod model to ``mu``, as building it with ``friction=mu`` does:
+    the contact pairs' two sliding coefficients and every geom's (MuJoCo takes the larger of two geoms')."""
+    if model.npair:
+        model.pair_friction[:, 0:2] = mu
+    model.geom_friction[:, 0] = mu
+
+
+def scene_friction(model) -> float:
+    """The sliding friction of a rod model's contacts (its first pair's, or its first geom's)."""
+    return float(model.pair_friction[0, 0] if model.npair else model.geom_friction[0, 0])

@@ -120,6 +120,9 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
                              f"{env_class.__name__} (its scene's walls and block are not built for MJWarp here); "
                              "use the CPU batch (backend='cpu') for MagSoftChannel-v1 and MagSoftObstacle-v1.")
         refuse_warp_rod(kwargs.get("rod", DEFAULT_ROD))
+        if kwargs.get("friction_range") is not None:
+            raise ValueError("backend='warp' does not draw friction_range at resets (its worlds reset on the device); "
+                             "give one friction per world instead (friction=[...]), or use backend='cpu'.")
         self.num_envs = _count("num_envs", num_envs)
         self.max_episode_steps = None if max_episode_steps is None else _count("max_episode_steps", max_episode_steps)
         if not (isinstance(settle_time, (int, float)) and math.isfinite(settle_time) and settle_time >= 0):
