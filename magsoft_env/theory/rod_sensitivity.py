@@ -57,7 +57,7 @@ import scipy.linalg
 
 from ..threads import single_threaded_blas
 from .rod import _H, Load3, qmat, qmul
-from .sensitivity import _UNITS, FOLD_EIGENVALUE, Sensitivity
+from .sensitivity import _UNITS, FOLD_EIGENVALUE, Sensitivity, check_params
 
 #: Parameters of :func:`rod_sensitivities` (a 3D cantilever in a uniform field), SI units.
 ROD_PARAMETERS = ("E0", "particle_magnetization", "density", "gravity", "Bx", "By", "Bz", "clamp_angle", "thickness",
@@ -268,27 +268,6 @@ def _source_offset_rate(mdl, q, load, axis: int) -> np.ndarray:
 
 
 # the checks and the solve --------------------------------------------------------------------------------------
-def _check_params(params, allowed, what) -> tuple[str, ...]:
-    if isinstance(params, str):
-        params = (params,)
-    try:
-        params = tuple(params)
-    except TypeError:
-        raise ValueError(f"params must be a sequence of parameter names, got {params!r}.") from None
-    if not params:
-        raise ValueError(f"params must name at least one of {list(allowed)}, got none.")
-    for p in params:
-        if p not in allowed:
-            import difflib
-
-            close = difflib.get_close_matches(str(p), allowed, n=1)
-            hint = f" Did you mean {close[0]!r}?" if close else ""
-            raise ValueError(f"unknown parameter {p!r}: {what} are available for {list(allowed)}.{hint}")
-    if len(set(params)) != len(params):
-        raise ValueError(f"params must not repeat a name, got {list(params)}.")
-    return params
-
-
 def _check_result(result, source: bool):
     from .rod_solver import RodResult
     from .rod_sources import SourceRodResult
@@ -380,7 +359,7 @@ def rod_sensitivities(result, params=("E0", "particle_magnetization")) -> RodSen
     >>> bool(d["E0"]["tip_position"][2] < 0), bool(d["By"]["tip_twist"] != 0)
     (True, True)
     """
-    params = _check_params(params, ROD_PARAMETERS, "3D sensitivities")
+    params = check_params(params, ROD_PARAMETERS, "3D sensitivities")
     with single_threaded_blas():  # small dense problems: threads only cost (as in the solver)
         mdl, q, load, lam = _check_result(result, source=False)
         beam = mdl.beam
@@ -404,7 +383,7 @@ def source_rod_sensitivities(result, params=("E0", "particle_magnetization")) ->
     params : sequence of str
         Any of :data:`SOURCE_ROD_PARAMETERS`.
     """
-    params = _check_params(params, SOURCE_ROD_PARAMETERS, "3D sensitivities in a source")
+    params = check_params(params, SOURCE_ROD_PARAMETERS, "3D sensitivities in a source")
     with single_threaded_blas():
         mdl, q, load, lam = _check_result(result, source=True)
         beam = mdl.beam

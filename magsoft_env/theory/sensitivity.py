@@ -101,7 +101,9 @@ class Sensitivity:
                 "tip_angle": float(self.tip_angle[k])}
 
 
-def _check_params(params) -> tuple[str, ...]:
+def check_params(params, allowed=PARAMETERS, what: str = "sensitivities") -> tuple[str, ...]:
+    """``params`` as a tuple of names from ``allowed``, or a ValueError (unknown name with a suggestion, none,
+    a repeat) saying which ``what`` are available."""
     if isinstance(params, str):
         params = (params,)
     try:
@@ -109,14 +111,14 @@ def _check_params(params) -> tuple[str, ...]:
     except TypeError:
         raise ValueError(f"params must be a sequence of parameter names, got {params!r}.") from None
     if not params:
-        raise ValueError(f"params must name at least one of {list(PARAMETERS)}, got none.")
+        raise ValueError(f"params must name at least one of {list(allowed)}, got none.")
     for p in params:
-        if p not in PARAMETERS:
+        if p not in allowed:
             import difflib
 
-            close = difflib.get_close_matches(str(p), PARAMETERS, n=1)
+            close = difflib.get_close_matches(str(p), allowed, n=1)
             hint = f" Did you mean {close[0]!r}?" if close else ""
-            raise ValueError(f"unknown parameter {p!r}: sensitivities are available for {list(PARAMETERS)}.{hint}")
+            raise ValueError(f"unknown parameter {p!r}: {what} are available for {list(allowed)}.{hint}")
     if len(set(params)) != len(params):
         raise ValueError(f"params must not repeat a name, got {list(params)}.")
     return params
@@ -176,7 +178,7 @@ def sensitivities(result, params=("E0", "particle_magnetization")) -> Sensitivit
     >>> bool(d["E0"]["tip_position"][2] < 0)   # a stiffer beam rises less toward a field along +z
     True
     """
-    params = _check_params(params)
+    params = check_params(params)
     mdl, th, load = _state(result)
     lam = float(result.min_eigenvalue)
     if not lam > FOLD_EIGENVALUE:
@@ -288,7 +290,7 @@ def profile_sensitivities(result, dbeta=None, *, dlog_moment=None, names=None, p
         extra = (params,) if isinstance(params, str) else tuple(params)
     except TypeError:
         raise ValueError(f"params must be a sequence of parameter names, got {params!r}.") from None
-    extra = _check_params(extra) if extra else ()
+    extra = check_params(extra) if extra else ()
     if k == 0 and not extra:
         raise ValueError("give dbeta, dlog_moment or params: there is nothing to differentiate with respect to.")
     if names is None:
@@ -419,18 +421,7 @@ def source_sensitivities(result, params=("E0", "particle_magnetization")) -> Sen
     from ..fields import Transformed
     from .sources import SourceResult, _Load, _Model, _stability
 
-    if isinstance(params, str):
-        params = (params,)
-    params = tuple(params)
-    for p in params:
-        if p not in SOURCE_PARAMETERS:
-            import difflib
-
-            close = difflib.get_close_matches(str(p), SOURCE_PARAMETERS, n=1)
-            raise ValueError(f"unknown parameter {p!r}: sensitivities in a source are available for "
-                             f"{list(SOURCE_PARAMETERS)}." + (f" Did you mean {close[0]!r}?" if close else ""))
-    if not params or len(set(params)) != len(params):
-        raise ValueError(f"params must name distinct parameters of {list(SOURCE_PARAMETERS)}, got {list(params)}.")
+    params = check_params(params, SOURCE_PARAMETERS, "sensitivities in a source")
     if not isinstance(result, SourceResult):
         raise ValueError(f"source_sensitivities take a planar SourceResult, got {type(result).__name__}.")
     if not result.success:
