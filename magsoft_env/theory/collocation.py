@@ -182,6 +182,27 @@ def _grid_cached(edges: tuple[float, ...], n: int) -> Grid:
     return Grid(np.asarray(edges), n, s, s_eval, w, Q0, domain)
 
 
+def finer_grid(grid: Grid, theta, *, max_nodes: int, max_total: int) -> Grid | None:
+    """A finer grid than ``grid`` (on which the shape is ``theta``): the degree raised 1.5x while it stays within
+    ``max_nodes``, then the least resolved subdomains (trailing Chebyshev coefficients within 10 % of the largest)
+    halved; None when that would pass ``max_total`` nodes."""
+    d = len(grid.edges) - 1
+    if grid.n < max_nodes:
+        n = min(max_nodes, int(np.ceil(grid.n * 1.5)))
+        return _grid_cached(tuple(float(e) for e in grid.edges), n) if d * (n + 1) <= max_total else None
+    C = np.abs(grid._Ctail @ theta).reshape(d, 3).max(axis=1)
+    split = C >= 0.1 * C.max() if C.max() > 0 else np.ones(d, bool)
+    if (d + int(split.sum())) * (grid.n + 1) > max_total:
+        return None
+    e = grid.edges
+    edges = [e[0]]
+    for k in range(d):
+        if split[k]:
+            edges.append(0.5 * (e[k] + e[k + 1]))
+        edges.append(e[k + 1])
+    return _grid_cached(tuple(float(v) for v in edges), grid.n)
+
+
 def make_grid(length: float, breakpoints=(), *, n: int = 24, max_domain: float | None = None) -> Grid:
     """Grid on [0, length] with subdomains cut at ``breakpoints`` (m).
 

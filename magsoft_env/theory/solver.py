@@ -15,7 +15,7 @@ import scipy.optimize
 from ..spec import Beam, as_field, as_fields
 from ..threads import single_threaded_blas
 from ..validate import choice
-from .collocation import Grid, _grid_cached, make_grid
+from .collocation import Grid, _grid_cached, finer_grid, make_grid
 from .model import BeamModel, Load
 from .options import (
     MAX_TOTAL_NODES,
@@ -641,23 +641,8 @@ class _Solver:
                                  theta0=self.theta0)
 
     def _next_grid(self, grid: Grid, theta) -> Grid | None:
-        """A finer grid than ``grid`` (on which the shape is ``theta``): a higher degree while
-        allowed, then the least resolved subdomains halved."""
-        d = len(grid.edges) - 1
-        if grid.n < self.opt.max_nodes:
-            n = self._finer(grid.n)
-            return _regrid(grid, n) if d * (n + 1) <= MAX_TOTAL_NODES else None
-        C = np.abs(grid._Ctail @ theta).reshape(d, 3).max(axis=1)
-        split = C >= 0.1 * C.max() if C.max() > 0 else np.ones(d, bool)
-        if (d + int(split.sum())) * (grid.n + 1) > MAX_TOTAL_NODES:
-            return None
-        e = grid.edges
-        edges = [e[0]]
-        for k in range(d):
-            if split[k]:
-                edges.append(0.5 * (e[k] + e[k + 1]))
-            edges.append(e[k + 1])
-        return _grid_cached(tuple(float(v) for v in edges), grid.n)
+        """A finer grid than ``grid`` (:func:`~magsoft_env.theory.collocation.finer_grid`)."""
+        return finer_grid(grid, theta, max_nodes=self.opt.max_nodes, max_total=MAX_TOTAL_NODES)
 
     def refine(self) -> tuple[float, float]:
         """Refine the grid until theta's Chebyshev tail is below ``resolution_tol`` and the

@@ -42,7 +42,7 @@ import numpy as np
 import scipy.linalg
 
 from ..spec import Beam, Field
-from .collocation import Grid, _grid_cached, make_grid
+from .collocation import Grid, finer_grid, make_grid
 from .options import MAX_TOTAL_NODES, SolverOptions, subdomain_edges
 from .result import PathResult, PlanarShape
 from .verify import _points, outcome
@@ -540,22 +540,8 @@ class _SourceSolver:
         return tail, ver
 
     def _next_grid(self, grid: Grid, theta) -> Grid | None:
-        """A finer grid: a higher degree while allowed, then the least resolved subdomains halved."""
-        d = len(grid.edges) - 1
-        if grid.n < self.opt.max_nodes:
-            n = min(self.opt.max_nodes, int(math.ceil(1.5 * grid.n)))
-            return _grid_cached(tuple(float(e) for e in grid.edges), n) if d * (n + 1) <= MAX_TOTAL_NODES else None
-        C = np.abs(grid._Ctail @ theta).reshape(d, 3).max(axis=1)
-        split = C >= 0.1 * C.max() if C.max() > 0 else np.ones(d, bool)
-        if (d + int(split.sum())) * (grid.n + 1) > MAX_TOTAL_NODES:
-            return None
-        e = grid.edges
-        edges = [e[0]]
-        for k in range(d):
-            if split[k]:
-                edges.append(0.5 * (e[k] + e[k + 1]))
-            edges.append(e[k + 1])
-        return _grid_cached(tuple(float(v) for v in edges), grid.n)
+        """A finer grid than ``grid`` (:func:`~magsoft_env.theory.collocation.finer_grid`)."""
+        return finer_grid(grid, theta, max_nodes=self.opt.max_nodes, max_total=MAX_TOTAL_NODES)
 
     def result(self, ok: bool, snapped: bool, source, tail, ver, wall_time) -> SourceResult:
         mdl, grid, th = self.model, self.grid, self.theta
