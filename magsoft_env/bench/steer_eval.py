@@ -1,5 +1,6 @@
 """Steering evaluation: success rate and time to goal of controllers in ``MagSoftSteer-v0`` and
-``MagSoftSteerWaveform-v0`` (with ``--sources`` also ``MagSoftCoils-v0`` and ``MagSoftMagnet-v0``), on the same goals.
+``MagSoftSteerWaveform-v0`` (with ``--sources`` also ``MagSoftCoils-v0``, ``MagSoftMagnet-v0`` and their waveform
+ids), on the same goals.
 
 Run: ``python -m magsoft_env.bench.steer_eval [--episodes 20] [--run RUN ...] [--sim-dt 2e-4] [--sources] [--json]``.
 
@@ -33,6 +34,8 @@ SOURCE_CASES = (
     ("MagSoftCoils-v0", {"coils": "cardiomag"}, "hand controller (cardiomag)"),
     ("MagSoftMagnet-v0", {}, "hand controller (pull)"),
     ("MagSoftMagnet-v0", {"tilt": True}, "hand controller (tilt)"),
+    ("MagSoftCoilsWaveform-v0", {}, "hand controller (wave)"),
+    ("MagSoftMagnetWaveform-v0", {}, "hand controller (wave)"),
 )
 
 

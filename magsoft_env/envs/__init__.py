@@ -16,6 +16,9 @@ Ids (see each class docstring for the spec sheet):
   ``coils="cardiomag"``), through a current drive (lag, slew rate), gradient forces included.
 - ``MagSoftMagnet-v0``: the same task, action = the pose of a permanent magnet held above the floor by a robot arm
   (moved at a bounded speed), gradient forces included.
+- ``MagSoftCoilsWaveform-v0``, ``MagSoftMagnetWaveform-v0``: those two tasks with ``MagSoftSteerWaveform-v0``'s
+  action (a rotating field's plane, magnitude and frequency each 0.1 s), which the coils or the magnet make at the
+  strip.
 
 The floor ids' v0 (crawl limits checked only at the end of each control step; the channel and obstacle
 observing 48 numbers) are no longer registered: ``gym.make("MagSoftCrawl-v0")`` raises Gymnasium's
@@ -50,6 +53,9 @@ ENV_SPECS = {
     # the steer task through a field source: coil currents (a drive with lag and slew) or a magnet's pose; 5 s
     "MagSoftCoils-v0": ("magsoft_env.envs.coils:MagSoftCoilsEnv", 250, {}),
     "MagSoftMagnet-v0": ("magsoft_env.envs.magnet:MagSoftMagnetEnv", 250, {}),
+    # the same two tasks with MagSoftSteerWaveform-v0's action, made at the strip by the actuator each 20 ms; 5 s
+    "MagSoftCoilsWaveform-v0": ("magsoft_env.envs.source_waveform:MagSoftCoilsWaveformEnv", 50, {}),
+    "MagSoftMagnetWaveform-v0": ("magsoft_env.envs.source_waveform:MagSoftMagnetWaveformEnv", 50, {}),
 }
 #: id -> vector entry point (``gym.make_vec``): the floor envs, batched on threads (envs/vector.py)
 VECTOR_ENTRY_POINTS = {

@@ -108,6 +108,12 @@ class SourceSteerEnv(MagSoftSteerEnv):
         self._reset_actuator()
         return super().reset(seed=seed, options=options)
 
+    def field_action(self, field) -> np.ndarray:
+        """The actuator's action (float32) that makes ``field`` (T, (3,)) at the strip's centre of mass now, as
+        near as the actuator can: the hand controllers and the waveform ids
+        (:mod:`~magsoft_env.envs.source_waveform`) act through it."""
+        raise NotImplementedError
+
     def wanted_field(self, obs=None) -> np.ndarray:
         """The field (T, (3,)) the steer env's hand controller (:func:`~magsoft_env.envs.steer.steer_controller`)
         wants at the strip for ``obs`` (default the last observation): :data:`CONTROLLER_FIELD` turning at
@@ -318,6 +324,11 @@ class MagSoftCoilsEnv(SourceSteerEnv):
             a = allocate(self.system, point, field=b * min(1.0, 0.999 * a.scale_limit))
         return a.currents
 
+    def field_action(self, field) -> np.ndarray:
+        """The normalized currents (float32) that make ``field`` (T, (3,)) at the strip's centre of mass
+        (:meth:`currents_for`)."""
+        return np.clip(self.currents_for(field) / self.max_current, -1.0, 1.0).astype(np.float32)
+
     def baseline_action(self, obs=None) -> np.ndarray:
         """The hand controller's action: :meth:`wanted_field` (:func:`~magsoft_env.envs.steer.steer_controller`'s
         field, 3 mT) allocated to the coils at the strip's centre of mass (:meth:`currents_for`), normalized.
@@ -329,8 +340,7 @@ def coils_controller(obs, env) -> np.ndarray:
     """The hand controller of ``MagSoftCoils-v0`` (``env`` the env or its wrapper): the field
     :func:`~magsoft_env.envs.steer.steer_controller` wants at the strip, allocated to the coils."""
     e = env.unwrapped
-    I = e.currents_for(e.wanted_field(obs))
-    return np.clip(I / e.max_current, -1.0, 1.0).astype(np.float32)
+    return e.field_action(e.wanted_field(obs))
 
 
 class MagSoftCoilsVecEnv(MagSoftSteerVecEnv):

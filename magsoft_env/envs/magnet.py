@@ -336,6 +336,28 @@ class MagSoftMagnetEnv(SourceSteerEnv):
         return bool(d.min() < reach or z.max() > self._p1[2] - reach)
 
     # ------------------------------------------------------------------ the hand controller
+    def field_action(self, field) -> np.ndarray:
+        """The action (``tilt=True`` only) that makes ``field`` (T, (3,)) at the strip's centre of mass as near as
+        the magnet can: the magnet straight above the centre of mass, its axis such that the field below it (a
+        dipole's, ``(-m_x, -m_y, 2 m_z)`` per unit) points along ``field``, and its height such that the dipole's
+        field there has the magnitude of ``field``, within the workspace's heights (at the lowest, about 1.2-2.3 mT
+        for the default magnet). A zero field: the magnet at its highest, its axis kept."""
+        if not self.tilt:
+            raise ValueError("field_action needs the magnet's axis in the action (tilt=True): with the position "
+                             "alone the field's direction at the strip cannot be chosen.")
+        b = np.asarray(field, dtype=float)
+        amp = float(np.linalg.norm(b))
+        com = self._com
+        low, high = self.workspace.bounds[2]
+        if amp == 0.0:
+            return self.action_of_pose([com[0], com[1], high], self._a1)
+        d = b / amp
+        axis = np.array([-d[0], -d[1], 0.5 * d[2]])
+        axis /= np.linalg.norm(axis)
+        gain = math.hypot(math.hypot(axis[0], axis[1]), 2.0 * axis[2])  # |B| per mu0 m / (4 pi h^3)
+        h = (1e-7 * self.magnet_moment * gain / amp) ** (1.0 / 3.0)
+        return self.action_of_pose([com[0], com[1], min(max(com[2] + h, low), high)], axis)
+
     def baseline_action(self, obs=None) -> np.ndarray:
         """The hand controller's action (:func:`magnet_controller`)."""
         return magnet_controller(self._last_obs if obs is None else obs, self)

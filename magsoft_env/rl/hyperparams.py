@@ -125,7 +125,8 @@ def env_arguments(env_id: str) -> set:
     check_env_id(env_id)
     creator = load_env_creator(gym.spec(env_id).entry_point)
     if inspect.isclass(creator):
-        return _init_arguments(creator) - {"self"}
+        inner = getattr(creator, "source_class", None)  # an env that passes its other arguments to another
+        return (_init_arguments(creator) | (_init_arguments(inner) if inner else set())) - {"self"}
     return {n for n, p in inspect.signature(creator).parameters.items()
             if p.kind not in (p.VAR_KEYWORD, p.VAR_POSITIONAL)}
 
