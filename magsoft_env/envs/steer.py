@@ -559,7 +559,7 @@ class MagSoftSteerEnv(gym.Env):
             from ..render.views import make_renderer
 
             self._renderer = make_renderer(self.sim, width=self.width, height=self.height)
-        return self._renderer.render(field=self.sim.field, goal=tuple(self._goal), label=self.robot)
+        return self._renderer.render(goal=tuple(self._goal), label=self.robot)  # the simulator's field
 
     def close(self):
         if self._renderer is not None:

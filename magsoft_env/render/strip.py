@@ -768,7 +768,7 @@ class StripRenderer:
         Parameters
         ----------
         field : Field, (B_x, B_y, B_z) or (B_x, B_z), optional
-            Field to draw (T); default the simulator's.
+            Field to draw (T); default the simulator's (under a field source: the source's at the centre of mass).
         goal : (x, y), optional
             A point on the floor (m), drawn as a ring with cross hairs; the header gives the centre of mass's
             distance to it.
@@ -781,7 +781,11 @@ class StripRenderer:
             raise ValueError("the 3D strip's frames take goal=(x, y) on the floor; overlay and target are the side "
                              "view's (x, z) drawings.")
         sim = self.sim
-        b = as_field(sim.field if field is None else field, "field").vector()
+        state = source_state(sim)
+        if field is None and state is not None:  # under a source: the field at the robot's centre
+            b = np.asarray(state["B"], dtype=float)
+        else:
+            b = as_field(sim.field if field is None else field, "field").vector()
         goal = None if goal is None else _vec("goal", goal)
         bmag = float(np.linalg.norm(b))
         if bmag < _ZERO_FIELD:
@@ -802,7 +806,6 @@ class StripRenderer:
         self._features(scn)
         self._strip_boxes(scn, x, frames)
         self._field_arrow(scn, com, b)
-        state = source_state(sim)
         if state is not None:
             self._source_geoms(scn, state, aim)
         img = r.render()
