@@ -1,4 +1,4 @@
-"""MagSoftBench v0 (magsoft_env.bench.rl_bench), the shipped agents (magsoft_env.rl.agents), ``magsoft replay`` and
+"""MagSoftBench v1 (magsoft_env.bench.rl_bench), the shipped agents (magsoft_env.rl.agents), ``magsoft replay`` and
 ``MagSoftCrawl-v2`` (the crawl limits as a penalty): fast checks (about a minute on one core)."""
 
 import json
@@ -14,7 +14,7 @@ from magsoft_env.rl.agents import agent_info, quiet_make, shipped_agents
 
 def test_the_task_list_and_its_seeds_are_fixed():
     # a change of any of these is a new version of the benchmark (and of its stored table)
-    assert (rl_bench.BENCH_NAME, rl_bench.BENCH_VERSION) == ("MagSoftBench", "v0")
+    assert (rl_bench.BENCH_NAME, rl_bench.BENCH_VERSION) == ("MagSoftBench", "v1")
     got = [(t.name, t.env_id, t.env_kwargs, t.seeds, t.steps, t.measure, t.gait, t.gait_reverse)
            for t in rl_bench.TASKS]
     assert got == [
@@ -26,10 +26,15 @@ def test_the_task_list_and_its_seeds_are_fixed():
         ("obstacle", "MagSoftObstacle-v1", {"robot": "paper-5b", "fidelity": "fast"}, (1000, 1001), 250, "speed",
          "paper", False),
         ("steer", "MagSoftSteer-v0", {}, (1000, 1001, 1002, 1003), 250, "success", "hand", False),
+        ("steer-waveform", "MagSoftSteerWaveform-v0", {"sim_dt": 4e-4}, (1000, 1001, 1002, 1003), 50, "success",
+         "hand", False),
+        ("coils", "MagSoftCoilsWaveform-v0", {"sim_dt": 4e-4}, (1000, 1001, 1002, 1003), 50, "success", "hand",
+         False),
+        ("magnet", "MagSoftMagnetWaveform-v0", {"sim_dt": 4e-4}, (1000, 1001, 1002, 1003), 50, "success", "hand",
+         False),
     ]
-    assert rl_bench.PLANNED == {"coils": "MagSoftCoils-v0", "magnet": "MagSoftMagnet-v0"}
     stored = rl_bench.load_table()
-    assert stored["version"] == "v0"
+    assert stored["version"] == "v1"
     # every task and controller of the bench has a stored row, and nothing else
     want = {(t.name, c) for t in rl_bench.TASKS for c in rl_bench.controllers(t)}
     assert {(r["task"], r["controller"]) for r in stored["rows"]} == want
@@ -83,7 +88,7 @@ def test_load_agent_refuses_unknown_names_listing_the_shipped_ones():
     with pytest.raises(ValueError, match=r"no agent 'ppo_sed0' is shipped for MagSoftCrawl-v1\. Did you mean "
                                          r"'ppo_seed0'\? Its agents: ppo_seed0"):
         load_agent("MagSoftCrawl-v1", "ppo_sed0")
-    with pytest.raises(ValueError, match=r"no agent is shipped for env 'MagSoftCrawl-v9'.*Shipped agents: "
+    with pytest.raises(ValueError, match=r"no agent is shipped for env 'MagSoftCrawl-v9'.*Shipped agents: .*"
                                          r"MagSoftCrawl-v1: ppo_seed0"):
         load_agent("MagSoftCrawl-v9", "ppo_seed0")
 
@@ -108,7 +113,8 @@ def test_replay_prints_the_numbers_and_refuses_unknown_names(capsys):
     assert err.startswith("magsoft replay: error: no agent 'sac_seed0' is shipped for MagSoftCrawl-v1.")
     assert "ppo_seed0" in err and len(err.splitlines()) == 1
     assert main(["replay", "--env", "MagSoftSteer-v9", "--agent", "ppo_seed0"]) == 2
-    assert "Shipped agents: MagSoftCrawl-v1: " in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "Shipped agents: " in err and "MagSoftCrawl-v1: ppo_seed0" in err
 
 
 def test_v2_random_episodes_last_at_least_50_steps():

@@ -96,7 +96,7 @@ def main(argv=None) -> int:
     }
     if evaluation:
         info["evaluation_by"] = ("train/evaluate.py at the end of training (train.py --eval-episodes episodes, default "
-                                 "2, seeds from 1000); the benchmark's rows: magsoftbench-v0.json")
+                                 "2, seeds from 1000); the benchmark's rows: magsoftbench-v1.json")
     if evaluation and evaluation.get("model", "").endswith("best_model.zip") != args.best:
         info["evaluation_note"] = "evaluation.json is of the run's other model (final / best)"
     (out / "agent.yml").write_text(yaml.safe_dump(info, sort_keys=False, width=120))

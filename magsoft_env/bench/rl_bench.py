@@ -32,7 +32,7 @@ import numpy as np
 
 #: The benchmark's name and version: a change of any task, seed, cap or measure is a new version.
 BENCH_NAME = "MagSoftBench"
-BENCH_VERSION = "v0"
+BENCH_VERSION = "v1"
 #: The stored table of this version (in the agents' folder of the assets).
 TABLE_FILE = f"magsoftbench-{BENCH_VERSION}.json"
 #: ``--check`` tolerance: a stored mean ``m`` and a replayed one ``r`` agree when ``|r - m| <= abs + rel * |m|``
@@ -85,9 +85,14 @@ class BenchTask:
         return "speed (mm/s)" if self.measure == "speed" else "success rate"
 
 
-#: MagSoftBench v0. The channel and obstacle tasks run at ``fidelity="fast"`` (the numerics their training blocks
-#: use; the robots' own cost 12x and 30x as much per step), the 3D-strip crawl for 100 steps (2 s: the strip costs
-#: about 15x the chain per step).
+#: MagSoftBench v1 (v0's six tasks, then the steering task with a rotating field's waveform as the action, and
+#: that task through a coil system and through a permanent magnet). The channel and obstacle tasks run at
+#: ``fidelity="fast"`` (the numerics their training blocks use; the robots' own cost 12x and 30x as much per step),
+#: the 3D-strip crawl for 100 steps (2 s: the strip costs about 15x the chain per step), the waveform steering tasks
+#: at 0.4 ms (:data:`~magsoft_env.envs.steer.TRAINING_SIM_DT`, their training step; docs/training.md gives them at
+#: 0.2 ms too).
+_WAVE = {"sim_dt": 4e-4}
+_GOALS = (1000, 1001, 1002, 1003)
 TASKS: tuple[BenchTask, ...] = (
     BenchTask("crawl-planar", "MagSoftCrawl-v1", gait_reverse=True,
               note="paper-5c planar chain, 2 mT, crawl limits end the episode"),
@@ -99,12 +104,15 @@ TASKS: tuple[BenchTask, ...] = (
               note="paper-5a toward the 42 mm channel, 5 s of the 30 s episode, fidelity fast"),
     BenchTask("obstacle", "MagSoftObstacle-v1", {"robot": "paper-5b", "fidelity": "fast"}, seeds=(1000, 1001),
               note="paper-5b toward the 2 mm block, 5 s of the 30 s episode, fidelity fast"),
-    BenchTask("steer", "MagSoftSteer-v0", seeds=(1000, 1001, 1002, 1003), measure="success", gait="hand",
+    BenchTask("steer", "MagSoftSteer-v0", seeds=_GOALS, measure="success", gait="hand",
               note="3D strip to a goal 20-60 mm away within 5 mm, 5 s"),
+    BenchTask("steer-waveform", "MagSoftSteerWaveform-v0", _WAVE, seeds=_GOALS, steps=50, measure="success",
+              gait="hand", note="the same, action = a rotating field's plane, magnitude and frequency each 0.1 s"),
+    BenchTask("coils", "MagSoftCoilsWaveform-v0", _WAVE, seeds=_GOALS, steps=50, measure="success", gait="hand",
+              note="the same wave made by Navion's coils (drive lag, slew, gradients)"),
+    BenchTask("magnet", "MagSoftMagnetWaveform-v0", _WAVE, seeds=_GOALS, steps=50, measure="success", gait="hand",
+              note="the same wave made by a permanent magnet on an arm (bounded speed, gradients)"),
 )
-#: Slots of the next version, not run by v0: the coil-system and magnet tasks (``MagSoftCoils-v0``,
-#: ``MagSoftMagnet-v0``) join once their envs are registered (they change the task list: a new version).
-PLANNED = {"coils": "MagSoftCoils-v0", "magnet": "MagSoftMagnet-v0"}
 #: The reference controllers of every task (plus ``gait`` where the task has one).
 REFERENCE = ("zero", "random")
 
@@ -302,7 +310,6 @@ def main(argv=None) -> int:
         for t in TASKS:
             print(f"- {t.name}: {t.env_id} {t.env_kwargs or ''} seeds {list(t.seeds)} x <= {t.steps} steps, "
                   f"measure {t.measure_label}; controllers: {', '.join(controllers(t))}. {t.note}")
-        print(f"- planned (next version): {', '.join(f'{k}: {v}' for k, v in PLANNED.items())}")
         return 0
     t0 = time.perf_counter()
     rows = run(tasks, names, progress=lambda r: print(f"  {r['task']} / {r['controller']}: "
