@@ -25,6 +25,7 @@ COMMANDS = {
     "batch": "magsoft_env.cli.batch",
     "field": "magsoft_env.cli.field",
     "fit": "magsoft_env.cli.fit",
+    "fit-plan": "magsoft_env.cli.fit_plan",
     "replay": "magsoft_env.cli.replay",
 }
 

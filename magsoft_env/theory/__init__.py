@@ -2,6 +2,7 @@
 
 from .elastica import elastica_tip, prandtl_field
 from .fit import FitResult, fit
+from .fit_plan import MeasurementPlan, plan_measurements, predict_precision
 from .rod_sensitivity import RodSensitivity, rod_sensitivities, source_rod_sensitivities
 from .rod_solver import CriticalField, RodResult, critical_field
 from .sensitivity import Sensitivity, sensitivities
@@ -13,6 +14,7 @@ __all__ = [
     "CriticalField",
     "EquilibriumResult",
     "FitResult",
+    "MeasurementPlan",
     "RodResult",
     "RodSensitivity",
     "Sensitivity",
@@ -21,7 +23,9 @@ __all__ = [
     "critical_field",
     "elastica_tip",
     "fit",
+    "plan_measurements",
     "prandtl_field",
+    "predict_precision",
     "rod_sensitivities",
     "sensitivities",
     "shoot",

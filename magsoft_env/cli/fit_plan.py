@@ -1,0 +1,80 @@
+"""``magsoft fit-plan``: which fields to apply so that ``magsoft fit`` pins the parameters down, before measuring.
+
+Prints the planned fields and the 1-sigma each parameter is predicted to reach from the robot's tip tracked with
+the given noise (:func:`magsoft_env.plan_measurements`); ``--csv`` writes the fields as a CSV for ``magsoft fit``
+with the position columns left empty, to fill in with the tracked tip::
+
+    magsoft fit-plan --robot paper-5c --n 8 --noise-mm 0.1 --csv plan.csv
+    # measure, fill tip_x_mm and tip_z_mm, then
+    magsoft fit plan.csv --robot paper-5c --params E0,particle_magnetization
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+
+from .output import dumps_json, out_file
+
+
+def add_parser(subparsers) -> None:
+    p = subparsers.add_parser(
+        "fit-plan",
+        help="plan the fields of a fit: the most informative ones and the precision they predict",
+        description="Choose the uniform fields whose tracked tip positions fit the parameters most precisely "
+                    "(exact sensitivities at the robot's values, fields kept away from folds), and predict the "
+                    "1-sigma of each parameter.",
+    )
+    p.add_argument("--robot", default="paper-5c", help="robot name or YAML file: the guess of your robot")
+    p.add_argument("--params", default="E0,particle_magnetization",
+                   help="comma-separated parameters to fit: E0, particle_magnetization, density, thickness, "
+                        "volume_fraction, clamp_angle (default E0,particle_magnetization)")
+    p.add_argument("--n", type=int, default=8, help="measurements to plan, gravity alone included (default 8)")
+    p.add_argument("--noise-mm", type=float, default=0.1, help="tracking noise, 1 sigma per coordinate (mm, "
+                                                                "default 0.1)")
+    p.add_argument("--max-field-mT", type=float, default=4.0, help="largest field your set-up makes (mT, default 4)")
+    p.add_argument("--spread", type=float, default=0.3,
+                   help="prior relative uncertainty of each parameter: fields stay clear of folds over it "
+                        "(default 0.3)")
+    p.add_argument("--gravity", type=float, default=9.81, help="gravity during the measurements (m/s^2)")
+    p.add_argument("--csv", default=None, help="write the planned fields as a CSV for magsoft fit (positions empty)")
+    p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+    p.set_defaults(run=run)
+
+
+def run(args) -> int:
+    import magsoft_env as ms
+    from magsoft_env.cases.robots import resolve_robot
+
+    if not (math.isfinite(args.noise_mm) and args.noise_mm > 0):
+        raise ValueError(f"--noise-mm must be a positive length (mm), got {args.noise_mm!r}.")
+    if not (math.isfinite(args.max_field_mT) and 0 < args.max_field_mT <= 1000):
+        raise ValueError(f"--max-field-mT must lie in (0, 1000] mT, got {args.max_field_mT!r}.")
+    if args.csv is not None:
+        out_file(args.csv, flag="--csv", suffixes=(".csv",))
+    robot = resolve_robot(args.robot, name="--robot")
+    params = tuple(p.strip() for p in args.params.split(",") if p.strip())
+    plan = ms.plan_measurements(robot.beam, params, n=args.n, noise=args.noise_mm * 1e-3,
+                                gravity=args.gravity, max_field=args.max_field_mT * 1e-3, spread=args.spread)
+    out = {"robot": robot.name, "params": list(params), "noise_mm": args.noise_mm,
+           "fields_mT": [[bx * 1e3, bz * 1e3] for bx, bz in plan.fields],
+           "min_eigenvalue": plan.min_eigenvalue, "sigma": plan.sigma, "relative_sigma": plan.relative_sigma,
+           "correlation": plan.correlation.tolist(), "candidates": plan.candidates, "rejected": plan.rejected}
+    if args.csv:
+        with open(args.csv, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["Bx_mT", "Bz_mT", "tip_x_mm", "tip_z_mm"])
+            for bx, bz in plan.fields:
+                w.writerow([f"{bx * 1e3:.6g}", f"{bz * 1e3:.6g}", "", ""])
+        out["csv"] = str(args.csv)
+    if args.json:
+        print(dumps_json(out))
+        return 0
+    print(f"fit plan for {', '.join(params)} of robot {robot.name}: {len(plan.fields)} measurements, tip tracked "
+          f"to {args.noise_mm:g} mm, fields up to {args.max_field_mT:g} mT, clear of folds over "
+          f"+-{args.spread:.0%} ({plan.candidates} candidates, {plan.rejected} refused)")
+    print(plan.table())
+    if args.csv:
+        print(f"fields written to {args.csv}: fill tip_x_mm and tip_z_mm with the tracked tip, then run "
+              f"magsoft fit {args.csv} --robot {args.robot} --params {','.join(params)}")
+    return 0
