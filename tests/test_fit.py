@@ -143,8 +143,9 @@ def test_source_sensitivities_equal_differences_of_full_solves():
     from magsoft_env.fields import PointDipole
     from magsoft_env.theory.sensitivity import SOURCE_PARAMETERS, source_sensitivities
 
-    def solve(beam=BEAM, pos=(30e-3, 0, -10e-3), g=9.81, th0=0.1):
-        src = PointDipole(position=pos, moment=(0, 0, 5e-3))
+    def solve(beam=BEAM, pos=(30e-3, 0, -10e-3), g=9.81, th0=0.1, pitch=0.0):
+        # a dipole turned about its centre by pitch (right-handed about y): its moment turned, (0, 0, 1) -> (sin, 0, cos)
+        src = PointDipole(position=pos, moment=(5e-3 * np.sin(pitch), 0, 5e-3 * np.cos(pitch)))
         return ms.solve_equilibrium(beam, src, gravity=g, clamp_angle=th0, options=OPTS, model="planar")
 
     r = solve()
@@ -153,8 +154,8 @@ def test_source_sensitivities_equal_differences_of_full_solves():
     for k, p in enumerate(SOURCE_PARAMETERS):
         v0 = {"E0": mat.E0, "particle_magnetization": mat.particle_magnetization, "density": mat.density,
               "gravity": 9.81, "clamp_angle": 0.1, "thickness": BEAM.thickness, "source_x": 30e-3,
-              "source_z": -10e-3}[p]
-        h = 1e-3 * abs(v0)
+              "source_z": -10e-3, "source_pitch": 0.0}[p]
+        h = 1e-3 * (abs(v0) or 1.0)
 
         def tip(v, p=p):
             if p in ("E0", "particle_magnetization", "density"):
@@ -165,8 +166,33 @@ def test_source_sensitivities_equal_differences_of_full_solves():
                 return solve(g=v)
             if p == "clamp_angle":
                 return solve(th0=v)
+            if p == "source_pitch":
+                return solve(pitch=v)
             return solve(pos=(v, 0, -10e-3) if p == "source_x" else (30e-3, 0, v))
 
         f = [tip(v0 + m * h).tip_position for m in (-2, -1, 1, 2)]
         fd = (f[0] - 8 * f[1] + 8 * f[2] - f[3]) / (12 * h)
         assert np.abs(S.tip_position[:, k] - fd).max() <= 1e-7 * np.abs(fd).max(), p
+
+
+def test_current_sensitivities_equal_differences_of_full_solves():
+    """Navion's currents on the planar strip: d tip / d I_i against fourth-order differences of full solves."""
+    from magsoft_env.fields import CoilSystem, allocate
+    from magsoft_env.theory.sensitivity import current_sensitivities
+
+    navion = CoilSystem.from_calibration("navion")
+    I0 = allocate(navion, (12e-3, 0, 0), field=(-1e-3, 0.0, 3e-3)).currents
+    r = ms.solve_equilibrium(BEAM, navion.at_currents(I0), gravity=9.81, options=OPTS, model="planar")
+    S = current_sensitivities(r, navion, I0)
+    for k in range(navion.n_coils):
+        h = 1e-3 * max(abs(I0[k]), 1.0)
+        f = []
+        for m in (-2, -1, 1, 2):
+            Ik = I0.copy()
+            Ik[k] += m * h
+            f.append(ms.solve_equilibrium(BEAM, navion.at_currents(Ik), gravity=9.81, options=OPTS,
+                                          model="planar").tip_position)
+        fd = (f[0] - 8 * f[1] + 8 * f[2] - f[3]) / (12 * h)
+        assert np.abs(S.tip_position[:, k] - fd).max() <= 1e-7 * np.abs(fd).max(), k
+    with pytest.raises(ValueError, match="CoilSystem"):
+        current_sensitivities(r, "navion", I0)

@@ -13,6 +13,7 @@ import time
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 import magsoft_env as ms
 from magsoft_env.fields import PointDipole, Transformed
@@ -32,7 +33,7 @@ BEAM = ms.Beam(25e-3, 5e-3, 1.13e-3)
 OPTS = SolverOptions(nodes=32)
 # scale of a parameter whose value may be zero (the difference step is 1e-3 of it)
 _ZERO_SCALE = {"Bx": 1e-3, "By": 1e-3, "Bz": 1e-3, "gravity": 1.0, "clamp_angle": 1.0, "source_x": 25e-3,
-               "source_y": 25e-3, "source_z": 25e-3}
+               "source_y": 25e-3, "source_z": 25e-3, "source_roll": 1.0, "source_pitch": 1.0, "source_yaw": 1.0}
 
 
 def _case(seed):
@@ -60,6 +61,10 @@ def _perturb(beam, load, p, v):
         fld = tuple(v if i == "xyz".index(p[1]) else c for i, c in enumerate(fld))
     elif p == "clamp_angle":
         th0 = v
+    elif p in ("source_roll", "source_pitch", "source_yaw"):  # a dipole turned about its centre: its moment turned
+        axis = np.eye(3)[("source_roll", "source_pitch", "source_yaw").index(p)]
+        moment = Rotation.from_rotvec(v * axis).apply(np.asarray(fld.moment))
+        fld = PointDipole(position=fld.position, moment=tuple(moment))
     elif p.startswith("source_"):
         off = np.zeros(3)
         off["xyz".index(p[-1])] = v
@@ -140,9 +145,37 @@ def test_source_rod_sensitivities_equal_differences_of_full_solves():
     r = ms.solve_equilibrium(beam, src, gravity=9.81, clamp_angle=0.1, model="3d", options=OPTS)
     assert r.success and r.stable, r.message
     params = ("E0", "particle_magnetization", "density", "gravity", "clamp_angle", "width", "source_x", "source_y",
-              "source_z")
+              "source_z", "source_roll", "source_pitch", "source_yaw")
     S = source_rod_sensitivities(r, params)
     _check_against_solves(S, beam, (src, 9.81, 0.1), params)
+
+
+def test_current_sensitivities_equal_differences_of_full_solves_in_3d():
+    """Navion's three currents, a strip magnetized across its width too: d/dI_i against fourth-order differences
+    of full solves at the perturbed currents (their own loading paths)."""
+    from magsoft_env.fields import CoilSystem, allocate
+    from magsoft_env.theory.sensitivity import current_sensitivities
+
+    beam = ms.Beam(25e-3, 5e-3, 1.13e-3, magnetization=(1.0, 0.3, 0.2))
+    navion = CoilSystem.from_calibration("navion")
+    I0 = allocate(navion, (12e-3, 0, 0), field=(1e-3, 2e-3, 3e-3)).currents
+    r = ms.solve_equilibrium(beam, navion.at_currents(I0), gravity=9.81, model="3d", options=OPTS)
+    assert r.success and r.stable, r.message
+    S = current_sensitivities(r, navion, I0)
+    assert S.params == tuple(f"I_{n}" for n in navion.coil_names) and set(S.units.values()) == {"A"}
+    for k in range(navion.n_coils):
+        h = 1e-3 * max(abs(I0[k]), 1.0)
+        tips = []
+        for m in (-2, -1, 1, 2):
+            Ik = I0.copy()
+            Ik[k] += m * h
+            rk = ms.solve_equilibrium(beam, navion.at_currents(Ik), gravity=9.81, model="3d", options=OPTS)
+            tips.append(np.r_[rk.tip_position, rk.tip_twist])
+        fd = (tips[0] - 8 * tips[1] + 8 * tips[2] - tips[3]) / (12 * h)
+        ok, rel = _close(np.r_[S.tip_position[:, k], S.tip_twist[k]], fd)
+        assert ok, f"I_{k}: off by {rel:.3g}"
+    with pytest.raises(ValueError, match="not solved in"):
+        current_sensitivities(r, navion, I0 + 1.0)
 
 
 def test_in_the_plane_the_3d_derivatives_are_the_planar_ones():

@@ -65,13 +65,14 @@ ROD_PARAMETERS = ("E0", "particle_magnetization", "density", "gravity", "Bx", "B
 #: Parameters of :func:`source_rod_sensitivities` (a 3D cantilever in a field source): the material and geometry
 #: ones, and the source's translation (m) along x, y, z.
 SOURCE_ROD_PARAMETERS = ("E0", "particle_magnetization", "density", "gravity", "clamp_angle", "thickness", "width",
-                         "poisson_ratio", "volume_fraction", "source_x", "source_y", "source_z")
+                         "poisson_ratio", "volume_fraction", "source_x", "source_y", "source_z", "source_roll",
+                         "source_pitch", "source_yaw")
 #: Step of the central differences in the source's position (fraction of L).
 SOURCE_STEP = 1e-5
 #: Relative step of the central differences of the coefficients in the volume fraction.
 PHI_STEP = 1e-6
 _UNITS3 = {**_UNITS, "By": "T", "width": "m", "poisson_ratio": "1", "source_x": "m", "source_y": "m",
-           "source_z": "m"}
+           "source_z": "m", "source_roll": "rad", "source_pitch": "rad", "source_yaw": "rad"}
 _TORSION_RTOL = 1e-16  # as magsoft_env.spec.beam
 
 
@@ -253,18 +254,35 @@ def _residual_rate(mdl, q, load, d: _Direction, *, source: bool) -> np.ndarray:
     return m.system(q, ld).imag / _H
 
 
-def _source_offset_rate(mdl, q, load, axis: int) -> np.ndarray:
-    """dF/d(source translation along ``axis``) by central differences of F alone (a step of SOURCE_STEP L)."""
-    from ..fields import Transformed
+def _source_pose_rate(mdl, q, load, param: str) -> np.ndarray:
+    """dF/d(a pose parameter of every source of the load: a translation or a turn about its centre) by central
+    differences of F alone (a step of SOURCE_STEP L, or SOURCE_STEP rad)."""
+    from .sensitivity import moved_source, pose_step
 
-    step = SOURCE_STEP * mdl.L
+    step = pose_step(param, mdl.L)
     out = []
     for sign in (1.0, -1.0):
-        off = np.zeros(3)
-        off[axis] = sign * step
-        terms = tuple((w, Transformed(src, position=off)) for w, src in load.terms)
+        terms = tuple((w, moved_source(src, param, sign * step)) for w, src in load.terms)
         out.append(mdl.system(q, dataclasses.replace(load, terms=terms)))
     return (out[0] - out[1]) / (2.0 * step)
+
+
+def current_rod_sensitivities(result, system, currents) -> RodSensitivity:
+    """Derivatives of a 3D equilibrium in a coil system with respect to each coil's current (per ampere): the
+    residual is affine in the sources' fields, so ``dF/dI_i = (F(+coil i at 1 A) - F(-coil i at 1 A)) / 2``
+    (exact to rounding). See :func:`magsoft_env.theory.sensitivity.current_sensitivities`."""
+    from .sensitivity import check_coil_source, coil_unit_sources
+
+    with single_threaded_blas():
+        mdl, q, load, lam = _check_result(result, source=True)
+        check_coil_source(result.source, system, currents, result.centreline)
+        cols = []
+        for u in coil_unit_sources(system):
+            Fp = mdl.system(q, dataclasses.replace(load, terms=(*load.terms, (1.0, u))))
+            Fm = mdl.system(q, dataclasses.replace(load, terms=(*load.terms, (-1.0, u))))
+            cols.append(0.5 * (Fp - Fm))
+        params = tuple(f"I_{n}" for n in system.coil_names)
+        return _sensitivity(mdl, q, load, np.column_stack(cols), params, lam, dict.fromkeys(params, "A"))
 
 
 # the checks and the solve --------------------------------------------------------------------------------------
@@ -293,7 +311,7 @@ def _check_result(result, source: bool):
     return mdl, q, load, lam
 
 
-def _sensitivity(mdl, q, load, dF: np.ndarray, params, lam) -> RodSensitivity:
+def _sensitivity(mdl, q, load, dF: np.ndarray, params, lam, units: dict | None = None) -> RodSensitivity:
     """Solve J psi_p = -dF/dp and carry the frames' rotations to every output."""
     M, k = q.shape[0], dF.shape[1]
     _, J = mdl.jacobian(q, load)
@@ -317,7 +335,7 @@ def _sensitivity(mdl, q, load, dF: np.ndarray, params, lam) -> RodSensitivity:
     u = mdl.uniq
     return RodSensitivity(
         params=params, theta=dth[u], tip_position=dr[-1].copy(), tip_angle=dth[-1].copy(), s=mdl.grid.s[u],
-        min_eigenvalue=lam, units={p: _UNITS3[p] for p in params}, _positions=(mdl.grid, dr),
+        min_eigenvalue=lam, units=units or {p: _UNITS3[p] for p in params}, _positions=(mdl.grid, dr),
         rotation=psi[u], frames=dR[u], quaternions=np.moveaxis(dq, 0, 2)[u], curvature=dk[u], twist=dtw[u],
         tip_tangent=dd3[-1].copy(), tip_twist=dtw[-1].copy(),
     )
@@ -372,9 +390,11 @@ def source_rod_sensitivities(result, params=("E0", "particle_magnetization")) ->
 
     As :func:`rod_sensitivities`, on the source solver's system and Jacobian: ``dF/dp`` by a complex step of the
     residual alone in the coefficients (the source's field is evaluated at the real positions), and for the
-    source's translation ``source_x``, ``source_y``, ``source_z`` (m; every source of the load moved together) by
-    central differences of the residual alone (1e-5 L). The Jacobian's position derivative of the gradient force is
-    the solver's (central differences of G): about 1e-8 relative.
+    source's translation ``source_x``, ``source_y``, ``source_z`` (m; every source of the load moved together) and
+    turns ``source_roll``, ``source_pitch``, ``source_yaw`` (rad, right-handed about x, y, z through the source's
+    centre, :func:`~magsoft_env.theory.sensitivity.source_center`) by central differences of the residual alone
+    (1e-5 L or 1e-5 rad). The Jacobian's position derivative of the gradient force is the solver's (central
+    differences of G): about 1e-8 relative. A coil system's currents: :func:`current_rod_sensitivities`.
 
     Parameters
     ----------
@@ -390,11 +410,11 @@ def source_rod_sensitivities(result, params=("E0", "particle_magnetization")) ->
         cols = []
         for p in params:
             if p.startswith("source_"):
-                cols.append(_source_offset_rate(mdl, q, load, "xyz".index(p[-1])))
+                cols.append(_source_pose_rate(mdl, q, load, p))
             else:
                 cols.append(_residual_rate(mdl, q, load, _direction(p, mdl, beam), source=True))
         return _sensitivity(mdl, q, load, np.column_stack(cols), params, lam)
 
 
-__all__ = ["ROD_PARAMETERS", "SOURCE_ROD_PARAMETERS", "RodSensitivity", "rod_sensitivities",
-           "source_rod_sensitivities", "torsion_derivatives"]
+__all__ = ["ROD_PARAMETERS", "SOURCE_ROD_PARAMETERS", "RodSensitivity", "current_rod_sensitivities",
+           "rod_sensitivities", "source_rod_sensitivities", "torsion_derivatives"]

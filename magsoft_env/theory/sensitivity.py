@@ -396,9 +396,45 @@ def _solve(mdl: BeamModel, th, load: Load, dR, params, units, lam) -> Sensitivit
 #: The parameters of an equilibrium in a field source (:class:`~magsoft_env.theory.sources.SourceResult`):
 #: the material and load ones, and the source's translation (m) along x and z (its pose offset).
 SOURCE_PARAMETERS = ("E0", "particle_magnetization", "density", "gravity", "clamp_angle", "thickness", "source_x",
-                     "source_z")
+                     "source_z", "source_pitch")
 #: Step of the central differences in the source's position (fraction of L).
 SOURCE_STEP = 1e-5
+
+
+#: A source's pose parameters: translations (m) and turns (rad, right-handed about x, y, z through its centre).
+SOURCE_POSE = {"source_x": 0, "source_y": 1, "source_z": 2, "source_roll": 3, "source_pitch": 4, "source_yaw": 5}
+
+
+def source_center(source) -> np.ndarray:
+    """The point a source turns about for ``source_roll|pitch|yaw``: its ``position`` (a magnet's centre, a
+    posed magnet's origin) where it has one, else the origin (a coil system's workspace centre)."""
+    c = getattr(source, "position", None)
+    c = np.zeros(3) if c is None else np.asarray(c, dtype=float).reshape(-1)
+    return c if c.shape == (3,) and np.all(np.isfinite(c)) else np.zeros(3)
+
+
+def moved_source(source, param: str, value: float):
+    """``source`` moved by ``value`` along one pose parameter of :data:`SOURCE_POSE`: translated (m) or turned
+    (rad) about :func:`source_center`."""
+    from ..fields import Transformed
+
+    k = SOURCE_POSE[param]
+    if k < 3:
+        off = np.zeros(3)
+        off[k] = value
+        return Transformed(source, position=off)
+    c = source_center(source)
+    a = k - 3
+    i, j = (a + 1) % 3, (a + 2) % 3
+    R = np.eye(3)
+    R[i, i] = R[j, j] = math.cos(value)
+    R[j, i], R[i, j] = math.sin(value), -math.sin(value)
+    return Transformed(Transformed(source, position=-c), position=c, rotation=R)
+
+
+def pose_step(param: str, length: float) -> float:
+    """The central-difference step of a pose parameter: :data:`SOURCE_STEP` of ``length`` (m) or rad."""
+    return SOURCE_STEP * (length if SOURCE_POSE[param] < 3 else 1.0)
 
 
 def source_sensitivities(result, params=("E0", "particle_magnetization")) -> Sensitivity:
@@ -408,8 +444,10 @@ def source_sensitivities(result, params=("E0", "particle_magnetization")) -> Sen
     ``d theta / d p = J^-1 P dh/dp`` with ``J`` the solver's Jacobian. ``dh/dp`` is exact for ``E0`` (P ~ 1/E0),
     ``particle_magnetization`` (the magnetic loads scale with it), ``density`` and ``gravity`` (the weight),
     ``thickness`` (EI ~ t^3, loads ~ t) and ``clamp_angle``; for ``source_x`` / ``source_z`` (the source
-    translated along x or z, m) it is a central difference of h alone (a step of 1e-5 L), not of the solve.
-    The Jacobian's own position derivative is the solver's (central differences of G): about 1e-8 relative.
+    translated along x or z, m) and ``source_pitch`` (turned about the y axis through its centre,
+    :func:`source_center`, rad, right-handed) it is a central difference of h alone (a step of 1e-5 L or
+    1e-5 rad), not of the solve. The Jacobian's own position derivative is the solver's (central differences of
+    G): about 1e-8 relative. For a coil system's currents see :func:`current_sensitivities`.
 
     Parameters
     ----------
@@ -418,7 +456,6 @@ def source_sensitivities(result, params=("E0", "particle_magnetization")) -> Sen
     params : sequence of str
         Any of :data:`SOURCE_PARAMETERS`.
     """
-    from ..fields import Transformed
     from .sources import SourceResult, _Load, _Model, _stability
 
     params = check_params(params, SOURCE_PARAMETERS, "sensitivities in a source")
@@ -456,12 +493,9 @@ def source_sensitivities(result, params=("E0", "particle_magnetization")) -> Sen
         elif p == "thickness":
             d = 2.0 * (P @ h) / beam.thickness
         else:
-            axis = 0 if p == "source_x" else 2
-            step = SOURCE_STEP * beam.length
-            off = np.zeros(3)
-            off[axis] = step
-            hp = mdl.loads(th, _Load(((1.0, Transformed(result.source, position=off)),), result.gravity))[0]
-            hm = mdl.loads(th, _Load(((1.0, Transformed(result.source, position=-off)),), result.gravity))[0]
+            step = pose_step(p, beam.length)
+            hp = mdl.loads(th, _Load(((1.0, moved_source(result.source, p, step)),), result.gravity))[0]
+            hm = mdl.loads(th, _Load(((1.0, moved_source(result.source, p, -step)),), result.gravity))[0]
             d = -(P @ ((hp - hm) / (2.0 * step)))
         cols.append(d)
     dth = -scipy.linalg.lu_solve(scipy.linalg.lu_factor(J), np.column_stack(cols))
@@ -469,11 +503,98 @@ def source_sensitivities(result, params=("E0", "particle_magnetization")) -> Sen
     dx_all = -grid.Q0 @ (sn[:, None] * dth)
     dz_all = grid.Q0 @ (c[:, None] * dth)
     u = grid.unique()
-    units = {**_UNITS, "source_x": "m", "source_z": "m"}
+    units = {**_UNITS, "source_x": "m", "source_z": "m", "source_pitch": "rad"}
     return Sensitivity(params=params, theta=dth[u], tip_position=np.vstack([dx_all[-1], np.zeros(len(params)),
                                                                            dz_all[-1]]),
                        tip_angle=dth[-1].copy(), s=grid.s[u], min_eigenvalue=float(mu),
                        units={p: units[p] for p in params}, _positions=(grid, dx_all, dz_all))
+
+
+def coil_unit_sources(system) -> list:
+    """One field source per coil of ``system`` (a :class:`~magsoft_env.fields.CoilSystem`) at one ampere."""
+    from ..fields import DipoleSet
+
+    out = []
+    for i in range(system.n_coils):
+        k = system.source_coil == i
+        out.append(DipoleSet(system.source_positions[k], system.source_moments[k], scale=1.0))
+    return out
+
+
+def check_coil_source(source, system, currents, points) -> np.ndarray:
+    """``currents`` checked against the coil system, and that ``source`` is ``system`` at them (its field and
+    gradient at ``points`` equal to rounding); a ValueError otherwise."""
+    from ..fields import CoilSystem
+
+    if not isinstance(system, CoilSystem):
+        raise ValueError(f"system must be a magsoft_env.fields.CoilSystem, got {type(system).__name__}.")
+    I = system.check_currents(currents)
+    B0, G0 = source.field_and_gradient(points)
+    B1, G1 = system.field_and_gradient(points, I)
+    scale = max(float(np.abs(B1).max()), 1e-300)
+    gscale = max(float(np.abs(G1).max()), 1e-300)
+    if not (np.abs(B0 - B1).max() <= 1e-9 * scale and np.abs(G0 - G1).max() <= 1e-9 * gscale):
+        raise ValueError(f"the equilibrium was not solved in {system.name} at these currents (its field differs "
+                         f"by up to {np.abs(B0 - B1).max():.3g} T): pass the system and currents it was solved in.")
+    return I
+
+
+def current_sensitivities(result, system, currents) -> Sensitivity:
+    """Derivatives of an equilibrium in a coil system with respect to each coil's current (per ampere).
+
+    The loads are linear in the field and its gradient, and these in the currents, so ``dR/dI_i`` is the load of
+    coil ``i`` at one ampere, exact; one factorization of the solver's Jacobian serves every coil. ``result``
+    is a planar :class:`~magsoft_env.theory.sources.SourceResult` or a 3D
+    :class:`~magsoft_env.theory.rod_sources.SourceRodResult` (then a
+    :class:`~magsoft_env.theory.rod_sensitivity.RodSensitivity`), solved in ``system.at_currents(currents)``
+    (checked). The parameters are named ``I_<coil name>``, in the system's coil order.
+
+    Examples
+    --------
+    >>> import magsoft_env as ms
+    >>> from magsoft_env.fields import CoilSystem, allocate
+    >>> from magsoft_env.theory.sensitivity import current_sensitivities
+    >>> navion = CoilSystem.from_calibration("navion")
+    >>> I = allocate(navion, (12e-3, 0, 0), field=(0.0, 0.0, 4e-3)).currents
+    >>> r = ms.solve_equilibrium(ms.Beam(25e-3, 5e-3, 1.13e-3), navion.at_currents(I), model="planar")
+    >>> S = current_sensitivities(r, navion, I)
+    >>> len(S.params) == navion.n_coils, S.units[S.params[0]]
+    (True, 'A')
+    """
+    from .rod_sources import SourceRodResult
+    from .sources import SourceResult, _Load, _Model, _stability
+
+    if isinstance(result, SourceRodResult):
+        from .rod_sensitivity import current_rod_sensitivities
+
+        return current_rod_sensitivities(result, system, currents)
+    if not isinstance(result, SourceResult):
+        raise ValueError("current_sensitivities take an equilibrium in a coil system (a SourceResult or "
+                         f"SourceRodResult), got {type(result).__name__}.")
+    if not result.success:
+        raise ValueError(f"the equilibrium was not found (status {result.status}): no sensitivities.")
+    beam, grid = result._beam, result._grid
+    th = result._full[0]
+    mdl = _Model(beam, grid, result._coupling, float(th[0]))
+    check_coil_source(result.source, system, currents, mdl.frame(th)[2])
+    load = _Load(((1.0, result.source),), result.gravity)
+    R, h, aux = mdl.residual(th, load)
+    J = mdl.jacobian(th, load, aux)
+    mu, _ = _stability(J)
+    if not mu > FOLD_EIGENVALUE:
+        raise ValueError(f"the equilibrium is at (or past) a fold: smallest eigenvalue {mu:.3g} <= "
+                         f"{FOLD_EIGENVALUE:g}; the shape's derivative does not exist there.")
+    cols = [-(mdl.P @ mdl.loads(th, _Load(((1.0, u),), 0.0))[0]) for u in coil_unit_sources(system)]
+    dth = -scipy.linalg.lu_solve(scipy.linalg.lu_factor(J), np.column_stack(cols))
+    c, sn = np.cos(th), np.sin(th)
+    dx_all = -grid.Q0 @ (sn[:, None] * dth)
+    dz_all = grid.Q0 @ (c[:, None] * dth)
+    u = grid.unique()
+    params = tuple(f"I_{n}" for n in system.coil_names)
+    return Sensitivity(params=params, theta=dth[u], tip_position=np.vstack([dx_all[-1], np.zeros(len(params)),
+                                                                           dz_all[-1]]),
+                       tip_angle=dth[-1].copy(), s=grid.s[u], min_eigenvalue=float(mu),
+                       units=dict.fromkeys(params, "A"), _positions=(grid, dx_all, dz_all))
 
 
 def _residual_difference(mdl: BeamModel, th, load: Load, beam) -> np.ndarray:
@@ -494,5 +615,6 @@ def _residual_difference(mdl: BeamModel, th, load: Load, beam) -> np.ndarray:
     return (out[0] - out[1]) / (2.0 * h)
 
 
-__all__ = ["FOLD_EIGENVALUE", "PARAMETERS", "SOURCE_PARAMETERS", "Sensitivity", "collocation_nodes",
-           "profile_sensitivities", "sensitivities", "source_sensitivities"]
+__all__ = ["FOLD_EIGENVALUE", "PARAMETERS", "SOURCE_PARAMETERS", "SOURCE_POSE", "Sensitivity", "check_coil_source",
+           "coil_unit_sources", "collocation_nodes", "current_sensitivities", "moved_source", "pose_step",
+           "profile_sensitivities", "sensitivities", "source_center", "source_sensitivities"]
