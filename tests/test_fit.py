@@ -144,7 +144,7 @@ def test_source_sensitivities_equal_differences_of_full_solves():
     from magsoft_env.theory.sensitivity import SOURCE_PARAMETERS, source_sensitivities
 
     def solve(beam=BEAM, pos=(30e-3, 0, -10e-3), g=9.81, th0=0.1, pitch=0.0):
-        # a dipole turned about its centre by pitch (right-handed about y): its moment turned, (0, 0, 1) -> (sin, 0, cos)
+        # a dipole turned about its centre by pitch (right-handed about y): its moment (0, 0, 1) -> (sin, 0, cos)
         src = PointDipole(position=pos, moment=(5e-3 * np.sin(pitch), 0, 5e-3 * np.cos(pitch)))
         return ms.solve_equilibrium(beam, src, gravity=g, clamp_angle=th0, options=OPTS, model="planar")
 
