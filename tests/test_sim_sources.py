@@ -240,3 +240,22 @@ def test_run_gait_reads_a_robots_field_source_block():
     c = ms.run_gait(plain, 0.3)
     assert a.displacement == b.displacement and a.speed == b.speed
     assert a.displacement != c.displacement
+
+
+def test_envs_warn_that_they_do_not_use_a_robots_field_source():
+    """The crawl and steering envs make their own fields: a robot file's source is named in a warning, not lost
+    without a word; a robot without one gives no warning."""
+    import warnings
+
+    import gymnasium as gym
+
+    import magsoft_env as ms
+
+    block = {"type": "sphere", "position_mm": [12, 0, 15], "radius_mm": 3, "remanence_T": [0, 0, 1.2]}
+    robot = ms.load_robot("paper-5c").replace(field_source=block)
+    for env_id in ("MagSoftCrawl-v1", "MagSoftSteer-v0"):
+        with pytest.warns(UserWarning, match="field_source .sphere. that this env does not use"):
+            gym.make(env_id, robot=robot).close()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        gym.make("MagSoftCrawl-v1", robot="paper-5c").close()

@@ -101,6 +101,20 @@ def refuse_unknown_kwargs(env, unknown: dict, *, classes: tuple = ()) -> None:
     )
 
 
+def warn_ignored_source(env, robot) -> None:
+    """Warn (once per construction) that ``robot``'s file holds a ``field_source`` block that ``env`` does not use:
+    the crawl and steering envs make their own fields (the action, or their own coils or magnet), so a robot
+    file's source would otherwise vanish without a word."""
+    if getattr(robot, "field_source", None) is None:
+        return
+    import warnings
+
+    kind = (robot.field_source or {}).get("type", "a field source")
+    warnings.warn(f"{type(env).__name__}: robot {robot.name!r} has a field_source ({kind}) that this env does not "
+                  "use: its fields are its action (uniform), or its own coils or magnet. run_gait, magsoft gait "
+                  "and magsoft video run the robot in its source.", UserWarning, stacklevel=3)
+
+
 def as_action(space, action):
     """``action`` as a float64 array of ``space``'s shape, or a ValueError naming the action, the shape and dtype
     expected and what was given (numpy's own reshape or float conversion errors name neither)."""
@@ -150,4 +164,4 @@ def register_all() -> None:
 
 
 __all__ = ["ENV_SPECS", "VECTOR_ENTRY_POINTS", "as_action", "constructor_arguments", "instability_info",
-           "refuse_unknown_kwargs", "register_all", "run_to_end"]
+           "refuse_unknown_kwargs", "register_all", "run_to_end", "warn_ignored_source"]

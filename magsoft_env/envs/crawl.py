@@ -16,7 +16,7 @@ from ..sim.health import MAX_STEPS, check_steps
 from ..sim.model import CONTACT_HISTORY, MAX_TIMESTEP
 from ..spec.drive import Waveparams
 from ..validate import choice, finite_number, nonnegative, positive
-from . import as_action, instability_info, refuse_unknown_kwargs
+from . import as_action, instability_info, refuse_unknown_kwargs, warn_ignored_source
 from .crawl_task import (
     AIRBORNE_TOLERANCE,
     CRAWL_MODES,
@@ -299,6 +299,7 @@ class MagSoftCrawlEnv(gym.Env):
     ):
         refuse_unknown_kwargs(self, unknown)
         self.gait = resolve_robot(robot)  # a built-in name, a robot file or a Robot: checked before any work
+        warn_ignored_source(self, self.gait)
         self.action_mode = choice("action_mode", action_mode, ACTION_MODES)
         self.crawl_mode = choice("crawl_mode", crawl_mode, CRAWL_MODES)
         self.field_limit = positive("field_limit", field_limit, unit="T")

@@ -17,7 +17,7 @@ from ..sim.model import MAX_TIMESTEP
 from ..sim.readouts import PitchTracker, is_flipped, pitch_orientation
 from ..sim.waveforms import Conical
 from ..validate import choice, finite_array, finite_number, nonnegative, positive
-from . import as_action, instability_info, refuse_unknown_kwargs, run_to_end
+from . import as_action, instability_info, refuse_unknown_kwargs, run_to_end, warn_ignored_source
 from .crawl import DEFAULT_MAX_CLEARANCE, DEFAULT_MAX_HEIGHT, DEFAULT_MAX_LINK_ROTATION
 from .crawl_task import (
     CRAWL_MODES,
@@ -220,6 +220,7 @@ class MagSoftSteerEnv(gym.Env):
     ):
         refuse_unknown_kwargs(self, unknown)
         self.gait = resolve_robot(robot)  # checked before any work
+        warn_ignored_source(self, self.gait)
         self.action_mode = choice("action_mode", action_mode, ACTION_MODES)
         self.field_limit = positive("field_limit", field_limit, unit="T")
         if self.field_limit > 0.1:
