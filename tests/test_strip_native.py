@@ -13,6 +13,7 @@ import pytest
 import magsoft_env as ms
 from magsoft_env.sim import RodOptions, SimulationError, Simulator, UnphysicalError, mujoco_equilibrium, stepping
 from magsoft_env.sim import cable as C
+from magsoft_env.sim import cable_frames as CF
 from magsoft_env.sim.histories import PointsHistory, SensorHistory
 from magsoft_env.sim.waveforms import Waveform
 
@@ -152,6 +153,65 @@ def test_couple_writer_is_the_frame_formula(scene):
         np.testing.assert_allclose(d.qfrc_applied[cm.twist_dof[tw]], np.einsum("ij,ij->i", Cp, t)[tw], rtol=0,
                                    atol=1e-12 * np.abs(Cp).max())
         np.testing.assert_allclose(net, mw.sum(axis=0), rtol=1e-12)
+
+
+def _frame_formula(cm, data, B, extra=None, net_moment=None):
+    """The couples as the strip wrote them before CoupleWriter (apply_field of a36fe4c), the reference of the strip's
+    trajectories: frames from material_frames, C = M @ [B]x, pairs (C x t) / l added +F then -F, twist C . t."""
+    x = C.vertices(cm, data)
+    t, d1, d2 = C.material_frames(cm, data, x)
+    m = cm.layout.moment
+    mw = m[:, :1] * t + m[:, 1:2] * d1 + m[:, 2:3] * d2
+    if net_moment is not None:
+        net_moment[:] = mw.sum(axis=0)
+    Cp = mw @ np.array([[0.0, -B[2], B[1]], [B[2], 0.0, -B[0]], [-B[1], B[0], 0.0]])
+    if extra is not None:
+        Cp = Cp + extra[:, 3:]
+    e = np.diff(x, axis=0)
+    F = CF._cross(Cp, t) / np.sqrt(CF._dot(e, e))[:, None]
+    fv = np.zeros((len(x), 3))
+    fv[1:] += F
+    fv[:-1] -= F
+    if extra is not None:
+        fv[1:] += 0.5 * extra[:, :3]
+        fv[:-1] += 0.5 * extra[:, :3]
+    body = cm.vertex_body
+    data.xfrc_applied[body[body > 0], :3] = fv[body > 0]
+    data.xfrc_applied[body[body > 0], 3:] = 0.0
+    data.qfrc_applied[:] = 0.0
+    free = cm.twist_dof >= 0
+    data.qfrc_applied[cm.twist_dof[free]] = CF._dot(Cp, t)[free]
+
+
+@pytest.mark.parametrize("scene", ["floor", "cantilever"])
+def test_couple_writer_is_the_frame_formula_bit_for_bit(scene):
+    """With the axial part the Python couples are the frame formula's arithmetic to the last bit (the strip's
+    trajectories on the Python path are those from before the writer, hash for hash), before the first step (no
+    reference frames stored) and in a bent, twisted state, with and without an external wrench."""
+    beam = ms.Beam(length=25e-3, width=5e-3, thickness=1.13e-3,
+                   magnetization=(lambda s: 1.0 + 0 * s, lambda s: 0.6 - 30.0 * s, 0.8))
+    cm = C.build_cable(beam, _opts(scene, segments=8))
+    m, d = cm.model, mujoco.MjData(cm.model)
+    rng = np.random.default_rng(5)
+    ref = mujoco.MjData(m)
+    writer = C.CoupleWriter(cm)
+    for k in range(31):
+        if k:  # bend and twist it, with reference frames MuJoCo has stored
+            d.qfrc_applied[:] = rng.normal(0.0, 1e-6, m.nv)
+            mujoco.mj_step(m, d)
+        if k not in (0, 30):
+            continue
+        for extra in (None, rng.normal(0.0, 1e-6, (9, 6))):
+            B = rng.normal(0.0, 2e-3, 3)
+            ref.qpos[:], ref.plastic[:] = d.qpos, d.plastic
+            net, net_ref = np.full(3, np.nan), np.full(3, np.nan)
+            d.xfrc_applied[:] = ref.xfrc_applied[:] = rng.normal(size=ref.xfrc_applied.shape)
+            d.qfrc_applied[:] = ref.qfrc_applied[:] = rng.normal(size=m.nv)
+            writer.write(d, B, extra, net)
+            _frame_formula(cm, ref, B, extra, net_ref)
+            assert np.array_equal(d.xfrc_applied, ref.xfrc_applied)
+            assert np.array_equal(d.qfrc_applied, ref.qfrc_applied)
+            assert np.array_equal(net, net_ref)
 
 
 def test_net_moments_of_recorded_positions_are_vectorized():
