@@ -13,7 +13,6 @@ import pytest
 import magsoft_env as ms
 from magsoft_env.sim import RodOptions, SimulationError, Simulator, UnphysicalError, mujoco_equilibrium, stepping
 from magsoft_env.sim import cable as C
-from magsoft_env.sim import cable_frames as CF
 from magsoft_env.sim.histories import PointsHistory, SensorHistory
 from magsoft_env.sim.waveforms import Waveform
 
@@ -157,9 +156,34 @@ def test_couple_writer_is_the_frame_formula(scene):
 
 def _frame_formula(cm, data, B, extra=None, net_moment=None):
     """The couples as the strip wrote them before CoupleWriter (apply_field of a36fe4c), the reference of the strip's
-    trajectories: frames from material_frames, C = M @ [B]x, pairs (C x t) / l added +F then -F, twist C . t."""
-    x = C.vertices(cm, data)
-    t, d1, d2 = C.material_frames(cm, data, x)
+    trajectories: frames as material_frames computed them, C = M @ [B]x, pairs (C x t) / l added +F then -F,
+    twist C . t."""
+    def dot(a, b):
+        return np.einsum("ij,ij->i", a, b)
+
+    def cross(a, b):
+        i1, i2 = [1, 2, 0], [2, 0, 1]
+        return np.take(a, i1, 1) * np.take(b, i2, 1) - np.take(a, i2, 1) * np.take(b, i1, 1)
+
+    x = cm.vertex_ref.copy()
+    free = cm.vertex_qpos >= 0
+    x[free] += data.qpos[cm.vertex_qpos[free]]
+    e = np.diff(x, axis=0)
+    t = e / np.sqrt(dot(e, e))[:, None]
+    ne = len(t)
+    a = cm.model.flex_plasticadr[cm.flex]
+    p = data.plastic[a:a + 6 * ne].reshape(ne, 6)
+    if not p.any():
+        t_old = np.tile([1.0, 0.0, 0.0], (ne, 1))
+        u_old = np.tile([0.0, 1.0, 0.0], (ne, 1))
+    else:
+        t_old, u_old = p[:, :3], p[:, 3:]
+    u = u_old - (dot(t, u_old) / (1.0 + dot(t_old, t)))[:, None] * (t_old + t)
+    u /= np.sqrt(dot(u, u))[:, None]
+    theta = np.where(cm.twist_qpos >= 0, data.qpos[np.maximum(cm.twist_qpos, 0)], 0.0)
+    v = cross(t, u)
+    c, s = np.cos(theta)[:, None], np.sin(theta)[:, None]
+    d1, d2 = c * u + s * v, c * v - s * u
     m = cm.layout.moment
     mw = m[:, :1] * t + m[:, 1:2] * d1 + m[:, 2:3] * d2
     if net_moment is not None:
@@ -167,8 +191,7 @@ def _frame_formula(cm, data, B, extra=None, net_moment=None):
     Cp = mw @ np.array([[0.0, -B[2], B[1]], [B[2], 0.0, -B[0]], [-B[1], B[0], 0.0]])
     if extra is not None:
         Cp = Cp + extra[:, 3:]
-    e = np.diff(x, axis=0)
-    F = CF._cross(Cp, t) / np.sqrt(CF._dot(e, e))[:, None]
+    F = cross(Cp, t) / np.sqrt(dot(e, e))[:, None]
     fv = np.zeros((len(x), 3))
     fv[1:] += F
     fv[:-1] -= F
@@ -179,8 +202,8 @@ def _frame_formula(cm, data, B, extra=None, net_moment=None):
     data.xfrc_applied[body[body > 0], :3] = fv[body > 0]
     data.xfrc_applied[body[body > 0], 3:] = 0.0
     data.qfrc_applied[:] = 0.0
-    free = cm.twist_dof >= 0
-    data.qfrc_applied[cm.twist_dof[free]] = CF._dot(Cp, t)[free]
+    tw = cm.twist_dof >= 0
+    data.qfrc_applied[cm.twist_dof[tw]] = dot(Cp, t)[tw]
 
 
 @pytest.mark.parametrize("scene", ["floor", "cantilever"])
