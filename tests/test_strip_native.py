@@ -154,6 +154,89 @@ def test_couple_writer_is_the_frame_formula(scene):
         np.testing.assert_allclose(net, mw.sum(axis=0), rtol=1e-12)
 
 
+def _frame_formula(cm, data, B, extra=None, net_moment=None):
+    """The couples as the strip wrote them before CoupleWriter (apply_field of a36fe4c), the reference of the strip's
+    trajectories: frames as material_frames computed them, C = M @ [B]x, pairs (C x t) / l added +F then -F,
+    twist C . t."""
+    def dot(a, b):
+        return np.einsum("ij,ij->i", a, b)
+
+    def cross(a, b):
+        i1, i2 = [1, 2, 0], [2, 0, 1]
+        return np.take(a, i1, 1) * np.take(b, i2, 1) - np.take(a, i2, 1) * np.take(b, i1, 1)
+
+    x = cm.vertex_ref.copy()
+    free = cm.vertex_qpos >= 0
+    x[free] += data.qpos[cm.vertex_qpos[free]]
+    e = np.diff(x, axis=0)
+    t = e / np.sqrt(dot(e, e))[:, None]
+    ne = len(t)
+    a = cm.model.flex_plasticadr[cm.flex]
+    p = data.plastic[a:a + 6 * ne].reshape(ne, 6)
+    if not p.any():
+        t_old = np.tile([1.0, 0.0, 0.0], (ne, 1))
+        u_old = np.tile([0.0, 1.0, 0.0], (ne, 1))
+    else:
+        t_old, u_old = p[:, :3], p[:, 3:]
+    u = u_old - (dot(t, u_old) / (1.0 + dot(t_old, t)))[:, None] * (t_old + t)
+    u /= np.sqrt(dot(u, u))[:, None]
+    theta = np.where(cm.twist_qpos >= 0, data.qpos[np.maximum(cm.twist_qpos, 0)], 0.0)
+    v = cross(t, u)
+    c, s = np.cos(theta)[:, None], np.sin(theta)[:, None]
+    d1, d2 = c * u + s * v, c * v - s * u
+    m = cm.layout.moment
+    mw = m[:, :1] * t + m[:, 1:2] * d1 + m[:, 2:3] * d2
+    if net_moment is not None:
+        net_moment[:] = mw.sum(axis=0)
+    Cp = mw @ np.array([[0.0, -B[2], B[1]], [B[2], 0.0, -B[0]], [-B[1], B[0], 0.0]])
+    if extra is not None:
+        Cp = Cp + extra[:, 3:]
+    F = cross(Cp, t) / np.sqrt(dot(e, e))[:, None]
+    fv = np.zeros((len(x), 3))
+    fv[1:] += F
+    fv[:-1] -= F
+    if extra is not None:
+        fv[1:] += 0.5 * extra[:, :3]
+        fv[:-1] += 0.5 * extra[:, :3]
+    body = cm.vertex_body
+    data.xfrc_applied[body[body > 0], :3] = fv[body > 0]
+    data.xfrc_applied[body[body > 0], 3:] = 0.0
+    data.qfrc_applied[:] = 0.0
+    tw = cm.twist_dof >= 0
+    data.qfrc_applied[cm.twist_dof[tw]] = dot(Cp, t)[tw]
+
+
+@pytest.mark.parametrize("scene", ["floor", "cantilever"])
+def test_couple_writer_is_the_frame_formula_bit_for_bit(scene):
+    """With the axial part the Python couples are the frame formula's arithmetic to the last bit (the strip's
+    trajectories on the Python path are those from before the writer, hash for hash), before the first step (no
+    reference frames stored) and in a bent, twisted state, with and without an external wrench."""
+    beam = ms.Beam(length=25e-3, width=5e-3, thickness=1.13e-3,
+                   magnetization=(lambda s: 1.0 + 0 * s, lambda s: 0.6 - 30.0 * s, 0.8))
+    cm = C.build_cable(beam, _opts(scene, segments=8))
+    m, d = cm.model, mujoco.MjData(cm.model)
+    rng = np.random.default_rng(5)
+    ref = mujoco.MjData(m)
+    writer = C.CoupleWriter(cm)
+    for k in range(31):
+        if k:  # bend and twist it, with reference frames MuJoCo has stored
+            d.qfrc_applied[:] = rng.normal(0.0, 1e-6, m.nv)
+            mujoco.mj_step(m, d)
+        if k not in (0, 30):
+            continue
+        for extra in (None, rng.normal(0.0, 1e-6, (9, 6))):
+            B = rng.normal(0.0, 2e-3, 3)
+            ref.qpos[:], ref.plastic[:] = d.qpos, d.plastic
+            net, net_ref = np.full(3, np.nan), np.full(3, np.nan)
+            d.xfrc_applied[:] = ref.xfrc_applied[:] = rng.normal(size=ref.xfrc_applied.shape)
+            d.qfrc_applied[:] = ref.qfrc_applied[:] = rng.normal(size=m.nv)
+            writer.write(d, B, extra, net)
+            _frame_formula(cm, ref, B, extra, net_ref)
+            assert np.array_equal(d.xfrc_applied, ref.xfrc_applied)
+            assert np.array_equal(d.qfrc_applied, ref.qfrc_applied)
+            assert np.array_equal(net, net_ref)
+
+
 def test_net_moments_of_recorded_positions_are_vectorized():
     sim = Simulator(GRADED, _opts(segments=10))
     rod, cm = sim.backend, sim.backend.rod

@@ -19,12 +19,15 @@ import numpy as np
 
 from .cable_build import CableModel
 
-_I1, _I2 = np.array([1, 2, 0]), np.array([2, 0, 1])
+# columns (1, 2, 0) then (2, 0, 1) of a, (2, 0, 1) then (1, 2, 0) of b
+_J1, _J2 = np.array([1, 2, 0, 2, 0, 1]), np.array([2, 0, 1, 1, 2, 0])
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise cross product of ``(n, 3)`` arrays (``np.cross`` costs 2-3x more at these sizes)."""
-    return np.take(a, _I1, 1) * np.take(b, _I2, 1) - np.take(a, _I2, 1) * np.take(b, _I1, 1)
+    """Row-wise cross product of ``(n, 3)`` arrays (``np.cross`` costs 2-3x more at these sizes): the products
+    ``a_j b_k`` and ``a_k b_j`` in one pass, then their difference."""
+    p = np.take(a, _J1, 1) * np.take(b, _J2, 1)
+    return p[:, :3] - p[:, 3:]
 
 
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -95,11 +98,14 @@ class CoupleWriter:
     most of its cost, so it makes few calls).
 
     The force pair of edge ``i`` is ``(C_i x t_i) / l_i`` with ``C_i = M_i x B`` the couple of its world moment
-    ``M_i = m_a t + m_w d1 + m_t d2``; since ``M_i . t_i = m_a``, ``C_i x t_i = m_a B - (B . t_i) M_i``, and the
-    twist moment ``C_i . t_i = B . (t_i x M_i)`` with ``t x d1 = d2``, ``t x d2 = -d1``: no cross product of the
-    couples is formed. The transverse part ``m_w d1 + m_t d2 = r (cos psi u + sin psi v)`` with ``psi = theta +
-    atan2(m_t, m_w)`` and ``(u, v = t x u)`` the transported reference frame (:func:`material_frames`; the transport
-    keeps ``u`` a unit vector, so it is not normalized again: a round-off difference).
+    ``M_i = m_a t + m_w d1 + m_t d2``, and its twist moment ``C_i . t_i``. With the axial part (:meth:`write`) they
+    are computed so, operation for operation as :func:`material_frames` and the frame formula (the strip's
+    trajectories stay those of the formula to the last bit). Without it (the poles apply the axial part), and for a
+    :meth:`write_source`, the rearranged form: since ``M_i . t_i = m_a``, ``C_i x t_i = m_a B - (B . t_i) M_i``,
+    and ``C_i . t_i = B . (t_i x M_i)`` with ``t x d1 = d2``, ``t x d2 = -d1``; its transverse part
+    ``m_w d1 + m_t d2 = r (cos psi u + sin psi v)`` with ``psi = theta + atan2(m_t, m_w)`` and ``(u, v = t x u)``
+    the transported reference frame (:meth:`frames`; the transport keeps ``u`` a unit vector, so it is not
+    normalized again: a round-off difference from :func:`material_frames`).
 
     Parameters
     ----------
@@ -131,6 +137,10 @@ class CoupleWriter:
         ne = len(tw)
         self._theta = np.zeros(ne)
         m = cm.layout.moment
+        self._m0, self._m1, self._m2 = (np.ascontiguousarray(m[:, k:k + 1]) for k in range(3))
+        self._bx = np.zeros((3, 3))
+        self._bx_at, self._bx_of = np.array([1, 2, 3, 5, 6, 7]), np.array([2, 1, 2, 0, 1, 0])
+        self._bx_sign = np.array([-1.0, 1.0, 1.0, -1.0, -1.0, 1.0])
         self._ma = np.ascontiguousarray(m[:, :1])
         self._phi0 = np.arctan2(m[:, 2], m[:, 1])
         self._r = np.hypot(m[:, 1], m[:, 2])
@@ -148,6 +158,7 @@ class CoupleWriter:
         d[np.arange(1, ne + 1), np.arange(ne)] = 1.0
         d[np.arange(ne), np.arange(ne)] = -1.0
         self._pairs = np.ascontiguousarray(d[f0:])
+        self._fv = np.zeros((len(free), 3))
 
     def frames(self, data: mujoco.MjData):
         """The geometry of the state in ``data`` the couples need: ``(x, inv, t, u, v, alpha, beta, mperp)``, the
@@ -208,17 +219,70 @@ class CoupleWriter:
               net_moment: np.ndarray | None = None, *, clear: bool = True) -> None:
         """Write the couples of the field ``(B_x, B_y, B_z)`` (T) at the state in ``data`` (see :func:`apply_field`).
         ``clear`` False: leave the entries it never writes (vertex torques, non-twist dofs of ``qfrc_applied``) as
-        they are, zero since the last clearing write (the 3D rod clears once per call, not every step)."""
+        they are, zero since the last clearing write (the 3D rod clears once per call, not every step).
+
+        With the axial part (:attr:`axial`) the arithmetic is the frame formula's, operation for operation: the
+        material frames as :func:`material_frames` computes them, ``C = M @ [B]x``, the pairs ``(C x t) / l`` summed
+        per vertex as ``+F`` then ``-F``, the twist ``C . t`` (the strip's trajectories are those of the formula to
+        the last bit; :meth:`_write_transverse`'s rearranged form differs from it by round-off)."""
+        if not self.axial:
+            self._write_transverse(data, field3, extra, net_moment, clear)
+            return
+        B = field3
+        x = self._x
+        q = data.qpos
+        x[self._f0:] = self._ref + q[self._vq].reshape(self._nfree, 3)
+        # material_frames, with its index arrays prepared
+        e = x[1:] - x[:-1]
+        le = np.sqrt(_dot(e, e))[:, None]
+        t = e / le
+        p = data.plastic[self._plastic].reshape(-1, 6)
+        if not (p.item(0) or p.item(1) or p.item(2)):  # no reference frame stored yet (before the first step)
+            p = self._rest
+        t_old, u_old = p[:, :3], p[:, 3:]
+        u = _transport(u_old, t_old, t)
+        u /= np.sqrt(_dot(u, u))[:, None]
+        theta = self._theta  # a clamped edge's stays 0
+        theta[self._t0:] = q[self._tq]
+        v = _cross(t, u)
+        c, s = np.cos(theta)[:, None], np.sin(theta)[:, None]
+        mw = self._m0 * t + self._m1 * (c * u + s * v) + self._m2 * (c * v - s * u)
+        if net_moment is not None:
+            net_moment[:] = mw.sum(axis=0)
+        # m x B for every row: m @ [B]x, [B]x = [[0, -B_z, B_y], [B_z, 0, -B_x], [-B_y, B_x, 0]]
+        bx = self._bx
+        bx.flat[self._bx_at] = B[self._bx_of] * self._bx_sign
+        C = mw @ bx
+        if extra is not None:
+            C = C + extra[:, 3:]
+        # the pair's lever is the edge's current length: its couple is C whatever the edge's strain
+        F = _cross(C, t) / le
+        fv = self._fv
+        fv[:] = 0.0
+        fv[1:] += F
+        fv[:-1] -= F
+        if extra is not None:
+            fv[1:] += 0.5 * extra[:, :3]
+            fv[:-1] += 0.5 * extra[:, :3]
+        xf = data.xfrc_applied
+        xf[self._body, :3] = fv[self._f0:]
+        qf = data.qfrc_applied
+        if clear:
+            xf[self._body, 3:] = 0.0
+            qf[:] = 0.0
+        qf[self._td] = _dot(C, t)[self._t0:]
+
+    def _write_transverse(self, data: mujoco.MjData, field3: np.ndarray, extra: np.ndarray | None,
+                          net_moment: np.ndarray | None, clear: bool) -> None:
+        """:meth:`write` without the axial part (MuJoCo's poles apply it): the force pairs ``-(B . t) M_perp / l`` and
+        twist moments ``B . (t x M_perp)`` of the transverse moment (the class docstring's rearranged formula)."""
         B = field3
         one = self._one
         _, inv, t, u, v, alpha, beta, mperp = self.frames(data)
         bt = t @ B
-        # force pair times l: m_a B - (B . t) M; without the axial part: -(B . t) M_perp
-        if self.axial or net_moment is not None:
-            mw = self._ma * t + mperp
-            if net_moment is not None:
-                net_moment[:] = mw.sum(axis=0)
-        F = self._ma * B - bt[:, None] * mw if self.axial else -bt[:, None] * mperp
+        if net_moment is not None:
+            net_moment[:] = (self._ma * t + mperp).sum(axis=0)
+        F = -bt[:, None] * mperp
         twist = alpha * (v @ B) - beta * (u @ B)
         if extra is not None:
             F += (extra[:, 3:, None] * t[:, None, :]).reshape(-1, 9) @ self._eps
