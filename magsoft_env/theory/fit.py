@@ -38,8 +38,8 @@ FIT_PARAMETERS = {"E0": True, "particle_magnetization": True, "density": True, "
 SOURCE_OFFSETS = ("source_x", "source_y", "source_z")
 #: Parameters only the 3D model depends on (the planar one has no width, no twist, no y).
 PARAMETERS_3D = ("width", "poisson_ratio", "source_y")
-#: Parameters with a closed valid range (the Poisson ratio, 0 to 1/2): fitted as they are, and a step of the fit
-#: beyond the range meets a large misfit (the optimizer steps back).
+#: Parameters with a closed valid range (the Poisson ratio, 0 to 1/2), fitted through ``p = mid + half sin(u)``:
+#: every step of the optimizer lands in the range, and one that would leave it folds back in.
 BOUNDED = {"poisson_ratio": (0.0, 0.5)}
 #: The models of :func:`fit`.
 MODELS = ("auto", "planar", "3d")
@@ -450,38 +450,48 @@ def fit(beam: Beam, measurements, params=("E0", "particle_magnetization"), *, gr
     cache: dict = {}
     failed: list = []  # (measurement, message) whose equilibrium the last evaluation did not find
 
-    # positive parameters are fitted in their logarithm, the others in units of a natural scale: the beam's length
-    # for a source's offset, 1 rad for the clamp angle, 1 for the Poisson ratio
+    # positive parameters are fitted in their logarithm, a bounded one through a sine onto its range, the others in
+    # units of a natural scale: the beam's length for a source's offset, 1 rad for the clamp angle
     unit = [1.0 if lg else (beam.length if p in SOURCE_OFFSETS else 1.0) for p, lg in zip(params, logs, strict=True)]
 
     def unpack(u):
-        return {p: (math.exp(v) if lg else v * k) for p, v, lg, k in zip(params, u, logs, unit, strict=True)}
+        out = {}
+        for p, v, lg, k in zip(params, u, logs, unit, strict=True):
+            if p in BOUNDED:
+                lo, hi = BOUNDED[p]
+                out[p] = min(max(0.5 * (lo + hi) + 0.5 * (hi - lo) * math.sin(v), lo), hi)
+            else:
+                out[p] = math.exp(v) if lg else v * k
+        return out
 
     def evaluate(u):
         key = tuple(np.round(u, 15))
         if key in cache:
             return cache[key]
-        vals = unpack(u)
-        if any(not BOUNDED[p][0] <= vals[p] <= BOUNDED[p][1] for p in params if p in BOUNDED):
-            out = (np.full(n_res, 1e3), np.zeros((n_res, len(params))), False)  # beyond the valid range
-        else:
-            r, J, fails = _misfit(beam, data, params, vals, gravity=gravity, clamp_angle=clamp_angle,
-                                  coupling=coupling, options=options, model=model)
-            failed[:] = fails
-            out = (r, J, not fails)
+        r, J, fails = _misfit(beam, data, params, unpack(u), gravity=gravity, clamp_angle=clamp_angle,
+                              coupling=coupling, options=options, model=model)
+        failed[:] = fails
+        out = (r, J, not fails)
         cache.clear()
         cache[key] = out
         return out
 
-    u0 = np.array([math.log(start[p]) if lg else start[p] / k for p, lg, k in zip(params, logs, unit, strict=True)])
+    def pack(p, v, lg, k):
+        if p in BOUNDED:
+            lo, hi = BOUNDED[p]
+            return math.asin(min(max((2.0 * v - lo - hi) / (hi - lo), -1.0), 1.0))
+        return math.log(v) if lg else v / k
+
+    u0 = np.array([pack(p, start[p], lg, k) for p, lg, k in zip(params, logs, unit, strict=True)])
 
     def fun(u):
         return evaluate(u)[0]
 
     def jac(u):
         vals = np.array(list(unpack(u).values()))
-        d = np.array([v if lg else k for v, lg, k in zip(vals, logs, unit, strict=True)])
-        return evaluate(u)[1] * d[None, :]  # d/d log p = p d/dp; d/d(p / k) = k d/dp
+        d = np.array([0.5 * (BOUNDED[p][1] - BOUNDED[p][0]) * math.cos(x) if p in BOUNDED else (v if lg else k)
+                      for p, x, v, lg, k in zip(params, u, vals, logs, unit, strict=True)])
+        return evaluate(u)[1] * d[None, :]  # d/d log p = p d/dp; d/d(p / k) = k d/dp; the sine's derivative
 
     J0 = jac(u0)
     if failed:
@@ -504,7 +514,7 @@ def fit(beam: Beam, measurements, params=("E0", "particle_magnetization"), *, gr
                 break
             u = u0.copy()
             if params[i] in BOUNDED:  # halfway to either end of the range
-                u[i] = 0.5 * (start[params[i]] + BOUNDED[params[i]][1 if sign > 0 else 0]) / unit[i]
+                u[i] = pack(params[i], 0.5 * (start[params[i]] + BOUNDED[params[i]][1 if sign > 0 else 0]), False, 1.0)
             else:
                 u[i] += sign * (math.log(RESTART_FACTOR) if lg else 0.1)
             starts.append(u)
@@ -538,6 +548,10 @@ def fit(beam: Beam, measurements, params=("E0", "particle_magnetization"), *, gr
     bad = _correlated(corr, params)
     if bad:
         msg += " " + bad
+    for p in params:
+        if p in BOUNDED and min(abs(values[p] - b) for b in BOUNDED[p]) <= 1e-9 * (BOUNDED[p][1] - BOUNDED[p][0]):
+            msg += (f" Warning: {p} ended at an end of its valid range {list(BOUNDED[p])} ({values[p]:g}): not an "
+                    "interior minimum, so its sigma does not apply; try more restarts or fix it.")
     return FitResult(success=bool(sol.success and ok), message=msg, params=params, values=values, sigma=sig,
                      interval95={p: (values[p] - 1.96 * sig[p], values[p] + 1.96 * sig[p]) for p in params},
                      covariance=cov, correlation=corr, beam=_with(beam, values), residual=r,
