@@ -85,7 +85,7 @@ def test_fit_jacobian_equals_central_differences_of_its_residual():
             b, th0 = moved(p, v)
             f.append(misfit(b, data, params, gravity=9.81, clamp_angle=th0, model="3d")[0])
         fd = (f[0] - f[1]) / (2 * h)
-        assert np.abs(J[:, k] - fd).max() <= 1e-5 * np.abs(fd).max(), p
+        assert np.abs(J[:, k] - fd).max() <= 1e-7 * np.abs(fd).max(), p  # measured 5e-11 to 2.3e-10
 
     src = PointDipole(position=(25e-3, 10e-3, -20e-3), moment=(0, 0, 3e-3))  # beside the strip, off its plane
     sdata = [(src, s, np.zeros((2, 3)))]
@@ -94,7 +94,7 @@ def test_fit_jacobian_equals_central_differences_of_its_residual():
     f = [misfit(BEAM, [(Transformed(src, position=(0, d, 0)), s, np.zeros((2, 3)))], ("E0",), model="3d")[0]
          for d in (h, -h)]
     fd = (f[0] - f[1]) / (2 * h)
-    assert np.abs(Js[:, 1] - fd).max() <= 1e-5 * np.abs(fd).max()
+    assert np.abs(Js[:, 1] - fd).max() <= 1e-6 * np.abs(fd).max()  # measured 5e-9
 
 
 def test_a_magnets_offset_in_three_dimensions_with_the_modulus():
