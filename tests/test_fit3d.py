@@ -151,6 +151,12 @@ def test_3d_parameters_and_out_of_plane_fields_are_refused_in_the_planar_model()
         ms.fit(BEAM, planar, params=("E0", "width"), model="3d")
     with pytest.raises(ValueError, match=r"measurements\[1\] field has B_y = 0.002 T.*model='3d'"):
         ms.fit(BEAM, _tips(BEAM)[:2], params=("E0",), model="planar")
+    # the planar source sensitivities have no volume fraction; the 3D ones do
+    from magsoft_env.fields import PointDipole
+
+    src = PointDipole(position=(25e-3, 0, -20e-3), moment=(0, 0, 3e-3))
+    with pytest.raises(ValueError, match="volume_fraction under a field source needs the 3D model"):
+        ms.fit(BEAM, [(src, (20e-3, -5e-3))], params=("volume_fraction",))
     with pytest.raises(ValueError, match="model must be one of"):
         ms.fit(BEAM, planar, params=("E0",), model="3D")
     with pytest.raises(ValueError, match=r"measurements\[0\] positions must be 1 finite"):

@@ -377,7 +377,7 @@ def fit(beam: Beam, measurements, params=("E0", "particle_magnetization"), *, gr
         Any of ``E0``, ``particle_magnetization``, ``density``, ``thickness``, ``volume_fraction``,
         ``clamp_angle``, and ``source_x`` / ``source_z``: one offset (m) of every measurement's source from its
         given pose (a magnet's position error); in the planar model ``volume_fraction`` with uniform fields only.
-        In 3D also ``width``, ``poisson_ratio`` (fitted on (0, 0.5); both act through out-of-plane bending and
+        In 3D also ``width``, ``poisson_ratio`` (fitted on [0, 0.5]; both act through out-of-plane bending and
         twist, so they need fields with ``B_y`` or points off the x-z plane) and ``source_y``.
     gravity : float
         Gravitational acceleration during the measurements (m/s^2, along -z).
@@ -437,6 +437,9 @@ def fit(beam: Beam, measurements, params=("E0", "particle_magnetization"), *, gr
     model = _choose_model(model, parsed, beam, params)
     data = parsed if model == "3d" else _planar(parsed)
     ncoord = 3 if model == "3d" else 2
+    if model == "planar" and "volume_fraction" in params and any(not isinstance(m.field, tuple) for m in data):
+        raise ValueError("volume_fraction under a field source needs the 3D model (model='3d'): the planar source "
+                         "sensitivities do not take it; or measure under uniform fields.")
     n_res = sum(ncoord * m.s.size for m in data)
     if n_res < len(params):
         raise ValueError(f"{len(params)} parameters need at least as many measured coordinates; the data give "
