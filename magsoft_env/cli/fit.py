@@ -2,10 +2,14 @@
 
 The CSV has one header row with units in the column names and one row per tracked point:
 
-- the field: ``Bx_mT`` and ``Bz_mT`` (or ``_T``); rows with the same field form one measurement;
+- the field: ``Bx_mT`` and ``Bz_mT`` (or ``_T``), and optionally ``By_mT`` (across the width); rows with the same
+  field form one measurement;
 - the position: ``tip_x_mm`` and ``tip_z_mm`` (the tip), or ``s_mm``, ``x_mm`` and ``z_mm`` (a point at reference
-  arc length s from the clamp); ``_m`` instead of ``_mm`` for metres; a ``y`` column is read and ignored (the fit
-  is planar). Positions are relative to the clamp, x along the undeformed beam, z up.
+  arc length s from the clamp), and optionally ``tip_y_mm`` / ``y_mm``; ``_m`` instead of ``_mm`` for metres.
+  Positions are relative to the clamp, x along the undeformed beam, y across its width, z up.
+
+A field with ``B_y`` or a point with y != 0 takes the 3D rod (``--model auto``, the default); otherwise the fit is
+planar (and an all-zero y column changes nothing). ``--model 3d`` or ``planar`` chooses.
 
 Prints the fitted values with their 1-sigma uncertainties and correlations, writes the fitted robot file with
 ``--out`` and a figure of the fit (measured and fitted positions, misfits) with ``--plot``.
@@ -31,14 +35,21 @@ def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
         "fit",
         help="fit E0, the magnetization (and more) to measured shapes in a CSV file",
-        description="Fit a robot's parameters to tracked positions under known fields (planar cantilever, clamp at "
-                    "the origin): Levenberg-Marquardt on exact sensitivities, with 1-sigma uncertainties.",
+        description="Fit a robot's parameters to tracked positions under known fields (a cantilever, clamp at the "
+                    "origin; planar, or the 3D rod with B_y or y data): Levenberg-Marquardt on exact sensitivities, "
+                    "with 1-sigma uncertainties.",
     )
-    p.add_argument("data", help="CSV file: Bx_mT, Bz_mT and tip_x_mm, tip_z_mm (or s_mm, x_mm, z_mm) columns")
+    p.add_argument("data", help="CSV file: Bx_mT, Bz_mT (By_mT) and tip_x_mm, tip_z_mm (tip_y_mm), or s_mm, x_mm, "
+                                "z_mm (y_mm) columns")
     p.add_argument("--robot", default="paper-5c", help="robot name or YAML file with the starting values")
     p.add_argument("--params", default="E0,particle_magnetization",
                    help="comma-separated parameters to fit: E0, particle_magnetization, density, thickness, "
-                        "volume_fraction, clamp_angle (default E0,particle_magnetization)")
+                        "volume_fraction, clamp_angle; in 3D also width, poisson_ratio (default "
+                        "E0,particle_magnetization)")
+    p.add_argument("--model", choices=("auto", "planar", "3d"), default="auto",
+                   help="auto (default): the 3D rod when a field has B_y or a point y != 0, planar otherwise")
+    p.add_argument("--restarts", type=int, default=4,
+                   help="further starts of the fit, 1.4x above and below each parameter (0-20, default 4)")
     p.add_argument("--gravity", type=float, default=9.81, help="gravity during the measurements (m/s^2, default 9.81)")
     p.add_argument("--sigma-mm", type=float, default=None,
                    help="measurement noise (mm, 1 sigma) if known; otherwise estimated from the residual")
@@ -78,13 +89,14 @@ def read_measurements(path) -> list:
         elif lu and lu[0] in ("tip_x", "tip_y", "tip_z", "s", "x", "y", "z"):
             cols[lu[0]] = (j, lu[1])
         else:
-            raise ValueError(f"{path.name}: column {h!r} is not known: expected Bx_mT, Bz_mT (or _T) and tip_x_mm, "
-                             "tip_z_mm, or s_mm, x_mm, z_mm (or _m); units go in the column names.")
+            raise ValueError(f"{path.name}: column {h!r} is not known: expected Bx_mT, Bz_mT, optionally By_mT (or "
+                             "_T) and tip_x_mm, tip_z_mm, optionally tip_y_mm, or s_mm, x_mm, z_mm, optionally y_mm "
+                             "(or _m); units go in the column names.")
     for need in ("Bx", "Bz"):
         if need not in cols:
             raise ValueError(f"{path.name}: missing column {need}_mT (or {need}_T).")
-    tip = "tip_x" in cols or "tip_z" in cols
-    pts = "x" in cols or "z" in cols or "s" in cols
+    tip = "tip_x" in cols or "tip_z" in cols or "tip_y" in cols
+    pts = "x" in cols or "z" in cols or "s" in cols or "y" in cols
     if tip == pts:
         raise ValueError(f"{path.name}: give either tip_x_mm and tip_z_mm, or s_mm, x_mm and z_mm (not both, not "
                          "neither).")
@@ -106,22 +118,26 @@ def read_measurements(path) -> list:
             raise ValueError(f"{path.name}: row {i + 1}, column {header[j]!r}: not a finite number ({v}).")
         return v * scale
 
+    # a field with B_y takes (B_x, B_y, B_z), else (B_x, B_z); points (x, y, z) with a y column, else (x, z)
+    with_y = "tip_y" in cols if tip else "y" in cols
     groups: dict[tuple, list] = {}
     for i in range(1, len(rows)):
-        B = (num(i, "Bx"), num(i, "Bz"))
-        if "By" in cols and num(i, "By") != 0.0:
-            raise ValueError(f"{path.name}: row {i + 1}: B_y must be 0 (the fit is planar).")
+        By = num(i, "By") if "By" in cols else 0.0
+        B = (num(i, "Bx"), By, num(i, "Bz")) if By != 0.0 else (num(i, "Bx"), num(i, "Bz"))
         if tip:
-            groups.setdefault(B, []).append((0.0, num(i, "tip_x"), num(i, "tip_z")))
+            xyz = (num(i, "tip_x"), num(i, "tip_y"), num(i, "tip_z")) if with_y else (num(i, "tip_x"), num(i, "tip_z"))
+            groups.setdefault(B, []).append((0.0, *xyz))
         else:
-            groups.setdefault(B, []).append((num(i, "s"), num(i, "x"), num(i, "z")))
+            xyz = (num(i, "x"), num(i, "y"), num(i, "z")) if with_y else (num(i, "x"), num(i, "z"))
+            groups.setdefault(B, []).append((num(i, "s"), *xyz))
     out = []
     for B, entries in groups.items():
         arr = np.array(entries)
         if tip:
             if len(arr) > 1:
-                raise ValueError(f"{path.name}: the field ({B[0] * 1e3:g}, {B[1] * 1e3:g}) mT has {len(arr)} tip rows; "
-                                 "give one tip per field.")
+                mT = ", ".join(f"{b * 1e3:g}" for b in B)
+                raise ValueError(f"{path.name}: the field ({mT}) mT has {len(arr)} tip rows; give one tip per "
+                                 "field.")
             out.append((B, arr[0, 1:]))
         else:
             out.append((B, arr[:, 0], arr[:, 1:]))
@@ -143,7 +159,8 @@ def run(args) -> int:
     data = read_measurements(args.data)
     params = tuple(p.strip() for p in args.params.split(",") if p.strip())
     res = ms.fit(robot.beam, data, params=params, gravity=args.gravity,
-                 sigma=None if args.sigma_mm is None else args.sigma_mm * 1e-3)
+                 sigma=None if args.sigma_mm is None else args.sigma_mm * 1e-3, model=args.model,
+                 restarts=args.restarts)
     out = {"robot": robot.name, "data": str(args.data), "measurements": len(data), **res.to_dict()}
     if args.out:
         fitted = robot.replace(beam=res.beam)
@@ -157,7 +174,8 @@ def run(args) -> int:
         print(dumps_json(out))
         return 0 if res.success else 1
     print(f"fit of {', '.join(params)} to {len(data)} measurement(s) in {args.data} (robot {robot.name}, "
-          f"gravity {args.gravity:g} m/s^2): {'converged' if res.success else 'NOT converged'}")
+          f"gravity {args.gravity:g} m/s^2{', 3D rod' if res.model == '3d' else ''}): "
+          f"{'converged' if res.success else 'NOT converged'}")
     for p in params:
         v, s = res.values[p], res.sigma[p]
         rel = f" ({s / abs(v):.2%})" if v else ""
