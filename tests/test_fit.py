@@ -196,3 +196,24 @@ def test_current_sensitivities_equal_differences_of_full_solves():
         assert np.abs(S.tip_position[:, k] - fd).max() <= 1e-7 * np.abs(fd).max(), k
     with pytest.raises(ValueError, match="CoilSystem"):
         current_sensitivities(r, "navion", I0)
+
+
+def test_fit_a_magnets_turn_and_offset_in_the_plane():
+    """Dipoles turned about y by one unknown angle and moved by one offset (the truth: the moments turned, the
+    positions moved, written out): the planar fit finds source_pitch, the offset and E0."""
+    from magsoft_env.fields import PointDipole
+
+    truth = dataclasses.replace(BEAM, material=dataclasses.replace(BEAM.material, E0=0.07e6))
+    a, off = 0.07, np.array([0.6e-3, 0.0, -0.4e-3])
+    data = [((0, 0), ms.solve_equilibrium(truth, (0, 0)).tip_position)]
+    for x in (15e-3, 25e-3, 35e-3):
+        for z, m in ((-40e-3, (0.0, 0.0, 3e-3)), (12e-3, (2e-3, 0.0, 2e-3))):
+            turned = (m[0] * np.cos(a) + m[2] * np.sin(a), 0.0, -m[0] * np.sin(a) + m[2] * np.cos(a))
+            moved = PointDipole(position=(x + off[0], 0.0, z + off[2]), moment=turned)
+            data.append((PointDipole(position=(x, 0.0, z), moment=m),
+                         ms.solve_equilibrium(truth, moved, model="planar").tip_position))
+    res = ms.fit(BEAM, data, params=("E0", "source_x", "source_z", "source_pitch"), restarts=0)
+    assert res.success and res.model == "planar", res.message
+    assert abs(res.values["E0"] / 0.07e6 - 1) < 1e-6
+    assert abs(res.values["source_pitch"] - a) < 1e-7
+    assert abs(res.values["source_x"] - off[0]) < 1e-8 and abs(res.values["source_z"] - off[2]) < 1e-8

@@ -28,16 +28,20 @@ import scipy.optimize
 
 from ..spec import Beam, as_field
 from .options import SolverOptions
-from .sensitivity import sensitivities, source_sensitivities
+from .sensitivity import posed_source, sensitivities, source_sensitivities, turn_jacobian
 
 #: Parameters :func:`fit` can fit (SI units), and whether each is positive (fitted in its logarithm).
 FIT_PARAMETERS = {"E0": True, "particle_magnetization": True, "density": True, "thickness": True,
                   "volume_fraction": True, "clamp_angle": False, "source_x": False, "source_z": False,
-                  "width": True, "poisson_ratio": False, "source_y": False}
+                  "width": True, "poisson_ratio": False, "source_y": False, "source_roll": False,
+                  "source_pitch": False, "source_yaw": False}
 #: Parameters that move every measurement's field source (its pose offset, m), starting from 0.
 SOURCE_OFFSETS = ("source_x", "source_y", "source_z")
-#: Parameters only the 3D model depends on (the planar one has no width, no twist, no y).
-PARAMETERS_3D = ("width", "poisson_ratio", "source_y")
+#: Parameters that turn every measurement's field source about its centre (rad, the components of one rotation
+#: vector: about x, y, z), starting from 0.
+SOURCE_TURNS = ("source_roll", "source_pitch", "source_yaw")
+#: Parameters only the 3D model depends on (the planar one has no width, no twist, no y, turns about y alone).
+PARAMETERS_3D = ("width", "poisson_ratio", "source_y", "source_roll", "source_yaw")
 #: Parameters with a closed valid range (the Poisson ratio, 0 to 1/2), fitted through ``p = mid + half sin(u)``:
 #: every step of the optimizer lands in the range, and one that would leave it folds back in.
 BOUNDED = {"poisson_ratio": (0.0, 0.5)}
@@ -134,7 +138,7 @@ def _value(beam: Beam, p: str, clamp_angle: float) -> float:
         return float(beam.width)
     if p == "poisson_ratio":
         return float(beam.material.poisson_ratio)
-    if p in SOURCE_OFFSETS:
+    if p in SOURCE_OFFSETS or p in SOURCE_TURNS:
         return 0.0
     if p == "volume_fraction":
         phi = beam.volume_fraction
@@ -251,8 +255,9 @@ def _out_of_plane(parsed, beam: Beam, params) -> str:
             return f"measurements[{i}] has points off the x-z plane (y != 0)"
     if not beam.is_planar:
         return "the beam's magnetization has a component across the width"
-    if "source_y" in params:
-        return "source_y moves the sources out of the x-z plane"
+    for p in ("source_y", "source_roll", "source_yaw"):
+        if p in params:
+            return f"{p} moves the sources out of the x-z plane"
     return ""
 
 
@@ -275,8 +280,9 @@ def _choose_model(model, parsed, beam: Beam, params) -> str:
     if model == "planar":
         if three:
             raise ValueError(f"{', '.join(three)} need(s) the 3D model: the planar model does not depend on the width "
-                             "or the Poisson ratio (the width cancels from its equation; it has no twist) and has no "
-                             "y. Pass model='3d' (or 'auto') with measurements out of the x-z plane.")
+                             "or the Poisson ratio (the width cancels from its equation; it has no twist), has no "
+                             "y and turns sources about y alone. Pass model='3d' (or 'auto') with measurements out "
+                             "of the x-z plane.")
         if not beam.is_planar:
             raise ValueError("model='planar' cannot take a magnetization with a component across the width; pass "
                              "model='3d' (or 'auto').")
@@ -295,14 +301,17 @@ def _misfit(beam: Beam, data, params, vals: dict, *, gravity, clamp_angle, coupl
     k = len(params)
     three = model == "3d"
     ncoord = 3 if three else 2
-    offset = np.array([vals.get("source_x", 0.0), vals.get("source_y", 0.0), vals.get("source_z", 0.0)])
+    offset = np.array([vals.get(p, 0.0) for p in SOURCE_OFFSETS])
+    turn = np.array([vals.get(p, 0.0) for p in SOURCE_TURNS])
+    turned = [p for p in params if p in SOURCE_TURNS]
+    # the sensitivities move the source by world-frame turns: d/d(rotation vector) = (world turns) @ turn_jacobian
+    world = tuple(p for p in params if p not in SOURCE_TURNS) + (SOURCE_TURNS if three and turned else
+                                                                   ("source_pitch",) if turned else ())
     for m in data:
         in_source = not isinstance(m.field, tuple)
         load = m.field
-        if in_source and np.any(offset):
-            from ..fields import Transformed
-
-            load = Transformed(m.field, position=offset)
+        if in_source and (np.any(offset) or np.any(turn)):
+            load = posed_source(m.field, offset, turn)
         r = solve_equilibrium(b, load, gravity=gravity, clamp_angle=th0, coupling=coupling, options=options,
                               model=model)
         if not r.success:
@@ -322,10 +331,19 @@ def _misfit(beam: Beam, data, params, vals: dict, *, gravity, clamp_angle, coupl
             res.append(np.column_stack([x - m.points[:, 0], z - m.points[:, 1]]).ravel())
             sens, source_sens = sensitivities, source_sensitivities
         if in_source:
-            S = source_sens(r, params)
-            dp = S.positions(m.s)  # (n, 3, k)
-        else:  # a uniform field: the source offsets do not act
-            own = tuple(p for p in params if p not in SOURCE_OFFSETS)
+            S = source_sens(r, world)
+            dw = S.positions(m.s)  # (n, 3, len(world))
+            dp = np.zeros((m.s.size, 3, k))
+            for j, p in enumerate(params):
+                if p not in SOURCE_TURNS:
+                    dp[:, :, j] = dw[:, :, world.index(p)]
+                elif three:
+                    cols = [world.index(q) for q in SOURCE_TURNS]
+                    dp[:, :, j] = dw[:, :, cols] @ turn_jacobian(turn)[:, SOURCE_TURNS.index(p)]
+                else:  # in the plane a turn about y: the rotation vector's y component is the angle
+                    dp[:, :, j] = dw[:, :, world.index("source_pitch")]
+        else:  # a uniform field: the source's pose does not act
+            own = tuple(p for p in params if p not in SOURCE_OFFSETS and p not in SOURCE_TURNS)
             dp = np.zeros((m.s.size, 3, k))
             if own:
                 S = sens(r, own)
@@ -375,10 +393,13 @@ def fit(beam: Beam, measurements, params=("E0", "particle_magnetization"), *, gr
         reference arc lengths ``s`` (m) and ``points`` ``(len(s), 2 or 3)`` (m), or :class:`Measurement`.
     params : sequence of str
         Any of ``E0``, ``particle_magnetization``, ``density``, ``thickness``, ``volume_fraction``,
-        ``clamp_angle``, and ``source_x`` / ``source_z``: one offset (m) of every measurement's source from its
-        given pose (a magnet's position error); in the planar model ``volume_fraction`` with uniform fields only.
-        In 3D also ``width``, ``poisson_ratio`` (fitted on [0, 0.5]; both act through out-of-plane bending and
-        twist, so they need fields with ``B_y`` or points off the x-z plane) and ``source_y``.
+        ``clamp_angle``, ``source_x`` / ``source_z``: one offset (m) of every measurement's source from its
+        given pose (a magnet's position error), and ``source_pitch``: one turn (rad, right-handed about y) of every
+        source about its centre (its one magnet or dipole, else the origin), applied before the offset; in the
+        planar model ``volume_fraction`` with uniform fields only. In 3D also ``width``, ``poisson_ratio`` (fitted
+        on [0, 0.5]; both act through out-of-plane bending and twist, so they need fields with ``B_y`` or points
+        off the x-z plane), ``source_y`` and ``source_roll`` / ``source_yaw`` (with ``source_pitch`` the
+        components of one rotation vector about x, y, z).
     gravity : float
         Gravitational acceleration during the measurements (m/s^2, along -z).
     clamp_angle : float
@@ -394,8 +415,8 @@ def fit(beam: Beam, measurements, params=("E0", "particle_magnetization"), *, gr
         ``"planar"``: the planar solver, residuals x and z of each point (a y coordinate is dropped, a field with
         ``B_y`` refused). ``"3d"``: the 3D rod, residuals x, y and z. ``"auto"`` (default): 3D when a field has a
         ``B_y`` component (a source loads the strip out of its x-z plane), a point has y != 0, the magnetization
-        has a width component or ``source_y`` is fitted; planar otherwise. ``width`` and ``poisson_ratio`` are
-        refused in the planar model (it does not depend on them).
+        has a width component or ``source_y``, ``source_roll`` or ``source_yaw`` is fitted; planar otherwise.
+        ``width`` and ``poisson_ratio`` are refused in the planar model (it does not depend on them).
 
     Returns
     -------
@@ -594,5 +615,5 @@ def _check_identifiable(J: np.ndarray, params, inert=None) -> None:
                          "field direction) or fit fewer parameters.")
 
 
-__all__ = ["FIT_PARAMETERS", "MODELS", "RESTART_FACTOR", "FitResult", "Measurement", "as_measurements", "fit",
-           "misfit"]
+__all__ = ["FIT_PARAMETERS", "MODELS", "RESTART_FACTOR", "SOURCE_OFFSETS", "SOURCE_TURNS", "FitResult", "Measurement",
+           "as_measurements", "fit", "misfit"]

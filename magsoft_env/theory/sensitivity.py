@@ -406,11 +406,51 @@ SOURCE_POSE = {"source_x": 0, "source_y": 1, "source_z": 2, "source_roll": 3, "s
 
 
 def source_center(source) -> np.ndarray:
-    """The point a source turns about for ``source_roll|pitch|yaw``: its ``position`` (a magnet's centre, a
-    posed magnet's origin) where it has one, else the origin (a coil system's workspace centre)."""
-    c = getattr(source, "position", None)
-    c = np.zeros(3) if c is None else np.asarray(c, dtype=float).reshape(-1)
-    return c if c.shape == (3,) and np.all(np.isfinite(c)) else np.zeros(3)
+    """The point a source turns about for ``source_roll|pitch|yaw``: the position of its one magnet or dipole
+    (through placements: :func:`magsoft_env.fields.source_markers`), else the origin (a coil system's workspace
+    centre, several magnets, a field with no parts)."""
+    from ..fields import source_markers
+
+    pts = [np.asarray(p, dtype=float).reshape(-1, 3) for kind, p in source_markers(source)
+           if kind in ("magnet", "dipole")]
+    pts = np.concatenate(pts) if pts else np.zeros((0, 3))
+    return pts[0].copy() if len(pts) == 1 and np.all(np.isfinite(pts[0])) else np.zeros(3)
+
+
+def turn_matrix(rotvec) -> np.ndarray:
+    """The rotation matrix of a rotation vector (rad, axis times angle), by Rodrigues' formula."""
+    w = np.asarray(rotvec, dtype=float)
+    a = float(np.linalg.norm(w))
+    if a == 0.0:
+        return np.eye(3)
+    k = w / a
+    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + math.sin(a) * K + (1.0 - math.cos(a)) * (K @ K)
+
+
+def turn_jacobian(rotvec) -> np.ndarray:
+    """``J`` with ``R(w + dw) = (I + [J dw]x) R(w)`` to first order: the world-frame turn (rad) that a change of the
+    rotation vector ``w`` makes (SO(3)'s left Jacobian; the identity at ``w = 0``)."""
+    w = np.asarray(rotvec, dtype=float)
+    a = float(np.linalg.norm(w))
+    W = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
+    if a < 1e-8:
+        return np.eye(3) + 0.5 * W + (W @ W) / 6.0
+    return np.eye(3) + (1.0 - math.cos(a)) / a**2 * W + (a - math.sin(a)) / a**3 * (W @ W)
+
+
+def posed_source(source, offset=(0.0, 0.0, 0.0), rotvec=(0.0, 0.0, 0.0)):
+    """``source`` turned by the rotation vector ``rotvec`` (rad) about :func:`source_center`, then translated by
+    ``offset`` (m): a source's pose error, as :func:`magsoft_env.fit` fits it."""
+    from ..fields import Transformed
+
+    out = source
+    if np.any(np.asarray(rotvec, dtype=float) != 0.0):
+        c = source_center(source)
+        out = Transformed(Transformed(source, position=-c), position=c, rotation=turn_matrix(rotvec))
+    if np.any(np.asarray(offset, dtype=float) != 0.0):
+        out = Transformed(out, position=offset)
+    return out
 
 
 def moved_source(source, param: str, value: float):
@@ -617,4 +657,5 @@ def _residual_difference(mdl: BeamModel, th, load: Load, beam) -> np.ndarray:
 
 __all__ = ["FOLD_EIGENVALUE", "PARAMETERS", "SOURCE_PARAMETERS", "SOURCE_POSE", "Sensitivity", "check_coil_source",
            "coil_unit_sources", "collocation_nodes", "current_sensitivities", "moved_source", "pose_step",
-           "profile_sensitivities", "sensitivities", "source_center", "source_sensitivities"]
+           "posed_source", "profile_sensitivities", "sensitivities", "source_center", "source_sensitivities",
+           "turn_jacobian", "turn_matrix"]
