@@ -144,3 +144,13 @@ def test_fit_bench_planned_design_runs(capsys):
     assert fit_bench.main(["--seeds", "1", "--first", "3", "--design", "planned"]) == 0
     out = capsys.readouterr().out
     assert "design: planned" in out and "within 1 %: 1/1" in out
+
+
+def test_both_directions_plans_pairs_of_reversed_fields():
+    plan = ms.plan_measurements(BEAM, PARAMS, n=5, noise=1e-4, both_directions=True, directions=12, magnitudes=4)
+    fields = plan.fields[1:]
+    assert plan.fields[0] == (0.0, 0.0) and len(fields) == 4
+    for a, b in zip(fields[::2], fields[1::2], strict=True):
+        assert a == (-b[0] + 0.0, -b[1] + 0.0)
+    with pytest.raises(ValueError, match="even number of fields"):
+        ms.plan_measurements(BEAM, PARAMS, n=6, both_directions=True)

@@ -6,7 +6,9 @@ values. The loads are gravity alone and then fields with gravity, by one of two 
 
 - ``random``: random directions at 0.5-4 mT (any sign);
 - ``planned``: the fields :func:`magsoft_env.plan_measurements` chooses at the paper's values (the guess), as
-  many as the random design has, at most 4 mT, kept 0.5 E I / L^2 from a fold over +-30 % of each parameter.
+  many as the random design has, at most 4 mT, kept 0.5 E I / L^2 from a fold over +-30 % of each parameter;
+- ``paired``: the same with ``both_directions=True`` (pairs B, -B), one load fewer where the random design's
+  count leaves an odd number of fields.
 
 Prints the relative errors, the predicted and reported 1-sigma, whether each 95 % interval covers the truth, and
 the time per fit::
@@ -26,13 +28,14 @@ import numpy as np
 _PLANS: dict = {}
 
 
-def planned_fields(base, n: int) -> list:
+def planned_fields(base, n: int, both_directions: bool = False) -> list:
     """The ``n`` loads :func:`magsoft_env.plan_measurements` picks at the guess ``base`` (gravity alone first)."""
     import magsoft_env as ms
 
-    if n not in _PLANS:
-        _PLANS[n] = ms.plan_measurements(base, n=n, noise=1e-4, max_field=4e-3, spread=0.3).fields
-    return _PLANS[n]
+    if (n, both_directions) not in _PLANS:
+        _PLANS[n, both_directions] = ms.plan_measurements(base, n=n, noise=1e-4, max_field=4e-3, spread=0.3,
+                                                          both_directions=both_directions).fields
+    return _PLANS[n, both_directions]
 
 
 def case(seed: int, design: str = "random"):
@@ -47,11 +50,17 @@ def case(seed: int, design: str = "random"):
     n = int(rng.integers(5, 11))
     noise = float(rng.uniform(0.05e-3, 0.1e-3))
     data = []
-    plan = planned_fields(base, n) if design == "planned" else None
+    plan = None
+    if design == "planned":
+        plan = planned_fields(base, n)
+    elif design == "paired":
+        plan = planned_fields(base, n - 1 + n % 2, both_directions=True)
     for k in range(n):
         a = rng.uniform(0, 2 * np.pi)
         B = (0.0 if k == 0 else rng.uniform(0.5e-3, 4e-3)) * np.array([np.cos(a), np.sin(a)])
         if plan is not None:  # the same draws as the random design, so the truth and the noise match it
+            if k >= len(plan):
+                continue
             B = np.array(plan[k])
         r = ms.solve_equilibrium(truth, tuple(B), gravity=9.81, model="planar")
         tip = r.tip_position[[0, 2]] + rng.normal(scale=noise, size=2)
@@ -79,8 +88,9 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=20)
     ap.add_argument("--first", type=int, default=0)
-    ap.add_argument("--design", choices=("random", "planned"), default="planned",
-                    help="the fields: random directions at 0.5-4 mT, or those plan_measurements picks (default)")
+    ap.add_argument("--design", choices=("random", "planned", "paired"), default="planned",
+                    help="the fields: random directions at 0.5-4 mT, those plan_measurements picks (default), or "
+                         "its pairs B, -B")
     a = ap.parse_args(argv)
     if a.seeds < 1:
         ap.error(f"--seeds must be at least 1, got {a.seeds}")

@@ -206,7 +206,8 @@ def predict_precision(beam: Beam, fields, params=("E0", "particle_magnetization"
 def plan_measurements(beam: Beam, params=("E0", "particle_magnetization"), *, n: int = 8, noise: float = 1e-4,
                       gravity: float = 9.81, max_field: float = 4e-3, s=None, spread: float = 0.3,
                       margin: float = 0.5, directions: int = 24, magnitudes: int = 8, include_gravity: bool = True,
-                      clamp_angle: float = 0.0, options: SolverOptions | None = None) -> MeasurementPlan:
+                      both_directions: bool = False, clamp_angle: float = 0.0,
+                      options: SolverOptions | None = None) -> MeasurementPlan:
     """Choose ``n`` distinct uniform fields whose tracked shapes fit ``params`` most precisely (module docstring).
 
     Parameters
@@ -235,6 +236,11 @@ def plan_measurements(beam: Beam, params=("E0", "particle_magnetization"), *, n:
     include_gravity : bool
         Start from the shape under gravity alone (field zero), the measurement that separates the modulus from the
         magnetization.
+    both_directions : bool
+        Choose the fields in pairs ``B`` and ``-B`` (a set-up that reverses its currents, or a protocol that
+        measures both signs); ``n`` less the gravity measurement must then be even. Less informative than free
+        choice for the paper's strip (the reversed field pushes it down with its weight), but robust to a field
+        offset.
 
     Returns
     -------
@@ -264,6 +270,9 @@ def plan_measurements(beam: Beam, params=("E0", "particle_magnetization"), *, n:
     if directions * magnitudes + 1 > MAX_CANDIDATES:
         raise ValueError(f"directions x magnitudes must stay below {MAX_CANDIDATES} candidates, got "
                          f"{directions} x {magnitudes}.")
+    if both_directions and (n - int(include_gravity)) % 2:
+        raise ValueError(f"n = {n} with both_directions needs an even number of fields besides gravity alone "
+                         f"({n - int(include_gravity)} given): the fields come in pairs B, -B.")
     if n > directions * magnitudes + int(include_gravity):
         raise ValueError(f"n = {n} exceeds the {directions * magnitudes + int(include_gravity)} candidate fields; "
                          "raise directions or magnitudes.")
@@ -273,7 +282,7 @@ def plan_measurements(beam: Beam, params=("E0", "particle_magnetization"), *, n:
         for j in range(directions):
             a = 2.0 * math.pi * j / directions
             b = max_field * k / magnitudes
-            cands.append((round(b * math.cos(a), 15), round(b * math.sin(a), 15)))  # no 1e-19 T crumbs
+            cands.append((round(b * math.cos(a), 15) + 0.0, round(b * math.sin(a), 15) + 0.0))  # no 1e-19 T, no -0
     # the corners of the prior: every sign pattern of the positive parameters (along each axis beyond three)
     pos = [p for p in params if p != "clamp_angle"]
     if spread > 0 and pos:
@@ -307,14 +316,23 @@ def plan_measurements(beam: Beam, params=("E0", "particle_magnetization"), *, n:
                          f"over the prior (spread {spread:g}); ask for fewer measurements, a smaller margin or "
                          "spread, or a finer grid.")
     chosen = [0] if include_gravity and keep and keep[0] == (0.0, 0.0) else []
-    free = [i for i in range(len(keep)) if i not in chosen]
+    # the units of choice: one field, or a field and its reverse (both kept)
+    index = {f: i for i, f in enumerate(keep)}
+    if both_directions:
+        units = [(i, index[(-f[0] + 0.0, -f[1] + 0.0)]) for i, f in enumerate(keep)
+                 if i not in chosen and (-f[0] + 0.0, -f[1] + 0.0) in index and (f[1] > 0 or (f[1] == 0 and f[0] > 0))]
+    else:
+        units = [(i,) for i in range(len(keep)) if i not in chosen]
+    if sum(len(u) for u in units) < n - len(chosen):
+        raise ValueError(f"only {len(units)} field pairs B, -B stay {margin:g} E I / L^2 from a fold over the prior; "
+                         "ask for fewer measurements, a smaller margin or spread, or a finer grid.")
     # a faint prior lets the first picks be compared before the set is full rank
     ridge = [math.sqrt(1e-9 * max(float(np.sum(J * J)) for J in rows)) * np.eye(len(params))]
     while len(chosen) < n:
-        best = min(free, key=lambda i: (_worst(_covariance([rows[j] for j in chosen] + [rows[i]] + ridge, noise)),
-                                        -lams[i]))
-        chosen.append(best)
-        free.remove(best)
+        best = min(units, key=lambda u: (_worst(_covariance([rows[j] for j in chosen] + [rows[i] for i in u] + ridge,
+                                                            noise)), -min(lams[i] for i in u)))
+        chosen.extend(best)
+        units.remove(best)
     return _result(beam, params, values, [keep[i] for i in chosen], [rows[i] for i in chosen],
                    [lams[i] for i in chosen], noise, len(cands), rejected)
 
