@@ -36,6 +36,8 @@ def add_parser(subparsers) -> None:
     p.add_argument("--spread", type=float, default=0.3,
                    help="prior relative uncertainty of each parameter: fields stay clear of folds over it "
                         "(default 0.3)")
+    p.add_argument("--both-directions", action="store_true",
+                   help="plan the fields in pairs B and -B (--n less the gravity measurement must be even)")
     p.add_argument("--gravity", type=float, default=9.81, help="gravity during the measurements (m/s^2)")
     p.add_argument("--csv", default=None, help="write the planned fields as a CSV for magsoft fit (positions empty)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
@@ -55,7 +57,8 @@ def run(args) -> int:
     robot = resolve_robot(args.robot, name="--robot")
     params = tuple(p.strip() for p in args.params.split(",") if p.strip())
     plan = ms.plan_measurements(robot.beam, params, n=args.n, noise=args.noise_mm * 1e-3,
-                                gravity=args.gravity, max_field=args.max_field_mT * 1e-3, spread=args.spread)
+                                gravity=args.gravity, max_field=args.max_field_mT * 1e-3, spread=args.spread,
+                                both_directions=args.both_directions)
     out = {"robot": robot.name, "params": list(params), "noise_mm": args.noise_mm,
            "fields_mT": [[bx * 1e3, bz * 1e3] for bx, bz in plan.fields],
            "min_eigenvalue": plan.min_eigenvalue, "sigma": plan.sigma, "relative_sigma": plan.relative_sigma,
