@@ -62,12 +62,9 @@ def run(seed: int, restarts: int = 4) -> dict:
     out = {"seed": seed, "success": res.success, "time_s": wall, "n": len(data), "noise_mm": noise * 1e3,
            "model": res.model, "iterations": res.iterations,
            "max_correlation": float(np.max(np.abs(res.correlation[~np.eye(len(PARAMS), dtype=bool)])))}
-    for p in PARAMS:
-        true = _truth(truth, p)
-        lo, hi = res.interval95[p]
-        out[p + "_rel_error"] = res.values[p] / true - 1.0
-        out[p + "_covered"] = bool(lo <= true <= hi)
-        out[p + "_rel_sigma"] = res.sigma[p] / res.values[p]
+    from .fit_bench import recovery
+
+    out.update(recovery(res, {p: _truth(truth, p) for p in PARAMS}))
     return out
 
 

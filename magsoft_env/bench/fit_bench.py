@@ -76,7 +76,16 @@ def run(seed: int, design: str = "random") -> dict:
     res = ms.fit(base, data, params=("E0", "particle_magnetization"), gravity=9.81)
     wall = time.perf_counter() - t
     out = {"seed": seed, "success": res.success, "time_s": wall, "n": len(data), "noise_mm": noise * 1e3}
-    for p, true in (("E0", truth.material.E0), ("particle_magnetization", truth.material.particle_magnetization)):
+    out.update(recovery(res, {"E0": truth.material.E0,
+                              "particle_magnetization": truth.material.particle_magnetization}))
+    return out
+
+
+def recovery(res, truths: dict) -> dict:
+    """For each parameter of ``truths`` (its true value): the fit's relative error, whether its 95 % interval
+    covers the truth and its relative 1-sigma, as ``<p>_rel_error``, ``<p>_covered``, ``<p>_rel_sigma``."""
+    out = {}
+    for p, true in truths.items():
         lo, hi = res.interval95[p]
         out[p + "_rel_error"] = res.values[p] / true - 1.0
         out[p + "_covered"] = bool(lo <= true <= hi)

@@ -496,23 +496,12 @@ def source_sensitivities(result, params=("E0", "particle_magnetization")) -> Sen
     params : sequence of str
         Any of :data:`SOURCE_PARAMETERS`.
     """
-    from .sources import SourceResult, _Load, _Model, _stability
+    from .sources import SourceResult, _Load
 
     params = check_params(params, SOURCE_PARAMETERS, "sensitivities in a source")
     if not isinstance(result, SourceResult):
         raise ValueError(f"source_sensitivities take a planar SourceResult, got {type(result).__name__}.")
-    if not result.success:
-        raise ValueError(f"the equilibrium was not found (status {result.status}): no sensitivities.")
-    beam, grid = result._beam, result._grid
-    th = result._full[0]
-    mdl = _Model(beam, grid, result._coupling, float(th[0]))
-    load = _Load(((1.0, result.source),), result.gravity)
-    R, h, aux = mdl.residual(th, load)
-    J = mdl.jacobian(th, load, aux)
-    mu, _ = _stability(J)
-    if not mu > FOLD_EIGENVALUE:
-        raise ValueError(f"the equilibrium is at (or past) a fold: smallest eigenvalue {mu:.3g} <= "
-                         f"{FOLD_EIGENVALUE:g}; the shape's derivative does not exist there.")
+    beam, grid, th, mdl, h, J, mu = _source_state(result)
     P = mdl.P
     h_grav = mdl.loads(th, _Load((), result.gravity))[0]
     h_mag = h - h_grav
@@ -538,16 +527,41 @@ def source_sensitivities(result, params=("E0", "particle_magnetization")) -> Sen
             hm = mdl.loads(th, _Load(((1.0, moved_source(result.source, p, -step)),), result.gravity))[0]
             d = -(P @ ((hp - hm) / (2.0 * step)))
         cols.append(d)
+    units = {**_UNITS, "source_x": "m", "source_z": "m", "source_pitch": "rad"}
+    return _planar_sensitivity(grid, th, J, cols, params, mu, {p: units[p] for p in params})
+
+
+def _source_state(result):
+    """``(beam, grid, theta, model, h, J, mu)`` of a planar equilibrium in a source: its loads, the solver's
+    Jacobian and its smallest stability eigenvalue; a ValueError if it was not found or sits at a fold."""
+    from .sources import _Load, _Model, _stability
+
+    if not result.success:
+        raise ValueError(f"the equilibrium was not found (status {result.status}): no sensitivities.")
+    beam, grid = result._beam, result._grid
+    th = result._full[0]
+    mdl = _Model(beam, grid, result._coupling, float(th[0]))
+    load = _Load(((1.0, result.source),), result.gravity)
+    _, h, aux = mdl.residual(th, load)
+    J = mdl.jacobian(th, load, aux)
+    mu, _ = _stability(J)
+    if not mu > FOLD_EIGENVALUE:
+        raise ValueError(f"the equilibrium is at (or past) a fold: smallest eigenvalue {mu:.3g} <= "
+                         f"{FOLD_EIGENVALUE:g}; the shape's derivative does not exist there.")
+    return beam, grid, th, mdl, h, J, float(mu)
+
+
+def _planar_sensitivity(grid, th, J, cols, params, mu, units) -> Sensitivity:
+    """Solve ``J dtheta = -dR/dp`` for the columns ``cols`` and carry the angles to the positions."""
     dth = -scipy.linalg.lu_solve(scipy.linalg.lu_factor(J), np.column_stack(cols))
     c, sn = np.cos(th), np.sin(th)
     dx_all = -grid.Q0 @ (sn[:, None] * dth)
     dz_all = grid.Q0 @ (c[:, None] * dth)
     u = grid.unique()
-    units = {**_UNITS, "source_x": "m", "source_z": "m", "source_pitch": "rad"}
     return Sensitivity(params=params, theta=dth[u], tip_position=np.vstack([dx_all[-1], np.zeros(len(params)),
                                                                            dz_all[-1]]),
-                       tip_angle=dth[-1].copy(), s=grid.s[u], min_eigenvalue=float(mu),
-                       units={p: units[p] for p in params}, _positions=(grid, dx_all, dz_all))
+                       tip_angle=dth[-1].copy(), s=grid.s[u], min_eigenvalue=float(mu), units=units,
+                       _positions=(grid, dx_all, dz_all))
 
 
 def coil_unit_sources(system) -> list:
@@ -602,7 +616,7 @@ def current_sensitivities(result, system, currents) -> Sensitivity:
     (True, 'A')
     """
     from .rod_sources import SourceRodResult
-    from .sources import SourceResult, _Load, _Model, _stability
+    from .sources import SourceResult, _Load
 
     if isinstance(result, SourceRodResult):
         from .rod_sensitivity import current_rod_sensitivities
@@ -611,30 +625,11 @@ def current_sensitivities(result, system, currents) -> Sensitivity:
     if not isinstance(result, SourceResult):
         raise ValueError("current_sensitivities take an equilibrium in a coil system (a SourceResult or "
                          f"SourceRodResult), got {type(result).__name__}.")
-    if not result.success:
-        raise ValueError(f"the equilibrium was not found (status {result.status}): no sensitivities.")
-    beam, grid = result._beam, result._grid
-    th = result._full[0]
-    mdl = _Model(beam, grid, result._coupling, float(th[0]))
+    _, grid, th, mdl, _, J, mu = _source_state(result)
     check_coil_source(result.source, system, currents, mdl.frame(th)[2])
-    load = _Load(((1.0, result.source),), result.gravity)
-    R, h, aux = mdl.residual(th, load)
-    J = mdl.jacobian(th, load, aux)
-    mu, _ = _stability(J)
-    if not mu > FOLD_EIGENVALUE:
-        raise ValueError(f"the equilibrium is at (or past) a fold: smallest eigenvalue {mu:.3g} <= "
-                         f"{FOLD_EIGENVALUE:g}; the shape's derivative does not exist there.")
     cols = [-(mdl.P @ mdl.loads(th, _Load(((1.0, u),), 0.0))[0]) for u in coil_unit_sources(system)]
-    dth = -scipy.linalg.lu_solve(scipy.linalg.lu_factor(J), np.column_stack(cols))
-    c, sn = np.cos(th), np.sin(th)
-    dx_all = -grid.Q0 @ (sn[:, None] * dth)
-    dz_all = grid.Q0 @ (c[:, None] * dth)
-    u = grid.unique()
     params = tuple(f"I_{n}" for n in system.coil_names)
-    return Sensitivity(params=params, theta=dth[u], tip_position=np.vstack([dx_all[-1], np.zeros(len(params)),
-                                                                           dz_all[-1]]),
-                       tip_angle=dth[-1].copy(), s=grid.s[u], min_eigenvalue=float(mu),
-                       units=dict.fromkeys(params, "A"), _positions=(grid, dx_all, dz_all))
+    return _planar_sensitivity(grid, th, J, cols, params, mu, dict.fromkeys(params, "A"))
 
 
 def _residual_difference(mdl: BeamModel, th, load: Load, beam) -> np.ndarray:
