@@ -249,3 +249,12 @@ def test_field_coil_system_plot_and_flag_errors(tmp_path, capsys):
                            (["--plot", str(png), "--extent-mm", "5", "1", "0", "1"], "U_MIN < U_MAX")):
         assert main(["field", "--source", "navion", *argv]) == 2
         assert fragment in capsys.readouterr().err
+
+
+def test_crosscheck_says_it_does_not_use_a_robots_field_source(tmp_path, capsys):
+    path = _robot_with_source(tmp_path, FLOOR_MAGNET)
+    assert main(["crosscheck", "--robot", str(path), "--segments", "4", "--steps", "3"]) == 0
+    err = capsys.readouterr().err
+    assert "field_source (sphere) that magsoft crosscheck does not use" in err
+    assert main(["crosscheck", "--robot", "paper-5c", "--segments", "4", "--steps", "3"]) == 0
+    assert "field_source" not in capsys.readouterr().err

@@ -70,6 +70,7 @@ def run(args) -> int:
         cases.append(load_preset(nm))  # an unknown name: the closest one suggested
     for src in args.robot or ():
         cases.append(robot_preset(src, field, args.steps))  # a bad file: its key named, before any work
+        _note_ignored_source(src)
     refuse_3d(None, "crosscheck", cases)  # the MuJoCo rod is planar: a 3D robot is refused before any output
     from magsoft_env.compare.crosscheck import crosscheck_preset  # after the checks: imports mujoco
     from magsoft_env.render.figures import crosscheck_figure
@@ -103,3 +104,16 @@ def run(args) -> int:
         write_text_atomic(args.out / "crosscheck.csv", "".join(lines))
         print(f"wrote {args.out}/crosscheck.csv and overlay figures")
     return 0 if all(r.success for r in rows_all) else 1
+
+
+def _note_ignored_source(src) -> None:
+    """Say on stderr that a robot file's ``field_source`` block plays no part here (the crosscheck ramps a uniform
+    field on both models); silently dropping it would read as a check in that source."""
+    from magsoft_env.cases.robots import load_robot
+
+    robot = load_robot(src)
+    if robot.field_source is not None:
+        kind = (robot.field_source or {}).get("type", "a field source")
+        print(f"note: robot {robot.name!r} has a field_source ({kind}) that magsoft crosscheck does not use: both "
+              "models are ramped in a uniform field (magsoft solve --robot runs the analytical model in the source).",
+              file=sys.stderr)
