@@ -188,3 +188,146 @@ def test_a_backend_without_the_method_is_refused():
     sim.backend = Bare(sim.backend)
     with pytest.raises(ValueError, match="cannot scale its material in place"):
         sim.set_material_scale(1.5)
+
+
+# ---------------------------------------------------------------------------------------------- the environments
+FAST = {"segments": 6, "sim_dt": 2e-4}
+RANGES = {"modulus_range": (0.5, 2.0), "magnetization_range": (0.8, 1.25)}
+
+
+def make(env_id, **kw):
+    import gymnasium as gym
+
+    import magsoft_env  # noqa: F401  (registers the ids)
+
+    return gym.make(env_id, **{**FAST, **kw})
+
+
+@pytest.mark.parametrize("env_id", ["MagSoftCrawl-v1", "MagSoftSteer-v0"])
+def test_the_env_draws_the_material_per_reset(env_id):
+    env = make(env_id, **RANGES)
+    draws = []
+    for seed in (1, 2, 1):
+        _, info = env.reset(seed=seed)
+        draws.append((info["modulus_scale"], info["magnetization_scale"]))
+        assert env.unwrapped.sim.material_scale == draws[-1]
+        assert 0.5 <= draws[-1][0] <= 2.0 and 0.8 <= draws[-1][1] <= 1.25
+    assert draws[0] != draws[1] and draws[0] == draws[2]
+    one = make(env_id, modulus_range=(0.5, 2.0))
+    _, info = one.reset(seed=1)
+    assert "magnetization_scale" not in info and one.unwrapped.sim.material_scale[1] == 1.0
+
+
+@pytest.mark.parametrize("env_id", ["MagSoftCrawl-v1", "MagSoftSteer-v0"])
+def test_ranges_off_draw_and_run_as_a_scale_of_one(env_id):
+    """Without the ranges nothing is drawn or reported; point ranges at 1 run the same episodes (the draws come
+    last in reset, and a factor of 1 leaves the model as built)."""
+    off = make(env_id)
+    ones = make(env_id, modulus_range=(1.0, 1.0), magnetization_range=(1.0, 1.0))
+    oa, ia = off.reset(seed=3)
+    ob, ib = ones.reset(seed=3)
+    assert "modulus_scale" not in ia and "magnetization_scale" not in ia
+    assert ib["modulus_scale"] == 1.0 and ib["magnetization_scale"] == 1.0
+    assert np.array_equal(oa, ob)
+    assert bit_differences(off.unwrapped.sim.model, ones.unwrapped.sim.model) == []
+    act = np.array([0.4, 0.7, 0.2][:off.action_space.shape[0]] + [0.0] * max(0, off.action_space.shape[0] - 3),
+                   dtype=np.float32)
+    for _ in range(3):
+        oa, ra = off.step(act)[:2]
+        ob, rb = ones.step(act)[:2]
+    assert np.array_equal(oa, ob) and ra == rb
+
+
+@pytest.mark.parametrize("env_id", ["MagSoftCrawl-v1", "MagSoftSteer-v0"])
+def test_a_stiffer_elastomer_moves_differently(env_id):
+    soft = make(env_id)
+    stiff = make(env_id, modulus_range=(1.5, 1.5))
+    soft.reset(seed=0)
+    stiff.reset(seed=0)
+    act = np.full(soft.action_space.shape, 0.8, dtype=np.float32)
+    for _ in range(3):
+        a = soft.step(act)[0]
+        b = stiff.step(act)[0]
+    assert not np.allclose(a, b)
+    pa, pb = soft.unwrapped.sim.pose().centreline, stiff.unwrapped.sim.pose().centreline
+    assert np.max(np.abs(pa - pb)) > 1e-7
+
+
+def test_the_env_contact_follows_the_drawn_modulus():
+    env = make("MagSoftCrawl-v1", modulus_range=(2.0, 2.0))
+    ref = make("MagSoftCrawl-v1")
+    env.reset(seed=0)
+    ref.reset(seed=0)
+    m, r = env.unwrapped.sim.model, ref.unwrapped.sim.model
+    np.testing.assert_allclose(m.pair_solref[:, 0], r.pair_solref[:, 0] / np.sqrt(2.0), rtol=1e-12)
+    np.testing.assert_allclose(m.jnt_stiffness, 2.0 * r.jnt_stiffness, rtol=1e-15)
+
+
+@pytest.mark.parametrize("bad", [(0.05, 1.0), (2.0, 1.0), (1.0, 11.0), (1.0,), "ab", (float("nan"), 1.0),
+                                 (True, 2.0), 1.5])
+@pytest.mark.parametrize("name", ["modulus_range", "magnetization_range"])
+def test_the_env_ranges_are_validated(name, bad):
+    from magsoft_env.envs.crawl import MagSoftCrawlEnv
+    from magsoft_env.envs.steer import MagSoftSteerEnv
+
+    for cls in (MagSoftCrawlEnv, MagSoftSteerEnv):
+        with pytest.raises(ValueError, match=rf"{name} must be None or \(low, high\), relative factors with "
+                                             r"0.1 <= low <= high <= 10, got"):
+            cls(**{name: bad})
+
+
+def test_the_c_batch_passes_the_ranges_on():
+    import gymnasium as gym
+
+    envs = gym.make_vec("MagSoftCrawl-v1", num_envs=2, vectorization_mode="vector_entry_point", **FAST, **RANGES)
+    _, infos = envs.reset(seed=[5, 6])
+    scales = infos["modulus_scale"]
+    assert len(set(scales.tolist())) == 2 and all(0.5 <= s <= 2.0 for s in scales)
+    assert [e.sim.material_scale[0] for e in envs.envs] == scales.tolist()
+    envs.close()
+
+
+def test_the_warp_batch_refuses_the_ranges_by_name():
+    from magsoft_env.envs.warp_vector import MagSoftCrawlWarpVecEnv
+
+    with pytest.raises(ValueError, match="does not randomize the material \\(modulus_range\\).*friction=\\[...\\]"):
+        MagSoftCrawlWarpVecEnv(2, modulus_range=(0.5, 2.0))
+
+
+@pytest.mark.parametrize("env_id", ["MagSoftCrawl-v1", "MagSoftSteer-v0"])
+def test_check_env_passes_with_the_ranges(env_id):
+    import warnings
+
+    from gymnasium.utils.env_checker import check_env
+
+    env = make(env_id, **RANGES)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(env.unwrapped, skip_render_check=True)
+    sb3 = pytest.importorskip("stable_baselines3.common.env_checker")
+    env = make(env_id, **RANGES)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sb3.check_env(env.unwrapped, warn=True)
+
+
+@pytest.mark.parametrize("env_id", ["MagSoftCrawlWaveform-v1", "MagSoftChannel-v1", "MagSoftObstacle-v1",
+                                    "MagSoftCrawl-v2", "MagSoftSteerWaveform-v0", "MagSoftCoils-v0",
+                                    "MagSoftMagnet-v0", "MagSoftCoilsWaveform-v0", "MagSoftMagnetWaveform-v0"])
+def test_every_crawl_and_steering_id_takes_the_ranges(env_id):
+    env = make(env_id, **RANGES)
+    _, info = env.reset(seed=11)
+    inner = env.unwrapped
+    sim = getattr(inner, "source_env", inner).sim
+    assert sim.material_scale == (info["modulus_scale"], info["magnetization_scale"]) != (1.0, 1.0)
+    env.step(env.action_space.sample())
+
+
+@pytest.mark.parametrize("env_id", ["MagSoftSteer-v0", "MagSoftCoils-v0"])
+def test_the_steering_batches_pass_the_ranges_on(env_id):
+    import gymnasium as gym
+
+    envs = gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point", **FAST, **RANGES)
+    _, infos = envs.reset(seed=[5, 6])
+    assert len(set(infos["magnetization_scale"].tolist())) == 2
+    envs.close()
