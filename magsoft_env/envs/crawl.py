@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import gymnasium as gym
@@ -13,7 +14,8 @@ from ..rods import DEFAULT_ROD
 from ..sim import PhaseShifted, Ramp, SimulationError, Simulator
 from ..sim.gait import gait_rod_options
 from ..sim.health import MAX_STEPS, check_steps
-from ..sim.model import CONTACT_HISTORY, MAX_TIMESTEP
+from ..sim.model import CONTACT_HISTORY, MAX_TIMESTEP, material_contact_timeconst
+from ..sim.simulator import MATERIAL_SCALE_RANGE
 from ..spec.drive import Waveparams
 from ..validate import choice, finite_number, nonnegative, positive
 from . import as_action, instability_info, refuse_unknown_kwargs, warn_ignored_source
@@ -199,6 +201,9 @@ class MagSoftCrawlEnv(gym.Env):
     | | | (80, 0.1 ms), ``"converged"`` (80, 0.025 ms); None: the robot's own (see "Numerics") |
     | ``friction`` | None | rod-floor sliding friction; None: the robot's (0.5 for the paper robots) |
     | ``friction_range`` | None | domain randomization: a friction drawn from ``U(low, high)`` at every reset |
+    | ``modulus_range`` | None | domain randomization: a factor of the elastomer's modulus ``E0`` drawn from |
+    | | | ``U(low, high)`` at every reset, in [0.1, 10] (``Simulator.set_material_scale``) |
+    | ``magnetization_range`` | None | the same for the particles' magnetization ``M_p`` |
     | ``target_direction`` | 1 | +1: reward motion along +x; -1: along -x |
     | ``forward_reward_weight`` | 1000 | (s/m) |
     | ``field_cost_weight`` | 0.1 | weight of the normalized field power |
@@ -279,6 +284,8 @@ class MagSoftCrawlEnv(gym.Env):
         fidelity: str | None = None,
         friction: float | None = None,
         friction_range: tuple[float, float] | None = None,
+        modulus_range: tuple[float, float] | None = None,
+        magnetization_range: tuple[float, float] | None = None,
         target_direction: int = 1,
         forward_reward_weight: float = 1000.0,
         field_cost_weight: float = 0.1,
@@ -322,6 +329,9 @@ class MagSoftCrawlEnv(gym.Env):
         self.sim_dt = options.timestep
         self.fidelity = fidelity
         self.friction_range = _friction_range(friction_range)
+        self.modulus_range = material_range("modulus_range", modulus_range)
+        self.magnetization_range = material_range("magnetization_range", magnetization_range)
+        options = material_options(options, self.gait.beam, self.modulus_range)
         if self.sim_dt > MAX_TIMESTEP:
             raise ValueError(f"sim_dt must lie in (0, {MAX_TIMESTEP:g}] s, got {sim_dt!r}.")
         if self.action_mode == "field" and self.sim_dt > self.ctrl_dt:
@@ -468,6 +478,8 @@ class MagSoftCrawlEnv(gym.Env):
             qpos = sim.noisy_rest(self.np_random, self.reset_noise_scale)
         if self.friction_range is not None:  # drawn after the reset noise: fixed-friction episodes draw as before
             set_scene_friction(sim.model, float(self.np_random.uniform(*self.friction_range)))
+        # drawn after the friction: episodes without the material ranges draw as before
+        material = draw_material(self)
         sim.set_field((0.0, 0.0))
         sim.reset(qpos=qpos, qvel=qvel)
         self._tracker = sim.orientation_tracker()
@@ -482,6 +494,7 @@ class MagSoftCrawlEnv(gym.Env):
             info["crawl_violations"] = 0
         if self.friction_range is not None:
             info["friction"] = scene_friction(sim.model)
+        info.update(material)
         return self._last_obs, info
 
     def _apply(self, action) -> tuple[int, float]:
@@ -645,6 +658,52 @@ def _friction_range(value) -> tuple[float, float] | None:
         raise ValueError(f"friction_range must be (low, high) with 0 <= low <= high <= {MAX_FRICTION:g} (sliding "
                          f"friction coefficients), got {value!r}.")
     return lo, hi
+
+
+def material_range(name: str, value) -> tuple[float, float] | None:
+    """``modulus_range`` or ``magnetization_range`` checked: None or ``(low, high)``, relative factors with
+    ``0.1 <= low <= high <= 10`` (:data:`~magsoft_env.sim.simulator.MATERIAL_SCALE_RANGE`)."""
+    if value is None:
+        return None
+    lo_ok, hi_ok = MATERIAL_SCALE_RANGE
+    what = f"{name} must be None or (low, high), relative factors with {lo_ok:g} <= low <= high <= {hi_ok:g}"
+    if isinstance(value, (str, bytes)):
+        raise ValueError(f"{what}, got {value!r}.")
+    try:
+        lo, hi = (float(v) for v in value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what}, got {value!r}.") from None
+    if any(isinstance(v, (bool, np.bool_)) for v in value) or not (
+            math.isfinite(lo) and math.isfinite(hi) and lo_ok <= lo <= hi <= hi_ok):
+        raise ValueError(f"{what}, got {value!r}.")
+    return lo, hi
+
+
+def material_options(options, beam, modulus_range):
+    """With a ``modulus_range``, a contact time constant the gait took from the material (``h sqrt(rho / E)``,
+    :func:`~magsoft_env.sim.model.material_contact_timeconst`) is asked for as ``"material"``: the same model, whose
+    contact then follows the drawn modulus as a model built from that modulus would. Otherwise ``options``."""
+    if (modulus_range is not None and options.has_contact and not isinstance(options.contact_timeconst, str)
+            and options.contact_timeconst == material_contact_timeconst(beam)):
+        return dataclasses.replace(options, contact_timeconst="material")
+    return options
+
+
+def draw_material(env) -> dict:
+    """Draw the episode's material factors from ``env.np_random`` (the modulus, then the magnetization; a range that
+    is None draws nothing and keeps the factor 1), set them on ``env.sim``
+    (:meth:`~magsoft_env.sim.Simulator.set_material_scale`) and return the ``info`` entries of the ranges that are
+    on (``modulus_scale``, ``magnetization_scale``)."""
+    info = {}
+    if env.modulus_range is None and env.magnetization_range is None:
+        return info
+    modulus = magnetization = 1.0
+    if env.modulus_range is not None:
+        modulus = info["modulus_scale"] = float(env.np_random.uniform(*env.modulus_range))
+    if env.magnetization_range is not None:
+        magnetization = info["magnetization_scale"] = float(env.np_random.uniform(*env.magnetization_range))
+    env.sim.set_material_scale(modulus=modulus, magnetization=magnetization)
+    return info
 
 
 def set_scene_friction(model, mu: float) -> None:

@@ -18,7 +18,14 @@ from ..sim.readouts import PitchTracker, is_flipped, pitch_orientation
 from ..sim.waveforms import Conical
 from ..validate import choice, finite_array, finite_number, nonnegative, positive
 from . import as_action, instability_info, refuse_unknown_kwargs, run_to_end, warn_ignored_source
-from .crawl import DEFAULT_MAX_CLEARANCE, DEFAULT_MAX_HEIGHT, DEFAULT_MAX_LINK_ROTATION
+from .crawl import (
+    DEFAULT_MAX_CLEARANCE,
+    DEFAULT_MAX_HEIGHT,
+    DEFAULT_MAX_LINK_ROTATION,
+    draw_material,
+    material_options,
+    material_range,
+)
 from .crawl_task import (
     CRAWL_MODES,
     CrawlRecords,
@@ -163,6 +170,9 @@ class MagSoftSteerEnv(gym.Env):
     | | | cost with twice the contact depth (:data:`TRAINING_SIM_DT`) |
     | ``segments`` | 10 | strip cells |
     | ``friction`` | None | strip-floor sliding friction; None: the robot's (0.5) |
+    | ``modulus_range`` | None | domain randomization: a factor of the elastomer's modulus ``E0`` drawn from |
+    | | | ``U(low, high)`` at every reset, in [0.1, 10] (``Simulator.set_material_scale``) |
+    | ``magnetization_range`` | None | the same for the particles' magnetization ``M_p`` |
     | ``goal_distance`` | (0.02, 0.06) | range of the goal's distance at reset (m) |
     | ``goal_radius`` | 0.005 | reached within this distance (m) |
     | ``max_distance`` | 0.15 | lost beyond this distance (m) |
@@ -199,6 +209,8 @@ class MagSoftSteerEnv(gym.Env):
         sim_dt: float | None = None,
         segments: int = DEFAULT_SEGMENTS,
         friction: float | None = None,
+        modulus_range: tuple[float, float] | None = None,
+        magnetization_range: tuple[float, float] | None = None,
         goal_distance: tuple[float, float] = DEFAULT_GOAL_DISTANCE,
         goal_radius: float = DEFAULT_GOAL_RADIUS,
         max_distance: float = DEFAULT_MAX_DISTANCE,
@@ -269,6 +281,9 @@ class MagSoftSteerEnv(gym.Env):
 
         self.robot = self.gait.name
         options = gait_rod_options(self.gait, segments=segments, timestep=self.sim_dt, friction=friction, rod="cable")
+        self.modulus_range = material_range("modulus_range", modulus_range)
+        self.magnetization_range = material_range("magnetization_range", magnetization_range)
+        options = material_options(options, self.gait.beam, self.modulus_range)
         self.sim = Simulator(self.gait.beam, options, field=(0.0, 0.0, 0.0), check_every=max(50, self.n_substeps))
         self.segments = options.segments
         self._npoints = len(self.sim.centerline()[0])
@@ -362,6 +377,8 @@ class MagSoftSteerEnv(gym.Env):
             self._goal = self._com[:2] + r * np.array([math.cos(bearing), math.sin(bearing)])
         else:
             self._goal = goal_xy.copy()
+        # drawn last: episodes without the material ranges draw as before
+        material = draw_material(self)
         self._distance = self._horizontal_distance()
         if goal is not None and self._distance >= self.max_distance:
             raise ValueError(f"options['goal'] must lie within max_distance = {self.max_distance:g} m of the strip's "
@@ -376,7 +393,9 @@ class MagSoftSteerEnv(gym.Env):
         self._broken = False
         self._success = False
         self._last_obs = self._get_obs()
-        return self._last_obs, self._info(0.0)
+        info = self._info(0.0)
+        info.update(material)
+        return self._last_obs, info
 
     def _perturb(self) -> None:
         """Move the free vertices horizontally by ``U(-reset_noise_scale, reset_noise_scale)`` (m)."""

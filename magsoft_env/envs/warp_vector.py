@@ -123,6 +123,12 @@ class MagSoftCrawlWarpVecEnv(VectorEnv):
         if kwargs.get("friction_range") is not None:
             raise ValueError("backend='warp' does not draw friction_range at resets (its worlds reset on the device); "
                              "give one friction per world instead (friction=[...]), or use backend='cpu'.")
+        material = [name for name in ("modulus_range", "magnetization_range") if kwargs.get(name) is not None]
+        if material:
+            raise ValueError(f"backend='warp' does not randomize the material ({' and '.join(material)}): its worlds "
+                             "share one compiled model and reset on the device. It randomizes per world the friction "
+                             "(friction=[...]) and the field's scale (field_scale=[...]); use backend='cpu' (the C "
+                             "batch draws modulus_range and magnetization_range at every reset).")
         self.num_envs = _count("num_envs", num_envs)
         self.max_episode_steps = None if max_episode_steps is None else _count("max_episode_steps", max_episode_steps)
         if not (isinstance(settle_time, (int, float)) and math.isfinite(settle_time) and settle_time >= 0):

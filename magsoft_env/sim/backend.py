@@ -197,6 +197,12 @@ class RodBackend(Protocol):
     def reset_noise(self, rng: np.random.Generator, scale: float) -> np.ndarray:
         """``qpos`` of the rest state perturbed by ``U(-scale, scale)`` rad in each bending angle."""
 
+    def set_material_scale(self, modulus: float, magnetization: float) -> None:
+        """Make the model and every cache of the rod what building it from the beam with ``E0 * modulus`` and
+        ``particle_magnetization * magnetization`` gives, scaled from the values it was built with (checked
+        factors; :meth:`~magsoft_env.sim.Simulator.set_material_scale`). A backend without this method cannot be
+        randomized in place (the simulator refuses)."""
+
     # ---------------------------------------------------------------- histories
     def contact_histories(self, data: mujoco.MjData):
         """Readers (``nsample``, ``values``, ``last(k)``) of the deepest floor and feature contact of every step

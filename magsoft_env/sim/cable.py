@@ -304,9 +304,10 @@ class CableRod:
         self._vq_free = cm.vertex_qpos[free]
         self._ref_free = cm.vertex_ref[free]
         self._pinned = cm.vertex_ref[~free]
-        mags = float(np.linalg.norm(lay.moment, axis=1).sum())
-        self._scale_terms = (2.0 * mags, 2.0 * self.weight * beam.length + 0.5 * float(lay.stiffness[:, 0].sum())
-                             * math.pi**2)
+        self._scale_terms = self._energy_terms()
+        #: the values :meth:`set_material_scale` scales from (kept at its first call), and the modulus factor now
+        self._material_base: dict | None = None
+        self._modulus = 1.0
 
     # ------------------------------------------------------------------ histories
     def contact_histories(self, data):
@@ -422,8 +423,62 @@ class CableRod:
 
     def settle_damping(self, retardation: float) -> tuple[np.ndarray, np.ndarray]:
         """``(all dofs, mass-proportional damping)``: every mode decays at the first weak-bending rate
-        (:func:`~magsoft_env.sim.cable_build.settling_damping`; ``retardation`` does not apply)."""
-        return self.hinge_dof, settling_damping(self.rod)[self.hinge_dof]
+        (:func:`~magsoft_env.sim.cable_build.settling_damping`, of the modulus :meth:`set_material_scale` set;
+        ``retardation`` does not apply)."""
+        c = settling_damping(self.rod)[self.hinge_dof]
+        return self.hinge_dof, c if self._modulus == 1.0 else c * math.sqrt(self._modulus)
+
+    def set_material_scale(self, modulus: float, magnetization: float) -> None:
+        """Scale the material from the values the strip was built with (factors checked by the
+        :class:`~magsoft_env.sim.Simulator`): what :func:`~magsoft_env.sim.cable_build.build_cable` gives the beam
+        with ``E0 * modulus`` and ``particle_magnetization * magnetization``.
+
+        The modulus scales the layout's cell stiffnesses and MuJoCo's stiffness records (``flex_bending``: ``k_1``,
+        ``k_2 - k_1``, ``k_t``), the static residual's :attr:`stiffness`, the settling damping (the first bending
+        rate, by ``sqrt(modulus)``) and a contact time constant taken from the material
+        (``contact_timeconst="material"``: ``flex_solref`` by ``1 / sqrt(modulus)``); the rod damping
+        (``flex_damping``) is a retardation time times a stiffness ratio, which it leaves. The magnetization scales
+        the edges' moments (the layout's, the couple writer's columns, the net moment's), and the poles of a native
+        path (the tendons' coefficients ``wrap_prm``, or the slide motors' gears), after which MuJoCo's constants
+        (``tendon_invweight0``, ``actuator_acc0``) are computed again (``mj_setConst``), as compiling does.
+
+        A rebuilt strip's poles can differ from these in coefficients at round-off level (a uniform magnetization's
+        interior ``c_v``, ``1e-16`` of the end ones), which the builder keeps as tendon entries where they are not
+        exactly zero: the dynamics agree to round-off."""
+        base = self._material_base
+        m, cm, w = self.model, self.rod, self._writer
+        lay = cm.layout
+        f = cm.flex
+        if base is None:
+            adr = int(m.flex_bendingadr[f])
+            n = int(m.flex_bending[adr])
+            rec = slice(adr + 1, adr + 1 + 10 * n)
+            base = self._material_base = {
+                "rec": rec, "bending": m.flex_bending[rec].copy(), "stiffness": lay.stiffness.copy(),
+                "k": self.stiffness.copy(), "moment": lay.moment.copy(), "ma": self._ma.copy(),
+                "writer": {k: getattr(w, k).copy() for k in ("_m0", "_m1", "_m2", "_ma", "_r")},
+                "solref": m.flex_solref[f, 0].copy() if isinstance(self.options.contact_timeconst, str)
+                and self.has_contact else None,
+                "wrap": m.wrap_prm.copy(), "gear": m.actuator_gear[:, 0].copy()}
+        r = m.flex_bending[base["rec"]].reshape(-1, 10)
+        b = base["bending"].reshape(-1, 10)
+        r[:, 4] = b[:, 4] * modulus
+        r[:, 5] = b[:, 5] * modulus
+        r[:, 8] = b[:, 8] * modulus
+        if base["solref"] is not None:
+            m.flex_solref[f, 0] = base["solref"] / math.sqrt(modulus) if modulus != 1.0 else base["solref"]
+        lay.stiffness[...] = base["stiffness"] * modulus
+        self.stiffness[:] = base["k"] * modulus
+        lay.moment[...] = base["moment"] * magnetization
+        self._ma[:] = base["ma"] * magnetization
+        for k, v in base["writer"].items():
+            getattr(w, k)[...] = v * magnetization
+        if m.nu:  # the poles: tendon coefficients or slide gears
+            m.wrap_prm[:] = base["wrap"] * magnetization
+            m.actuator_gear[:, 0] = base["gear"] if cm.poles == "tendon" else base["gear"] * magnetization
+            mujoco.mj_setConst(m, mujoco.MjData(m))
+        self._modulus = float(modulus)
+        self._scale_terms = self._energy_terms()
 
     def settle_speed(self, data: mujoco.MjData) -> float:
         """The largest vertex speed over L and twist rate (1/s, rad/s)."""
@@ -476,6 +531,12 @@ class CableRod:
 
     def energy(self, data, field, *, kinetic: float, staggered: bool) -> float:
         return self.energies(data, np.asarray(field, dtype=float), kinetic)["total"]
+
+    def _energy_terms(self) -> tuple[float, float]:
+        """``(slope, rest)`` of :meth:`energy_scale`."""
+        lay = self.rod.layout
+        mags = float(np.linalg.norm(lay.moment, axis=1).sum())
+        return 2.0 * mags, 2.0 * self.weight * self.beam.length + 0.5 * float(lay.stiffness[:, 0].sum()) * math.pi**2
 
     def energy_scale(self, bmax: float) -> float:
         slope, rest = self._scale_terms

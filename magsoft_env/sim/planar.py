@@ -31,6 +31,7 @@ from .model import (
     RodModel,
     RodOptions,
     build_model,
+    contact_timeconst,
     field_control,
     native_controls,
 )
@@ -159,10 +160,9 @@ class PlanarRod:
         self.weight = float(self._mass_g.sum())
         self._hq, self._hd, self._hinge_k = self._hinge_blocks()
         self._angles = self._angle_map()
-        m_tot = float(disc.mass.sum())
-        mags = float(np.linalg.norm(self.m_body, axis=1).sum())
-        elastic = 0.5 * float(np.sum(self.stiffness)) * math.pi**2
-        self._scale_terms = (2.0 * mags, 2.0 * m_tot * options.gravity * beam.length + elastic)
+        self._scale_terms = self._energy_terms()
+        #: the values :meth:`set_material_scale` scales from (kept at its first call)
+        self._material_base: dict | None = None
 
     # ------------------------------------------------------------------ model pieces
     def contact_histories(self, data: mujoco.MjData) -> tuple[SensorHistory | None, SensorHistory | None]:
@@ -318,6 +318,51 @@ class PlanarRod:
         q[self.hinge_qpos] += rng.uniform(-scale, scale, len(self.hinge_qpos))
         return q
 
+    def set_material_scale(self, modulus: float, magnetization: float) -> None:
+        """Scale the material from the values the chain was built with (factors checked by the
+        :class:`~magsoft_env.sim.Simulator`): what :func:`~magsoft_env.sim.model.build_model` gives the beam with
+        ``E0 * modulus`` and ``particle_magnetization * magnetization``.
+
+        The modulus scales the hinge stiffnesses (``jnt_stiffness``, :attr:`stiffness`), their Kelvin-Voigt damping
+        (``dof_damping = retardation_time * k``) and a contact time constant taken from the material
+        (``contact_timeconst="material"``: ``geom_solref``, ``pair_solref`` by ``1 / sqrt(modulus)``); the
+        magnetization the pieces' moments (:attr:`m_body` and the columns made of it) and the pole charges
+        (``actuator_gainprm``). The poles' positions do not depend on either factor."""
+        base = self._material_base
+        if base is None:
+            m = self.model
+            jnt = m.dof_jntid[self.hinge_dof]
+            tc = contact_timeconst(self.beam, self.options) if self.options.has_contact else math.nan
+            contact = isinstance(self.options.contact_timeconst, str) and self.options.has_contact
+            base = self._material_base = {
+                "jnt": jnt, "k": m.jnt_stiffness[jnt].copy(), "c": m.dof_damping[self.hinge_dof].copy(),
+                "gain": m.actuator_gainprm[:, 0].copy(), "stiffness": self.stiffness.copy(),
+                "hinge_k": self._hinge_k.copy(), "moment": self.disc.moment.copy(), "m_body": self.m_body.copy(),
+                "m_ids": self._m_ids.copy(), "map": self._moment_map.copy(), "mx": self._mx.copy(),
+                "mz": self._mz.copy(), "charge": self.rod.pole_charge.copy(),
+                "geoms": np.flatnonzero(m.geom_solref[:, 0] == tc) if contact else np.zeros(0, dtype=int),
+                "pairs": np.flatnonzero(m.pair_solref[:, 0] == tc) if contact else np.zeros(0, dtype=int),
+                "tc": tc}
+        m = self.model
+        m.jnt_stiffness[base["jnt"]] = base["k"] * modulus
+        m.dof_damping[self.hinge_dof] = base["c"] * modulus
+        m.actuator_gainprm[:, 0] = base["gain"] * magnetization
+        if base["geoms"].size or base["pairs"].size:
+            tc = base["tc"] / math.sqrt(modulus) if modulus != 1.0 else base["tc"]
+            m.geom_solref[base["geoms"], 0] = tc
+            m.pair_solref[base["pairs"], 0] = tc
+        # in place: the discretization, the stiffness and the moment columns are shared with readouts and energies
+        self.stiffness[:] = base["stiffness"] * modulus
+        if self.disc.stiffness is not self.stiffness:
+            self.disc.stiffness[:] = base["stiffness"] * modulus
+        self._hinge_k[:] = base["hinge_k"] * modulus
+        for name, attr in (("moment", None), ("m_body", "m_body"), ("m_ids", "_m_ids"), ("map", "_moment_map"),
+                           ("mx", "_mx"), ("mz", "_mz"), ("charge", None)):
+            target = (self.disc.moment if name == "moment" else self.rod.pole_charge if name == "charge"
+                      else getattr(self, attr))
+            target[...] = base[name] * magnetization
+        self._scale_terms = self._energy_terms()
+
     def apply_external(self, data: mujoco.MjData, wrench: np.ndarray | None) -> None:
         """Write a constant world-frame wrench per piece ``(N + 1, 6)`` (force at the piece's centre of mass,
         then couple), or none, into ``xfrc_applied``; clear ``qfrc_applied`` (the couples are actuator forces)."""
@@ -355,6 +400,13 @@ class PlanarRod:
         if self._source is not None:
             e += self._source_energy(data)
         return e
+
+    def _energy_terms(self) -> tuple[float, float]:
+        """``(slope, rest)`` of :meth:`energy_scale`."""
+        m_tot = float(self.disc.mass.sum())
+        mags = float(np.linalg.norm(self.m_body, axis=1).sum())
+        elastic = 0.5 * float(np.sum(self.stiffness)) * math.pi**2
+        return 2.0 * mags, 2.0 * m_tot * self.options.gravity * self.beam.length + elastic
 
     def energy_scale(self, bmax: float) -> float:
         """Energy scale (J) of the rod in fields up to ``bmax`` (T): twice the largest magnetic energy and

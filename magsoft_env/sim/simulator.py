@@ -113,6 +113,20 @@ class Trajectory:
         }
 
 
+#: The range of the relative material factors :meth:`Simulator.set_material_scale` (and the environments'
+#: ``modulus_range`` and ``magnetization_range``) take.
+MATERIAL_SCALE_RANGE = (0.1, 10.0)
+
+
+def material_factor(name: str, value) -> float:
+    """``value`` checked as a relative material factor: a finite number in :data:`MATERIAL_SCALE_RANGE`."""
+    lo, hi = MATERIAL_SCALE_RANGE
+    ok = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+    if not ok or not math.isfinite(float(value)) or not lo <= float(value) <= hi:
+        raise ValueError(f"{name} must be a finite relative factor in [{lo:g}, {hi:g}], got {value!r}.")
+    return float(value)
+
+
 class Simulator:
     """A magnetic rod in MuJoCo under a uniform applied field.
 
@@ -233,6 +247,9 @@ class Simulator:
         self._source: SourceField | None = None
         self._source_given = None
         self._source_bmax = 0.0
+        self._energy_bmax = FIELD_FLOOR
+        #: the material's factors now, (modulus, magnetization) (:meth:`set_material_scale`)
+        self._material = (1.0, 1.0)
         self.set_field(field)
         self.reset()
         if source is not None:
@@ -390,7 +407,53 @@ class Simulator:
         bmax = math.hypot(*self._B3)
         if self._source is not None:
             bmax += self._source_bmax
-        self._health.energy_scale = self.backend.energy_scale(max(bmax, FIELD_FLOOR))
+        self._energy_bmax = max(bmax, FIELD_FLOOR)
+        self._health.energy_scale = self.backend.energy_scale(self._energy_bmax)
+
+    @property
+    def material_scale(self) -> tuple[float, float]:
+        """The factors ``(modulus, magnetization)`` :meth:`set_material_scale` last set (``(1.0, 1.0)``: the beam's
+        own material)."""
+        return self._material
+
+    def set_material_scale(self, modulus: float = 1.0, magnetization: float = 1.0) -> None:
+        """Make the model what building it from the beam with its modulus ``E0 * modulus`` and its particles'
+        magnetization ``particle_magnetization * magnetization`` would give, without recompiling (domain
+        randomization of the material).
+
+        The rod's backend scales, from the values it was built with (so calls do not compound), everything that
+        depends on them: its stiffnesses and rod damping (Kelvin-Voigt: proportional to the stiffness), its
+        magnetic moments and the inputs that apply them (pole charges, tendon coefficients, couple writers), a
+        contact time constant taken from the material (``RodOptions.contact_timeconst="material"``: ``h sqrt(rho /
+        E)``), its energy scale and its settling damping. ``(1, 1)`` restores the model bit for bit; a call with
+        the factors already set changes nothing. The state is kept (the energy balance starts again from it);
+        :attr:`beam` stays the beam the simulator was built from, :attr:`material_scale` says the factors.
+
+        Parameters
+        ----------
+        modulus, magnetization : float
+            Relative factors of ``Material.E0`` and ``Material.particle_magnetization``, finite, in
+            :data:`MATERIAL_SCALE_RANGE` ``[0.1, 10]``.
+        """
+        modulus = material_factor("modulus", modulus)
+        magnetization = material_factor("magnetization", magnetization)
+        if (modulus, magnetization) == self._material:
+            return
+        setter = getattr(self.backend, "set_material_scale", None)
+        if setter is None:
+            raise ValueError(f"{self.backend.label} cannot scale its material in place (its backend "
+                             f"{type(self.backend).__name__} has no set_material_scale): build the Simulator "
+                             "from a Beam with the material you want instead.")
+        setter(modulus, magnetization)
+        self._material = (modulus, magnetization)
+        h = self._health
+        if self.options.has_contact:
+            h.tc = contact_timeconst(self.beam, self.options)
+            if isinstance(self.options.contact_timeconst, str):  # the material's: h sqrt(rho / E)
+                h.tc /= math.sqrt(modulus)
+        h.energy_scale = self.backend.energy_scale(self._energy_bmax)
+        h.energy_valid = False  # the next call starts the energy balance again, with the new energies
+        self._write_inputs()
 
     def set_waveform(self, waveform, *, start_time: float | None = None) -> None:
         """Let the field follow ``waveform(t - start_time)`` (T); ``start_time`` defaults to now. A rod in the x-z
@@ -411,7 +474,8 @@ class Simulator:
         bmax = float(np.hypot(px, np.hypot(py, pz)))
         if self._source is not None:
             bmax += self._source_bmax
-        self._health.energy_scale = self.backend.energy_scale(max(bmax, FIELD_FLOOR))
+        self._energy_bmax = max(bmax, FIELD_FLOOR)
+        self._health.energy_scale = self.backend.energy_scale(self._energy_bmax)
 
     @property
     def source(self):
@@ -787,4 +851,5 @@ class Simulator:
         return self.backend.energies(self.data, self._B3, kinetic)
 
 
-__all__ = ["SettleResult", "SimulationError", "Simulator", "Trajectory", "UnphysicalError"]
+__all__ = ["MATERIAL_SCALE_RANGE", "material_factor", "SettleResult", "SimulationError", "Simulator", "Trajectory",
+           "UnphysicalError"]
