@@ -110,11 +110,12 @@ def test_cli_plan_then_fit_round_trip(tmp_path, capsys):
 
     from magsoft_env.cli import main
 
-    path = tmp_path / "plan.csv"
+    path, fig = tmp_path / "plan.csv", tmp_path / "plan.png"
     assert main(["fit-plan", "--robot", "paper-5b", "--n", "5", "--noise-mm", "0.05", "--csv", str(path),
-                 "--json"]) == 0
+                 "--plot", str(fig), "--json"]) == 0
     info = json.loads(capsys.readouterr().out)
     assert len(info["fields_mT"]) == 5 and info["relative_sigma"]["E0"] > 0
+    assert info["plot"] == str(fig) and fig.stat().st_size > 10_000
     rows = list(csv.reader(path.open()))
     assert rows[0] == ["Bx_mT", "Bz_mT", "tip_x_mm", "tip_z_mm"] and all(r[2:] == ["", ""] for r in rows[1:])
     robot = ms.load_robot("paper-5b")
@@ -136,6 +137,8 @@ def test_cli_plan_refuses_a_bad_noise_before_work(capsys):
 
     assert main(["fit-plan", "--noise-mm", "-1"]) != 0
     assert "--noise-mm must be a positive length" in capsys.readouterr().err
+    assert main(["fit-plan", "--plot", "plan.jpg"]) != 0
+    assert "--plot must end in one of ['.png']" in capsys.readouterr().err
 
 
 def test_fit_bench_planned_design_runs(capsys):

@@ -40,6 +40,7 @@ def add_parser(subparsers) -> None:
                    help="plan the fields in pairs B and -B (--n less the gravity measurement must be even)")
     p.add_argument("--gravity", type=float, default=9.81, help="gravity during the measurements (m/s^2)")
     p.add_argument("--csv", default=None, help="write the planned fields as a CSV for magsoft fit (positions empty)")
+    p.add_argument("--plot", default=None, help="write a figure of the plan (PNG): the shapes under each field")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
     p.set_defaults(run=run)
 
@@ -54,6 +55,8 @@ def run(args) -> int:
         raise ValueError(f"--max-field-mT must lie in (0, 1000] mT, got {args.max_field_mT!r}.")
     if args.csv is not None:
         out_file(args.csv, flag="--csv", suffixes=(".csv",))
+    if args.plot is not None:
+        out_file(args.plot, flag="--plot", suffixes=(".png",))
     robot = resolve_robot(args.robot, name="--robot")
     params = tuple(p.strip() for p in args.params.split(",") if p.strip())
     plan = ms.plan_measurements(robot.beam, params, n=args.n, noise=args.noise_mm * 1e-3,
@@ -70,6 +73,11 @@ def run(args) -> int:
             for bx, bz in plan.fields:
                 w.writerow([f"{bx * 1e3:.6g}", f"{bz * 1e3:.6g}", "", ""])
         out["csv"] = str(args.csv)
+    if args.plot:
+        from magsoft_env.render.fit import plot_plan
+
+        plot_plan(plan, robot.beam, gravity=args.gravity, path=args.plot)
+        out["plot"] = str(args.plot)
     if args.json:
         print(dumps_json(out))
         return 0
@@ -80,4 +88,6 @@ def run(args) -> int:
     if args.csv:
         print(f"fields written to {args.csv}: fill tip_x_mm and tip_z_mm with the tracked tip, then run "
               f"magsoft fit {args.csv} --robot {args.robot} --params {','.join(params)}")
+    if args.plot:
+        print(f"figure written to {args.plot}")
     return 0

@@ -62,4 +62,58 @@ def plot_fit(result, measurements, *, gravity: float = 9.81, clamp_angle: float 
     return fig
 
 
-__all__ = ["plot_fit"]
+def plot_plan(plan, beam, *, gravity: float = 9.81, clamp_angle: float = 0.0, path=None):
+    """A figure of a measurement plan (:func:`magsoft_env.plan_measurements`): left, the shape the guess takes
+    under each planned field (numbered as in the plan's table, the field's direction as an arrow at the tip);
+    right, the fields in the B_x-B_z plane and the predicted 1-sigma of each parameter. Returns the matplotlib
+    Figure; saves it when ``path`` is given."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    from ..theory import solve_equilibrium
+
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(9.5, 4.2), gridspec_kw={"width_ratios": [1.4, 1]})
+    L = beam.length * 1e3
+    for k, f in enumerate(plan.fields, 1):
+        r = solve_equilibrium(beam, f, gravity=gravity, clamp_angle=clamp_angle, model="planar")
+        _, x, z, _ = r.sample(101)
+        line, = ax.plot(x * 1e3, z * 1e3, lw=1.3)
+        col = line.get_color()
+        ax.annotate(str(k), (x[-1] * 1e3, z[-1] * 1e3), xytext=(3, 3), textcoords="offset points", fontsize=8,
+                    color=col)
+        b = np.hypot(*f)
+        if b > 0:
+            u = np.asarray(f) / b * 0.15 * L
+            ax.annotate("", (x[-1] * 1e3 + u[0], z[-1] * 1e3 + u[1]), (x[-1] * 1e3, z[-1] * 1e3),
+                        arrowprops={"arrowstyle": "->", "color": col, "lw": 1.0})
+        bx.plot([0, f[0] * 1e3], [0, f[1] * 1e3], color=col, lw=1.0)
+        bx.plot([f[0] * 1e3], [f[1] * 1e3], "o", color=col, ms=4)
+        bx.annotate(str(k), (f[0] * 1e3, f[1] * 1e3), xytext=(3, 3), textcoords="offset points", fontsize=8,
+                    color=col)
+    ax.plot([0], [0], "ks", ms=5)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("z (mm)")
+    ax.set_title(f"the guess under each planned field (gravity {gravity:g} m/s^2; 1: gravity alone)", fontsize=9)
+    lim = 1.1 * max(max(abs(v) for f in plan.fields for v in f) * 1e3, 1e-3)
+    bx.set_xlim(-lim, lim)
+    bx.set_ylim(-lim, lim)
+    bx.set_aspect("equal")
+    bx.axhline(0.0, color="0.7", lw=0.6)
+    bx.axvline(0.0, color="0.7", lw=0.6)
+    bx.set_xlabel("B_x (mT)")
+    bx.set_ylabel("B_z (mT)")
+    sig = "\n".join((f"{p}: {plan.relative_sigma[p]:.3%}" if p != "clamp_angle" else f"{p}: {plan.sigma[p]:.2e} rad")
+                    for p in plan.params)
+    bx.set_title("the planned fields", fontsize=9)
+    bx.text(0.03, 0.03, f"predicted 1-sigma\n{sig}", transform=bx.transAxes, fontsize=8, va="bottom",
+            bbox={"boxstyle": "round", "fc": "white", "ec": "0.7"})
+    fig.tight_layout()
+    if path is not None:
+        fig.savefig(path, dpi=110)
+    return fig
+
+
+__all__ = ["plot_fit", "plot_plan"]
