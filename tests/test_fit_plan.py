@@ -86,7 +86,7 @@ def test_without_gravity_the_pair_is_refused():
     ({"max_field": 0.0}, "max_field must be a field magnitude in \\(0, 1\\] T, got 0.0"),
     ({"spread": 1.5}, "spread"),
     ({"margin": 0.0}, "margin must be a positive eigenvalue"),
-    ({"params": ("E0", "width")}, "cannot plan for \\['width'\\]"),
+    ({"params": ("E0", "shear")}, "cannot plan for \\['shear'\\]"),
     ({"params": ("E0", "E0")}, "distinct"),
     ({"n": 500}, "n .the measurements to plan. must be an integer"),
     ({"gravity": -1.0}, "gravity must be in \\[0, 1000\\]"),
@@ -98,9 +98,9 @@ def test_bad_input_is_refused_before_work(kw, match):
         ms.plan_measurements(BEAM, **args)
 
 
-def test_predict_precision_refuses_a_3d_field():
-    with pytest.raises(ValueError, match="B_y"):
-        ms.predict_precision(BEAM, [(0.0, 0.0), (0.0, 1e-3, 1e-3)], PARAMS)
+def test_predict_precision_takes_a_3d_field_in_3d():
+    plan = ms.predict_precision(BEAM, [(0.0, 0.0), (0.0, 1e-3, 1e-3), (1e-3, 0.0, 2e-3)], PARAMS)
+    assert all(len(f) == 3 for f in plan.fields) and "B_y mT" in plan.table()
 
 
 def test_cli_plan_then_fit_round_trip(tmp_path, capsys):
@@ -157,3 +157,43 @@ def test_both_directions_plans_pairs_of_reversed_fields():
         assert a == (-b[0] + 0.0, -b[1] + 0.0)
     with pytest.raises(ValueError, match="even number of fields"):
         ms.plan_measurements(BEAM, PARAMS, n=6, both_directions=True)
+
+
+def test_a_3d_plan_for_the_width_and_poisson_ratio_is_the_3d_fits_precision():
+    """In 3D (fields with B_y, x, y, z tracked) the plan reaches the width and the Poisson ratio; its prediction is
+    the 3D fit's own sigma at the truth (noise-free data from the guess, the noise given)."""
+    params = ("E0", "particle_magnetization", "width", "poisson_ratio")
+    plan = ms.plan_measurements(BEAM, params, n=6, noise=5e-5, model="3d", directions=8, magnitudes=2)
+    assert plan.fields[0] == (0.0, 0.0, 0.0) and all(len(f) == 3 for f in plan.fields)
+    assert any(f[1] != 0.0 for f in plan.fields)
+    assert "B_y mT" in plan.table()
+    data = [(f, ms.solve_equilibrium(BEAM, f, gravity=9.81, model="3d").tip_position) for f in plan.fields]
+    res = ms.fit(BEAM, data, params=params, sigma=5e-5, restarts=0, model="3d")
+    for p in params:
+        assert res.sigma[p] == pytest.approx(plan.sigma[p], rel=1e-6), p
+    again = ms.predict_precision(BEAM, plan.fields, params, noise=5e-5)  # auto: 3D for these parameters
+    for p in params:
+        assert again.sigma[p] == pytest.approx(plan.sigma[p], rel=1e-12), p
+
+
+def test_width_and_poisson_ratio_need_the_3d_model():
+    with pytest.raises(ValueError, match="need.s. the 3D model"):
+        ms.plan_measurements(BEAM, ("E0", "width"), n=4)
+    with pytest.raises(ValueError, match="B_y"):
+        ms.predict_precision(BEAM, [(0.0, 0.0), (0.0, 1e-3, 1e-3)], PARAMS, model="planar")
+
+
+def test_cli_plans_in_3d_with_a_B_y_column(tmp_path, capsys):
+    import csv
+    import json
+
+    from magsoft_env.cli import main
+
+    path = tmp_path / "plan3.csv"
+    assert main(["fit-plan", "--model", "3d", "--params", "E0,particle_magnetization,poisson_ratio", "--n", "4",
+                 "--directions", "8", "--magnitudes", "2",
+                 "--csv", str(path), "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["model"] == "3d" and all(len(f) == 3 for f in info["fields_mT"])
+    rows = list(csv.reader(path.open()))
+    assert rows[0] == ["Bx_mT", "By_mT", "Bz_mT", "tip_x_mm", "tip_y_mm", "tip_z_mm"] and len(rows) == 5

@@ -28,7 +28,8 @@ def add_parser(subparsers) -> None:
     p.add_argument("--robot", default="paper-5c", help="robot name or YAML file: the guess of your robot")
     p.add_argument("--params", default="E0,particle_magnetization",
                    help="comma-separated parameters to fit: E0, particle_magnetization, density, thickness, "
-                        "volume_fraction, clamp_angle (default E0,particle_magnetization)")
+                        "volume_fraction, clamp_angle; with --model 3d also width, poisson_ratio (default "
+                        "E0,particle_magnetization)")
     p.add_argument("--n", type=int, default=8, help="measurements to plan, gravity alone included (default 8)")
     p.add_argument("--noise-mm", type=float, default=0.1, help="tracking noise, 1 sigma per coordinate (mm, "
                                                                 "default 0.1)")
@@ -36,6 +37,13 @@ def add_parser(subparsers) -> None:
     p.add_argument("--spread", type=float, default=0.3,
                    help="prior relative uncertainty of each parameter: fields stay clear of folds over it "
                         "(default 0.3)")
+    p.add_argument("--model", choices=("planar", "3d"), default="planar",
+                   help="planar (fields in the x-z plane, x and z tracked; default) or 3d (fields with B_y, x, y and "
+                        "z tracked: needed for width and poisson_ratio)")
+    p.add_argument("--directions", type=int, default=24,
+                   help="candidate directions: every 360/N degrees (planar) or N over the sphere (3d); default 24")
+    p.add_argument("--magnitudes", type=int, default=8,
+                   help="candidate magnitudes: max-field x k/N, k = 1..N (default 8)")
     p.add_argument("--both-directions", action="store_true",
                    help="plan the fields in pairs B and -B (--n less the gravity measurement must be even)")
     p.add_argument("--gravity", type=float, default=9.81, help="gravity during the measurements (m/s^2)")
@@ -61,17 +69,21 @@ def run(args) -> int:
     params = tuple(p.strip() for p in args.params.split(",") if p.strip())
     plan = ms.plan_measurements(robot.beam, params, n=args.n, noise=args.noise_mm * 1e-3,
                                 gravity=args.gravity, max_field=args.max_field_mT * 1e-3, spread=args.spread,
-                                both_directions=args.both_directions)
+                                both_directions=args.both_directions, model=args.model, directions=args.directions,
+                                magnitudes=args.magnitudes, progress=_progress())
     out = {"robot": robot.name, "params": list(params), "noise_mm": args.noise_mm,
-           "fields_mT": [[bx * 1e3, bz * 1e3] for bx, bz in plan.fields],
+           "model": args.model, "fields_mT": [[b * 1e3 for b in f] for f in plan.fields],
            "min_eigenvalue": plan.min_eigenvalue, "sigma": plan.sigma, "relative_sigma": plan.relative_sigma,
            "correlation": plan.correlation.tolist(), "candidates": plan.candidates, "rejected": plan.rejected}
     if args.csv:
         with open(args.csv, "w", newline="") as fh:
             w = csv.writer(fh)
-            w.writerow(["Bx_mT", "Bz_mT", "tip_x_mm", "tip_z_mm"])
-            for bx, bz in plan.fields:
-                w.writerow([f"{bx * 1e3:.6g}", f"{bz * 1e3:.6g}", "", ""])
+            if args.model == "3d":
+                w.writerow(["Bx_mT", "By_mT", "Bz_mT", "tip_x_mm", "tip_y_mm", "tip_z_mm"])
+            else:
+                w.writerow(["Bx_mT", "Bz_mT", "tip_x_mm", "tip_z_mm"])
+            for f in plan.fields:
+                w.writerow([f"{b * 1e3:.6g}" for b in f] + [""] * len(f))
         out["csv"] = str(args.csv)
     if args.plot:
         from magsoft_env.render.fit import plot_plan
@@ -86,8 +98,27 @@ def run(args) -> int:
           f"+-{args.spread:.0%} ({plan.candidates} candidates, {plan.rejected} refused)")
     print(plan.table())
     if args.csv:
-        print(f"fields written to {args.csv}: fill tip_x_mm and tip_z_mm with the tracked tip, then run "
+        print(f"fields written to {args.csv}: fill the tip columns with the tracked tip, then run "
               f"magsoft fit {args.csv} --robot {args.robot} --params {','.join(params)}")
     if args.plot:
         print(f"figure written to {args.plot}")
     return 0
+
+
+def _progress():
+    """A progress reporter for the candidates' evaluation: a line on stderr at every tenth (a 3D plan takes a
+    minute or more), nothing for plans done within two seconds."""
+    import sys
+    import time
+
+    t0 = time.perf_counter()
+    shown = [0]
+
+    def report(done: int, total: int) -> None:
+        tenth = (10 * done) // total
+        if tenth > shown[0] and time.perf_counter() - t0 > 2.0:
+            shown[0] = tenth
+            print(f"fit-plan: {done}/{total} candidate fields evaluated ({time.perf_counter() - t0:.0f} s)",
+                  file=sys.stderr, flush=True)
+
+    return report

@@ -76,9 +76,15 @@ def plot_plan(plan, beam, *, gravity: float = 9.81, clamp_angle: float = 0.0, pa
 
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(9.5, 4.2), gridspec_kw={"width_ratios": [1.4, 1]})
     L = beam.length * 1e3
+    three = any(len(f) == 3 for f in plan.fields)
     for k, f in enumerate(plan.fields, 1):
-        r = solve_equilibrium(beam, f, gravity=gravity, clamp_angle=clamp_angle, model="planar")
-        _, x, z, _ = r.sample(101)
+        r = solve_equilibrium(beam, f, gravity=gravity, clamp_angle=clamp_angle, model="3d" if three else "planar")
+        if three:  # the side view (x-z) of the 3D shapes, the fields' x-z parts
+            _, c, _ = r.sample(101)
+            x, z = c[:, 0], c[:, 2]
+            f = (f[0], f[2])
+        else:
+            _, x, z, _ = r.sample(101)
         line, = ax.plot(x * 1e3, z * 1e3, lw=1.3)
         col = line.get_color()
         ax.annotate(str(k), (x[-1] * 1e3, z[-1] * 1e3), xytext=(3, 3), textcoords="offset points", fontsize=8,
@@ -96,7 +102,8 @@ def plot_plan(plan, beam, *, gravity: float = 9.81, clamp_angle: float = 0.0, pa
     ax.set_aspect("equal")
     ax.set_xlabel("x (mm)")
     ax.set_ylabel("z (mm)")
-    ax.set_title(f"the guess under each planned field (gravity {gravity:g} m/s^2; 1: gravity alone)", fontsize=9)
+    side = ", side view" if three else ""
+    ax.set_title(f"the guess under each planned field{side} (gravity {gravity:g} m/s^2)", fontsize=9)
     lim = 1.1 * max(max(abs(v) for f in plan.fields for v in f) * 1e3, 1e-3)
     bx.set_xlim(-lim, lim)
     bx.set_ylim(-lim, lim)
@@ -107,7 +114,7 @@ def plot_plan(plan, beam, *, gravity: float = 9.81, clamp_angle: float = 0.0, pa
     bx.set_ylabel("B_z (mT)")
     sig = "\n".join((f"{p}: {plan.relative_sigma[p]:.3%}" if p != "clamp_angle" else f"{p}: {plan.sigma[p]:.2e} rad")
                     for p in plan.params)
-    bx.set_title("the planned fields", fontsize=9)
+    bx.set_title("the planned fields" + (" (B_x, B_z; B_y in the table)" if three else ""), fontsize=9)
     bx.text(0.03, 0.03, f"predicted 1-sigma\n{sig}", transform=bx.transAxes, fontsize=8, va="bottom",
             bbox={"boxstyle": "round", "fc": "white", "ec": "0.7"})
     fig.tight_layout()

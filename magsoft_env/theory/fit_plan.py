@@ -34,8 +34,13 @@ import numpy as np
 from ..spec import Beam
 from .options import SolverOptions
 
-#: Parameters a plan can aim at (uniform fields, the planar model).
-PLAN_PARAMETERS = ("E0", "particle_magnetization", "density", "thickness", "volume_fraction", "clamp_angle")
+#: Parameters a plan can aim at (uniform fields; ``width`` and ``poisson_ratio`` in the 3D model only).
+PLAN_PARAMETERS = ("E0", "particle_magnetization", "density", "thickness", "volume_fraction", "clamp_angle", "width",
+                   "poisson_ratio")
+#: Parameters only the 3D model depends on (the width cancels from the planar equation; it has no twist).
+PLAN_PARAMETERS_3D = ("width", "poisson_ratio")
+#: The models a plan takes.
+PLAN_MODELS = ("planar", "3d")
 #: Most candidate fields one plan evaluates.
 MAX_CANDIDATES = 2000
 
@@ -46,8 +51,8 @@ class MeasurementPlan:
 
     Attributes
     ----------
-    fields : list of (B_x, B_z)
-        The fields to apply (T), in the order chosen (the most informative first; ``(0, 0)`` is gravity alone).
+    fields : list of (B_x, B_z), or (B_x, B_y, B_z) in 3D
+        The fields to apply (T), in the order chosen (the most informative first; zero is gravity alone).
     params : tuple of str
     sigma : dict
         Predicted 1-sigma of each parameter (SI units) at the guess.
@@ -75,9 +80,18 @@ class MeasurementPlan:
 
     def table(self) -> str:
         """The plan as lines of text: one field per line, then the predicted precision."""
-        lines = [f"{'#':>3} {'B_x mT':>8} {'B_z mT':>8} {'|B| mT':>7} {'dir deg':>8} {'margin':>7}"]
-        for i, ((bx, bz), lam) in enumerate(zip(self.fields, self.min_eigenvalue, strict=True), 1):
-            mag = math.hypot(bx, bz)
+        three = any(len(f) == 3 for f in self.fields)
+        if three:
+            lines = [f"{'#':>3} {'B_x mT':>8} {'B_y mT':>8} {'B_z mT':>8} {'|B| mT':>7} {'margin':>7}"]
+        else:
+            lines = [f"{'#':>3} {'B_x mT':>8} {'B_z mT':>8} {'|B| mT':>7} {'dir deg':>8} {'margin':>7}"]
+        for i, (f, lam) in enumerate(zip(self.fields, self.min_eigenvalue, strict=True), 1):
+            mag = math.sqrt(sum(b * b for b in f))
+            if three:
+                bx, by, bz = f
+                lines.append(f"{i:3d} {bx * 1e3:8.3f} {by * 1e3:8.3f} {bz * 1e3:8.3f} {mag * 1e3:7.3f} {lam:7.2f}")
+                continue
+            bx, bz = f
             ang = math.degrees(math.atan2(bz, bx)) % 360.0 if mag > 0 else float("nan")
             lines.append(f"{i:3d} {bx * 1e3:8.3f} {bz * 1e3:8.3f} {mag * 1e3:7.3f} {ang:8.1f} {lam:7.2f}")
         lines.append("predicted 1-sigma: " + ", ".join(
@@ -86,7 +100,7 @@ class MeasurementPlan:
         return "\n".join(lines)
 
 
-def _check(beam, params, noise, gravity, s):
+def _check(beam, params, noise, gravity, s, model="planar"):
     from .fit import _value
 
     if not isinstance(beam, Beam):
@@ -99,6 +113,12 @@ def _check(beam, params, noise, gravity, s):
     bad = [p for p in params if p not in PLAN_PARAMETERS]
     if bad:
         raise ValueError(f"cannot plan for {bad}: plan for any of {list(PLAN_PARAMETERS)}.")
+    if model not in PLAN_MODELS:
+        raise ValueError(f"model must be one of {list(PLAN_MODELS)}, got {model!r}.")
+    three = [p for p in params if p in PLAN_PARAMETERS_3D]
+    if three and model != "3d":
+        raise ValueError(f"{', '.join(three)} need(s) the 3D model (model='3d'): the planar model does not depend "
+                         "on the width or the Poisson ratio (the width cancels from its equation; it has no twist).")
     if not (isinstance(noise, (int, float)) and math.isfinite(noise) and 0 < noise < beam.length):
         raise ValueError(f"noise must be the tracking noise in m, in (0, {beam.length:g}) (the beam length), got "
                          f"{noise!r}.")
@@ -111,20 +131,22 @@ def _check(beam, params, noise, gravity, s):
     return params, s, values
 
 
-def _scaled_rows(beam, field, params, s, values, gravity, clamp_angle, options):
+def _scaled_rows(beam, field, params, s, values, gravity, clamp_angle, options, model="planar"):
     """(rows of d positions / d scaled parameter, min eigenvalue) at one field, or None if there is no equilibrium
-    or it sits at a fold."""
+    or it sits at a fold: x and z of each tracked point in the planar model, x, y and z in 3D."""
+    from .rod_sensitivity import rod_sensitivities
     from .sensitivity import sensitivities
     from .solver import solve_equilibrium
 
-    r = solve_equilibrium(beam, field, gravity=gravity, clamp_angle=clamp_angle, options=options, model="planar")
+    r = solve_equilibrium(beam, field, gravity=gravity, clamp_angle=clamp_angle, options=options, model=model)
     if not r.success:
         return None
     try:
-        S = sensitivities(r, params)
-    except ValueError:  # at a fold
+        S = rod_sensitivities(r, params) if model == "3d" else sensitivities(r, params)
+    except ValueError:  # at a fold or bifurcation
         return None
-    dp = S.positions(s)[:, [0, 2], :].reshape(-1, len(params))
+    P = S.positions(s)
+    dp = (P if model == "3d" else P[:, [0, 2], :]).reshape(-1, len(params))
     scale = np.array([values[p] if p != "clamp_angle" else 1.0 for p in params])
     return dp * scale[None, :], float(S.min_eigenvalue)
 
@@ -157,8 +179,36 @@ def _result(beam, params, values, fields, rows, lams, noise, candidates, rejecte
                            candidates=candidates, rejected=rejected)
 
 
+def _directions(count: int, three: bool) -> list:
+    """Unit field directions: every ``360 / count`` degrees in the x-z plane, or in 3D about ``count`` points spread
+    over the sphere: a Fibonacci lattice on the upper half and its reverses (so every direction's reverse is
+    there too, for pairs B, -B)."""
+    if not three:
+        return [(math.cos(2.0 * math.pi * j / count), math.sin(2.0 * math.pi * j / count)) for j in range(count)]
+    golden = math.pi * (3.0 - math.sqrt(5.0))
+    half = max(1, (count + 1) // 2)
+    up = []
+    for j in range(half):
+        z = 1.0 - (j + 0.5) / half
+        r = math.sqrt(max(0.0, 1.0 - z * z))
+        up.append((r * math.cos(golden * j), r * math.sin(golden * j), z))
+    return up + [tuple(-c for c in u) for u in up]
+
+
+def _reverse(f: tuple) -> tuple:
+    return tuple(-c + 0.0 for c in f)
+
+
+def _leading_positive(f: tuple) -> bool:
+    """Whether the last nonzero component of ``f`` is positive (one field of each pair B, -B)."""
+    for c in reversed(f):
+        if c != 0.0:
+            return c > 0.0
+    return False
+
+
 def predict_precision(beam: Beam, fields, params=("E0", "particle_magnetization"), *, noise: float = 1e-4,
-                      gravity: float = 9.81, s=None, clamp_angle: float = 0.0,
+                      gravity: float = 9.81, s=None, clamp_angle: float = 0.0, model: str = "auto",
                       options: SolverOptions | None = None) -> MeasurementPlan:
     """The precision a fit of ``params`` would reach from positions tracked under ``fields``, predicted at the guess.
 
@@ -166,7 +216,7 @@ def predict_precision(beam: Beam, fields, params=("E0", "particle_magnetization"
     ----------
     beam : Beam
         The guess of the robot.
-    fields : list of (B_x, B_z)
+    fields : list of (B_x, B_z) or (B_x, B_y, B_z)
         Uniform fields (T) of the measurements, each with gravity.
     params : sequence of str
         Any of :data:`PLAN_PARAMETERS`.
@@ -176,6 +226,9 @@ def predict_precision(beam: Beam, fields, params=("E0", "particle_magnetization"
         m/s^2 along -z during the measurements.
     s : array_like, optional
         Reference arc lengths of the tracked points (m); default the tip.
+    model : {"auto", "planar", "3d"}
+        ``"auto"``: the 3D rod (x, y, z tracked) when a field has a ``B_y`` component, the beam a magnetization
+        across its width or ``params`` the width or the Poisson ratio; the planar model (x, z) otherwise.
 
     Returns
     -------
@@ -184,30 +237,38 @@ def predict_precision(beam: Beam, fields, params=("E0", "particle_magnetization"
     """
     from ..spec import as_field
 
-    params, s, values = _check(beam, params, noise, gravity, s)
-    options = options if options is not None else SolverOptions()
     if isinstance(fields, (str, bytes)) or not hasattr(fields, "__len__") or len(fields) == 0:
-        raise ValueError(f"fields must be a non-empty list of (B_x, B_z) pairs in T, got {fields!r}.")
-    rows, lams, pairs = [], [], []
-    for i, f in enumerate(fields):
-        fld = as_field(f, f"fields[{i}]")
-        if not fld.is_planar:
-            raise ValueError(f"fields[{i}] has B_y = {fld.By:g} T: planning uses the planar model.")
-        got = _scaled_rows(beam, (fld.Bx, fld.Bz), params, s, values, gravity, clamp_angle, options)
+        raise ValueError(f"fields must be a non-empty list of (B_x, B_z) or (B_x, B_y, B_z) fields in T, got "
+                         f"{fields!r}.")
+    flds = [as_field(f, f"fields[{i}]") for i, f in enumerate(fields)]
+    if model == "auto":
+        pnames = tuple(p.strip() for p in params.split(",")) if isinstance(params, str) else tuple(params)
+        three = (any(not f.is_planar for f in flds) or not beam.is_planar
+                 or any(p in PLAN_PARAMETERS_3D for p in pnames))
+        model = "3d" if three else "planar"
+    params, s, values = _check(beam, params, noise, gravity, s, model)
+    options = options if options is not None else SolverOptions()
+    rows, lams, loads = [], [], []
+    for i, (f, fld) in enumerate(zip(fields, flds, strict=True)):
+        if model == "planar" and not fld.is_planar:
+            raise ValueError(f"fields[{i}] has B_y = {fld.By:g} T: the planar model takes fields in the x-z plane "
+                             "(model='3d' or 'auto' for the 3D rod).")
+        load = (fld.Bx, fld.By, fld.Bz) if model == "3d" else (fld.Bx, fld.Bz)
+        got = _scaled_rows(beam, load, params, s, values, gravity, clamp_angle, options, model)
         if got is None:
             raise ValueError(f"fields[{i}] = {tuple(f)}: no equilibrium away from a fold at the guess; the "
                              "precision there cannot be predicted.")
         rows.append(got[0])
         lams.append(got[1])
-        pairs.append((fld.Bx, fld.Bz))
-    return _result(beam, params, values, pairs, rows, lams, noise, 0, 0)
+        loads.append(load)
+    return _result(beam, params, values, loads, rows, lams, noise, 0, 0)
 
 
 def plan_measurements(beam: Beam, params=("E0", "particle_magnetization"), *, n: int = 8, noise: float = 1e-4,
                       gravity: float = 9.81, max_field: float = 4e-3, s=None, spread: float = 0.3,
                       margin: float = 0.5, directions: int = 24, magnitudes: int = 8, include_gravity: bool = True,
-                      both_directions: bool = False, clamp_angle: float = 0.0,
-                      options: SolverOptions | None = None) -> MeasurementPlan:
+                      both_directions: bool = False, clamp_angle: float = 0.0, model: str = "planar",
+                      options: SolverOptions | None = None, progress=None) -> MeasurementPlan:
     """Choose ``n`` distinct uniform fields whose tracked shapes fit ``params`` most precisely (module docstring).
 
     Parameters
@@ -232,7 +293,8 @@ def plan_measurements(beam: Beam, params=("E0", "particle_magnetization"), *, n:
     margin : float
         Smallest eigenvalue of the second variation (E I / L^2) a measurement must keep (> 0).
     directions, magnitudes : int
-        The candidate grid: directions every ``360 / directions`` degrees, magnitudes ``max_field * k / magnitudes``.
+        The candidate grid: directions every ``360 / directions`` degrees in the x-z plane (in 3D, ``directions``
+        points spread evenly over the sphere, a Fibonacci lattice), magnitudes ``max_field * k / magnitudes``.
     include_gravity : bool
         Start from the shape under gravity alone (field zero), the measurement that separates the modulus from the
         magnetization.
@@ -241,6 +303,12 @@ def plan_measurements(beam: Beam, params=("E0", "particle_magnetization"), *, n:
         measures both signs); ``n`` less the gravity measurement must then be even. Less informative than free
         choice for the paper's strip (the reversed field pushes it down with its weight), but robust to a field
         offset.
+    model : {"planar", "3d"}
+        ``"3d"``: the 3D rod, fields with a ``B_y`` component among the candidates and x, y, z tracked (needed for
+        ``width`` and ``poisson_ratio``, which act through the twist); each candidate costs about 25 ms per corner
+        of the prior there (a minute for a 24 x 8 grid and two parameters).
+    progress : callable, optional
+        ``progress(done, total)`` after each candidate field is evaluated (long plans in 3D).
 
     Returns
     -------
@@ -255,7 +323,7 @@ def plan_measurements(beam: Beam, params=("E0", "particle_magnetization"), *, n:
     >>> bool(plan.relative_sigma["E0"] < 0.005)
     True
     """
-    params, s, values = _check(beam, params, noise, gravity, s)
+    params, s, values = _check(beam, params, noise, gravity, s, model)
     if not (isinstance(n, int) and 2 <= n <= 100):
         raise ValueError(f"n (the measurements to plan) must be an integer in [2, 100], got {n!r}.")
     if not (isinstance(max_field, (int, float)) and math.isfinite(max_field) and 0 < max_field <= 1.0):
@@ -277,12 +345,13 @@ def plan_measurements(beam: Beam, params=("E0", "particle_magnetization"), *, n:
         raise ValueError(f"n = {n} exceeds the {directions * magnitudes + int(include_gravity)} candidate fields; "
                          "raise directions or magnitudes.")
     options = options if options is not None else SolverOptions()
-    cands = [(0.0, 0.0)] if include_gravity else []
+    three = model == "3d"
+    zero = (0.0, 0.0, 0.0) if three else (0.0, 0.0)
+    cands = [zero] if include_gravity else []
     for k in range(1, magnitudes + 1):
-        for j in range(directions):
-            a = 2.0 * math.pi * j / directions
-            b = max_field * k / magnitudes
-            cands.append((round(b * math.cos(a), 15) + 0.0, round(b * math.sin(a), 15) + 0.0))  # no 1e-19 T, no -0
+        b = max_field * k / magnitudes
+        for u in _directions(directions, three):
+            cands.append(tuple(round(b * c, 15) + 0.0 for c in u))  # no 1e-19 T crumbs, no -0
     # the corners of the prior: every sign pattern of the positive parameters (along each axis beyond three)
     pos = [p for p in params if p != "clamp_angle"]
     if spread > 0 and pos:
@@ -290,18 +359,23 @@ def plan_measurements(beam: Beam, params=("E0", "particle_magnetization"), *, n:
             [tuple(sg if i == j else 0.0 for i in range(len(pos))) for j in range(len(pos)) for sg in (-1.0, 1.0)]
     else:
         signs = []
-    from .fit import _with
+    from .fit import BOUNDED, _with
 
-    corners = [_with(beam, {p: values[p] * (1.0 + sg * spread) for p, sg in zip(pos, pattern, strict=True)})
-               for pattern in signs]
+    def corner(p, sg):  # within a bounded parameter's range (the Poisson ratio: [0, 0.5])
+        lo, hi = BOUNDED.get(p, (-math.inf, math.inf))
+        return min(max(values[p] * (1.0 + sg * spread), lo), hi)
+
+    corners = [_with(beam, {p: corner(p, sg) for p, sg in zip(pos, pattern, strict=True)}) for pattern in signs]
     rows, lams, keep = [], [], []
-    for f in cands:
-        got = _scaled_rows(beam, f, params, s, values, gravity, clamp_angle, options)
+    for done, f in enumerate(cands, 1):
+        if progress is not None and done > 1:
+            progress(done - 1, len(cands))
+        got = _scaled_rows(beam, f, params, s, values, gravity, clamp_angle, options, model)
         if got is None or got[1] < margin:
             continue
         lam = got[1]
         for b in corners:
-            c = _scaled_rows(b, f, params, s, values, gravity, clamp_angle, options)
+            c = _scaled_rows(b, f, params, s, values, gravity, clamp_angle, options, model)
             lam = -math.inf if c is None else min(lam, c[1])
             if lam < margin:
                 break
@@ -310,17 +384,19 @@ def plan_measurements(beam: Beam, params=("E0", "particle_magnetization"), *, n:
         rows.append(got[0])
         lams.append(lam)
         keep.append(f)
+    if progress is not None:
+        progress(len(cands), len(cands))
     rejected = len(cands) - len(keep)
     if len(keep) < n:
         raise ValueError(f"only {len(keep)} of {len(cands)} candidate fields stay {margin:g} E I / L^2 from a fold "
                          f"over the prior (spread {spread:g}); ask for fewer measurements, a smaller margin or "
                          "spread, or a finer grid.")
-    chosen = [0] if include_gravity and keep and keep[0] == (0.0, 0.0) else []
+    chosen = [0] if include_gravity and keep and keep[0] == zero else []
     # the units of choice: one field, or a field and its reverse (both kept)
     index = {f: i for i, f in enumerate(keep)}
     if both_directions:
-        units = [(i, index[(-f[0] + 0.0, -f[1] + 0.0)]) for i, f in enumerate(keep)
-                 if i not in chosen and (-f[0] + 0.0, -f[1] + 0.0) in index and (f[1] > 0 or (f[1] == 0 and f[0] > 0))]
+        units = [(i, index[_reverse(f)]) for i, f in enumerate(keep)
+                 if i not in chosen and _reverse(f) in index and _leading_positive(f)]
     else:
         units = [(i,) for i in range(len(keep)) if i not in chosen]
     if sum(len(u) for u in units) < n - len(chosen):
